@@ -1,0 +1,347 @@
+//! Byte-at-a-time frame decoder with resynchronisation.
+//!
+//! Bytes go in with [`Decoder::push`]; frames and errors come out of [`Decoder::poll`]. The
+//! decoder keeps the raw bytes of the frame it is reading, so that when that frame fails (bad
+//! checksum, bad length, or the line going idle in API mode 1) it can re-read those bytes from the
+//! next start delimiter: a frame that began inside a broken one is still found. In API mode 2 an
+//! unescaped `0x7E` always starts a new frame, so there it simply restarts.
+
+use core::fmt;
+
+use crate::{Frame, Mode, ParseError, ESCAPE, ESCAPE_XOR, MAX_FRAME_DATA, START};
+
+/// Length bytes + frame data + checksum, plus one byte of input queue.
+const BUF: usize = 2 + MAX_FRAME_DATA + 1 + 1;
+
+/// A stream-level decoding error. Each is counted in [`DecoderStats`]; the decoder has already
+/// resynchronised when it reports one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum DecodeError {
+    /// The checksum byte did not match the frame data.
+    BadChecksum {
+        /// Checksum computed over the received data.
+        computed: u8,
+        /// Checksum byte received.
+        received: u8,
+    },
+    /// The length field was 0 or larger than [`MAX_FRAME_DATA`].
+    BadLength {
+        /// The length received.
+        length: u16,
+    },
+    /// A frame was cut short: a new start delimiter arrived inside it (API mode 2), or the line
+    /// went idle before it was complete ([`Decoder::idle`]).
+    Truncated {
+        /// Bytes received after the start delimiter.
+        received: u8,
+    },
+    /// Bytes outside any frame, reported when the next start delimiter ends them.
+    Garbage {
+        /// Number of bytes skipped (saturating).
+        bytes: u16,
+    },
+}
+
+impl fmt::Display for DecodeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            DecodeError::BadChecksum { computed, received } => write!(
+                f,
+                "bad checksum: computed {computed:#04x}, received {received:#04x}"
+            ),
+            DecodeError::BadLength { length } => write!(
+                f,
+                "bad length {length} (1..={MAX_FRAME_DATA} allowed)"
+            ),
+            DecodeError::Truncated { received } => {
+                write!(f, "frame truncated after {received} bytes")
+            }
+            DecodeError::Garbage { bytes } => write!(f, "{bytes} bytes outside any frame"),
+        }
+    }
+}
+
+impl core::error::Error for DecodeError {}
+
+/// [`Decoder::push`] found its input queue full: call [`Decoder::poll`] until it returns `None`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct PushError(pub u8);
+
+impl fmt::Display for PushError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("decoder input full: poll before pushing more")
+    }
+}
+
+impl core::error::Error for PushError {}
+
+/// Counters of what the decoder has seen. They saturate rather than wrap.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct DecoderStats {
+    /// Good frames.
+    pub frames: u32,
+    /// Frames with a bad checksum.
+    pub bad_checksum: u32,
+    /// Zero or oversize length fields.
+    pub bad_length: u32,
+    /// Frames cut short.
+    pub truncated: u32,
+    /// Bytes outside any frame.
+    pub garbage_bytes: u32,
+}
+
+/// A frame whose length and checksum were good: its frame data, type byte first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RawFrame<'a> {
+    data: &'a [u8],
+}
+
+impl<'a> RawFrame<'a> {
+    /// Wraps frame data (type byte first). The decoder guarantees it is not empty.
+    pub fn new(data: &'a [u8]) -> Self {
+        RawFrame { data }
+    }
+    /// The frame data, type byte first, checksum excluded.
+    pub fn data(&self) -> &'a [u8] {
+        self.data
+    }
+    /// The frame type byte.
+    pub fn frame_type(&self) -> u8 {
+        self.data.first().copied().unwrap_or(0)
+    }
+    /// The typed view of this frame; unknown types give [`Frame::Unknown`].
+    pub fn parse(&self) -> Result<Frame<'a>, ParseError> {
+        Frame::parse(self.data)
+    }
+}
+
+/// What one input byte did.
+enum Step {
+    Nothing,
+    Frame(usize),
+    Error(DecodeError),
+}
+
+/// Byte-at-a-time API frame decoder: bounded buffer, no allocation, never panics.
+///
+/// ```
+/// use xbee_api::{Decoder, Frame, Mode};
+/// let mut dec = Decoder::new(Mode::Escaped);
+/// let mut frames = 0;
+/// for &b in &[0x7E, 0x00, 0x04, 0x08, 0x52, 0x4D, 0x59, 0xFF] {
+///     dec.push(b).unwrap();
+///     while let Some(ev) = dec.poll() {
+///         let frame = ev.unwrap().parse().unwrap();
+///         assert!(matches!(frame, Frame::AtCommand { command: [b'M', b'Y'], .. }));
+///         frames += 1;
+///     }
+/// }
+/// assert_eq!(frames, 1);
+/// ```
+#[derive(Clone, Debug)]
+pub struct Decoder {
+    mode: Mode,
+    /// `buf[..cur]`: raw (unescaped) bytes of the current frame after its start delimiter;
+    /// `buf[ps..pe]`: input not yet processed. Always `cur <= ps <= pe <= BUF`.
+    buf: [u8; BUF],
+    cur: usize,
+    ps: usize,
+    pe: usize,
+    in_frame: bool,
+    escaped: bool,
+    garbage: u16,
+    queued: Option<DecodeError>,
+    stats: DecoderStats,
+}
+
+impl Decoder {
+    /// A decoder for the given API mode.
+    pub const fn new(mode: Mode) -> Self {
+        Decoder {
+            mode,
+            buf: [0; BUF],
+            cur: 0,
+            ps: 0,
+            pe: 0,
+            in_frame: false,
+            escaped: false,
+            garbage: 0,
+            queued: None,
+            stats: DecoderStats {
+                frames: 0,
+                bad_checksum: 0,
+                bad_length: 0,
+                truncated: 0,
+                garbage_bytes: 0,
+            },
+        }
+    }
+
+    /// The API mode this decoder reads.
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// Switches the API mode, dropping any partial frame.
+    pub fn set_mode(&mut self, mode: Mode) {
+        let stats = self.stats;
+        *self = Decoder::new(mode);
+        self.stats = stats;
+    }
+
+    /// The counters so far.
+    pub fn stats(&self) -> DecoderStats {
+        self.stats
+    }
+
+    /// True while a frame has started but not ended.
+    pub fn in_frame(&self) -> bool {
+        self.in_frame
+    }
+
+    /// Queues one input byte. Fails only if [`Decoder::poll`] was not called to `None` since the
+    /// last push.
+    pub fn push(&mut self, byte: u8) -> Result<(), PushError> {
+        if self.pe == BUF && self.ps > self.cur {
+            self.buf.copy_within(self.ps..self.pe, self.cur);
+            self.pe -= self.ps - self.cur;
+            self.ps = self.cur;
+        }
+        let slot = self.buf.get_mut(self.pe).ok_or(PushError(byte))?;
+        *slot = byte;
+        self.pe += 1;
+        Ok(())
+    }
+
+    /// Processes queued input up to the next frame or error. Call until it returns `None`.
+    pub fn poll(&mut self) -> Option<Result<RawFrame<'_>, DecodeError>> {
+        if let Some(e) = self.queued.take() {
+            return Some(Err(e));
+        }
+        while self.ps < self.pe {
+            let b = self.buf[self.ps];
+            self.ps += 1;
+            let step = self.step(b);
+            if self.ps == self.pe {
+                self.ps = self.cur;
+                self.pe = self.cur;
+            }
+            match step {
+                Step::Nothing => {}
+                Step::Error(e) => return Some(Err(e)),
+                Step::Frame(len) => return self.buf.get(2..2 + len).map(|d| Ok(RawFrame::new(d))),
+            }
+        }
+        None
+    }
+
+    /// Feeds a slice and hands every frame or error to `f`.
+    pub fn feed(&mut self, bytes: &[u8], mut f: impl FnMut(Result<RawFrame<'_>, DecodeError>)) {
+        for &b in bytes {
+            // Cannot fail: the queue is drained after every byte.
+            let _ = self.push(b);
+            while let Some(ev) = self.poll() {
+                f(ev);
+            }
+        }
+    }
+
+    /// Tells the decoder the line has been idle longer than a frame takes: a partial frame is
+    /// reported as truncated (by the next [`Decoder::poll`]) and, in API mode 1, its bytes are
+    /// re-read from the next start delimiter so a good frame inside it comes out.
+    pub fn idle(&mut self) {
+        if self.in_frame && self.queued.is_none() {
+            let received = self.cur.min(u8::MAX as usize) as u8;
+            self.queued = Some(self.fail(DecodeError::Truncated { received }));
+        }
+    }
+
+    fn step(&mut self, b: u8) -> Step {
+        if b == START && (!self.in_frame || self.mode == Mode::Escaped) {
+            let err = if self.in_frame {
+                let received = self.cur.min(u8::MAX as usize) as u8;
+                Some(self.fail(DecodeError::Truncated { received }))
+            } else if self.garbage > 0 {
+                Some(DecodeError::Garbage {
+                    bytes: core::mem::take(&mut self.garbage),
+                })
+            } else {
+                None
+            };
+            self.in_frame = true;
+            self.escaped = false;
+            self.cur = 0;
+            return err.map_or(Step::Nothing, Step::Error);
+        }
+        if !self.in_frame {
+            self.garbage = self.garbage.saturating_add(1);
+            self.stats.garbage_bytes = self.stats.garbage_bytes.saturating_add(1);
+            return Step::Nothing;
+        }
+        let b = if self.mode == Mode::Escaped {
+            if self.escaped {
+                self.escaped = false;
+                b ^ ESCAPE_XOR
+            } else if b == ESCAPE {
+                self.escaped = true;
+                return Step::Nothing;
+            } else {
+                b
+            }
+        } else {
+            b
+        };
+        let Some(slot) = self.buf.get_mut(self.cur) else {
+            // Unreachable: the length check below bounds `cur`. Resynchronise anyway.
+            return Step::Error(self.fail(DecodeError::BadLength { length: 0 }));
+        };
+        *slot = b;
+        self.cur += 1;
+        let length = u16::from_be_bytes([self.buf[0], self.buf[1]]);
+        if self.cur == 2 && (length == 0 || length as usize > MAX_FRAME_DATA) {
+            return Step::Error(self.fail(DecodeError::BadLength { length }));
+        }
+        let len = length as usize;
+        if self.cur < len + 3 {
+            return Step::Nothing;
+        }
+        let received = self.buf[2 + len];
+        let computed = crate::checksum(&self.buf[2..2 + len]);
+        if computed != received {
+            return Step::Error(self.fail(DecodeError::BadChecksum { computed, received }));
+        }
+        self.in_frame = false;
+        self.stats.frames = self.stats.frames.saturating_add(1);
+        Step::Frame(len)
+    }
+
+    /// Counts `err`, leaves the frame, and in API mode 1 queues the frame's bytes from the next
+    /// start delimiter for re-reading.
+    fn fail(&mut self, err: DecodeError) -> DecodeError {
+        let s = &mut self.stats;
+        let counter = match err {
+            DecodeError::BadChecksum { .. } => &mut s.bad_checksum,
+            DecodeError::BadLength { .. } => &mut s.bad_length,
+            DecodeError::Truncated { .. } => &mut s.truncated,
+            DecodeError::Garbage { .. } => &mut s.garbage_bytes,
+        };
+        *counter = counter.saturating_add(1);
+        self.in_frame = false;
+        self.escaped = false;
+        if self.mode == Mode::Api {
+            if let Some(k) = self.buf[..self.cur].iter().position(|&b| b == START) {
+                let pending = self.pe - self.ps;
+                self.buf.copy_within(self.ps..self.pe, self.cur);
+                self.buf.copy_within(k..self.cur + pending, 0);
+                self.ps = 0;
+                self.pe = self.cur - k + pending;
+            }
+        }
+        self.cur = 0;
+        if self.ps == self.pe {
+            self.ps = 0;
+            self.pe = 0;
+        }
+        err
+    }
+}

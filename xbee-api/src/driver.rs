@@ -1,0 +1,1 @@
+//! Radio driver (in progress).

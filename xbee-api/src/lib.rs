@@ -1,0 +1,84 @@
+//! XBee 802.15.4 (Series 1) API frame codec and radio driver.
+//!
+//! * [`Decoder`]: byte-at-a-time, bounded buffer, no allocation, never panics; typed
+//!   [`DecodeError`]s with counters ([`DecoderStats`]); resynchronises without losing the next good
+//!   frame, in both API modes ([`Mode::Api`] = `AP=1`, [`Mode::Escaped`] = `AP=2`).
+//! * [`Frame`]: borrowed, zero-copy views of every 802.15.4 frame type; unknown types come out as
+//!   [`Frame::Unknown`]. [`Frame::encode`] writes a frame into a caller's buffer.
+//! * [`driver`]: a radio driver generic over the `embedded-hal-nb` serial traits and a small
+//!   [`driver::Clock`], with AT commands, channel switching and radio bring-up.
+//!
+//! The crate is `no_std`, has no `unsafe`, and is fuzzed (see the crate README).
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+mod decode;
+pub mod driver;
+mod encode;
+mod frame;
+
+pub use decode::{DecodeError, Decoder, DecoderStats, PushError, RawFrame};
+pub use encode::{encode_raw, encoded_len, EncodeError};
+pub use frame::{
+    AtStatus, Frame, IoSample, IoSamples, ModemStatus, ParseError, Rssi, TxStatus, ADDR16_BROADCAST,
+    ADDR64_BROADCAST,
+};
+
+/// Start delimiter of every API frame.
+pub const START: u8 = 0x7E;
+/// Escape byte in API mode 2: the next byte is XOR-ed with [`ESCAPE_XOR`].
+pub const ESCAPE: u8 = 0x7D;
+/// The value escaped bytes are XOR-ed with.
+pub const ESCAPE_XOR: u8 = 0x20;
+/// Software flow control bytes, escaped in API mode 2.
+pub const XON: u8 = 0x11;
+/// Software flow control bytes, escaped in API mode 2.
+pub const XOFF: u8 = 0x13;
+/// Largest frame data (type byte to last payload byte) an XBee 802.15.4 radio produces or accepts:
+/// a TX64 request or RX64 frame with the maximum 100-byte RF payload (1 + 1 + 8 + 1 + 100).
+pub const MAX_FRAME_DATA: usize = 111;
+/// Largest RF payload of one 802.15.4 packet.
+pub const MAX_RF_PAYLOAD: usize = 100;
+/// Worst-case encoded size of a frame on the wire (every byte after the start escaped).
+pub const MAX_ENCODED: usize = 1 + 2 * (2 + MAX_FRAME_DATA + 1);
+
+/// The radio's API mode (`AP` register).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Mode {
+    /// `AP=1`: API frames without escaping; `0x7E` may occur inside a frame.
+    Api,
+    /// `AP=2`: API frames with escaping; an unescaped `0x7E` always starts a frame.
+    Escaped,
+}
+
+impl Mode {
+    /// The value of the `AP` register for this mode.
+    pub const fn ap(self) -> u8 {
+        match self {
+            Mode::Api => 1,
+            Mode::Escaped => 2,
+        }
+    }
+
+    /// The mode for an `AP` register value (0, transparent mode, has no frames).
+    pub const fn from_ap(ap: u8) -> Option<Mode> {
+        match ap {
+            1 => Some(Mode::Api),
+            2 => Some(Mode::Escaped),
+            _ => None,
+        }
+    }
+}
+
+/// True for bytes that API mode 2 escapes.
+#[inline]
+pub const fn needs_escape(b: u8) -> bool {
+    matches!(b, START | ESCAPE | XON | XOFF)
+}
+
+/// The API frame checksum of `data` (the frame data, from the type byte on): `0xFF` minus the low
+/// byte of the sum.
+pub fn checksum(data: &[u8]) -> u8 {
+    0xFFu8.wrapping_sub(data.iter().fold(0u8, |s, &b| s.wrapping_add(b)))
+}
