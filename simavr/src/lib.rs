@@ -1,0 +1,1 @@
+//! Runs firmware ELFs in simavr: harness, modelled XBee radios, radio medium, emulated testbed.
