@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# Runs the whole hoploc test suite (host tests, codec interop with Digi's library, firmware in
+# simavr). Installs what is missing first.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")"
+bash scripts/setup.sh
+cargo test --workspace "$@"
