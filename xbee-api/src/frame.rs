@@ -293,6 +293,16 @@ pub enum ParseError {
         /// The least legal length for this type.
         min: usize,
     },
+    /// A fixed-size frame type (TX status, modem status) with bytes after its last field; they are
+    /// not dropped silently, the raw frame keeps them.
+    TooLong {
+        /// The frame type byte.
+        frame_type: u8,
+        /// Frame data length, type byte included.
+        len: usize,
+        /// The length of this type.
+        max: usize,
+    },
 }
 
 impl fmt::Display for ParseError {
@@ -306,6 +316,14 @@ impl fmt::Display for ParseError {
             } => write!(
                 f,
                 "frame type {frame_type:#04x}: {len} bytes, at least {min} needed"
+            ),
+            ParseError::TooLong {
+                frame_type,
+                len,
+                max,
+            } => write!(
+                f,
+                "frame type {frame_type:#04x}: {len} bytes, at most {max} allowed"
             ),
         }
     }
@@ -369,6 +387,13 @@ impl<'a> Frame<'a> {
                 frame_type: t,
                 len: frame_data.len(),
                 min,
+            });
+        }
+        if matches!(t, ty::TX_STATUS | ty::MODEM_STATUS) && frame_data.len() > min {
+            return Err(ParseError::TooLong {
+                frame_type: t,
+                len: frame_data.len(),
+                max: min,
             });
         }
         let rest = &frame_data[min..];

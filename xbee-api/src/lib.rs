@@ -82,3 +82,8 @@ pub const fn needs_escape(b: u8) -> bool {
 pub fn checksum(data: &[u8]) -> u8 {
     0xFFu8.wrapping_sub(data.iter().fold(0u8, |s, &b| s.wrapping_add(b)))
 }
+
+/// The README's examples run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;
