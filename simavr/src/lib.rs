@@ -1,1 +1,11 @@
-//! Runs firmware ELFs in simavr: harness, modelled XBee radios, radio medium, emulated testbed.
+//! Runs firmware ELFs in simavr: a safe harness over `simavr-ffi` ([`Avr`]) and a scripted radio
+//! for tests ([`ScriptedRadio`]).
+//!
+//! All of the project's `unsafe` code that concerns simavr is in the [`avr`] module; see
+//! [`Avr`] for what the harness does about simavr's quirks (sleep, UART pacing, resets, threads).
+
+pub mod avr;
+pub mod radio;
+
+pub use avr::{cycles_to_ms, ms_to_cycles, Avr, Error, State, UartByte, F_CPU, STACK_PAINT};
+pub use radio::{frame_data, Match, ScriptError, ScriptedRadio, SeenFrame, TextLine};
