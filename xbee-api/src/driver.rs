@@ -1,1 +1,933 @@
-//! Radio driver (in progress).
+//! Radio driver: an XBee 802.15.4 radio on a serial port.
+//!
+//! [`Radio`] is generic over the `embedded-hal-nb` 1.0 serial traits ([`Read`] + [`Write`] of
+//! `u8`) and a millisecond [`Clock`], so the hoploc board layer, arduino-hal's `Usart` or a host
+//! serial port all plug in. Bring-up at other baud rates also needs [`SetBaud`].
+//!
+//! What it does, and why it is shaped this way:
+//!
+//! * **No buffers beyond the decoder.** Frames are escaped and written byte by byte straight to
+//!   the UART ([`Radio::send`]), so the driver needs no TX buffer: its whole state is one
+//!   [`Decoder`] plus about 30 bytes, which matters on a 2 KB-SRAM ATmega328P.
+//! * **Nothing blocks forever.** Every wait (AT response, TX status, guard times, a UART that
+//!   will not take a byte) is bounded by the [`Clock`]; [`Radio::poll`] returns as soon as the
+//!   UART has nothing more.
+//! * **Nothing received is lost.** While the driver waits for an AT response or a TX status,
+//!   every other frame (beacons arriving at the same time, say) goes to the caller's `on_other`
+//!   callback, unparsed ([`RawFrame`]) so even a frame this crate cannot parse gets through.
+//! * **Frame ids are matched.** An AT response counts only with the frame id *and* command of
+//!   the request; a late answer to an earlier, timed-out command goes to `on_other`.
+//! * **Received frames are handed to a closure**, `radio.poll(|raw| ...)`, rather than returned
+//!   as a borrow: the closure's result comes back by value, so the caller can act on it
+//!   (send a reply, switch channel) right after. (Returning a frame borrowed from the decoder out
+//!   of a read loop is the case today's borrow checker rejects.)
+//! * **Typed, distinct errors** ([`Error::code`]) so firmware can blink a code when bring-up
+//!   fails.
+//!
+//! ```no_run
+//! use embedded_hal_nb::serial::{Read, Write};
+//! use xbee_api::driver::{BringUpConfig, Clock, Radio, SetBaud};
+//! use xbee_api::{Frame, Mode};
+//!
+//! fn run<S, C>(serial: S, clock: C) -> Result<(), xbee_api::driver::Error>
+//! where
+//!     S: Read<u8> + Write<u8> + SetBaud,
+//!     C: Clock,
+//! {
+//!     let mut radio = Radio::new(serial, clock, Mode::Escaped);
+//!     // Finds the radio at any common baud rate, in any mode, and leaves it in AP=2 at 57600.
+//!     let config = BringUpConfig { my: Some(0x0001), pan_id: Some(0x3332), channel: Some(0x0C), ..BringUpConfig::new() };
+//!     radio.bring_up(&config)?;
+//!     radio.send_tx16(0xFFFF, b"hello")?;
+//!     loop {
+//!         // Frames come to the closure; what it returns comes back here by value.
+//!         match radio.poll(|raw| raw.parse().ok().and_then(|f| f.rssi())) {
+//!             Some(Ok(Some(rssi))) => { let _ = rssi.dbm(); }
+//!             Some(Ok(None)) => {}                      // a frame without RSSI
+//!             Some(Err(_e)) => {}                       // line noise: counted in stats()
+//!             None => break,                            // nothing more for now
+//!         }
+//!     }
+//!     // Waits for the TX status of the frame sent above, then switches to channel 0x0D.
+//!     radio.set_channel(0x0D, 200, |_other_frame| {})?;
+//!     Ok(())
+//! }
+//! ```
+
+use core::fmt;
+
+use embedded_hal_nb::serial::{Error as _, ErrorKind, Read, Write};
+
+use crate::{
+    needs_escape, AtStatus, DecodeError, Decoder, DecoderStats, Frame, Mode, RawFrame, ESCAPE,
+    ESCAPE_XOR, MAX_FRAME_DATA, START,
+};
+
+/// A free-running millisecond clock. It may wrap: the driver only ever compares
+/// `now.wrapping_sub(start)`, so a `u32` tick counter works across its overflow.
+pub trait Clock {
+    /// Milliseconds since an arbitrary origin.
+    fn now_ms(&mut self) -> u32;
+}
+
+impl<C: Clock + ?Sized> Clock for &mut C {
+    fn now_ms(&mut self) -> u32 {
+        (**self).now_ms()
+    }
+}
+
+/// A [`Clock`] made of a closure, e.g. `FnClock(|| board.millis())`.
+pub struct FnClock<F>(pub F);
+
+impl<F: FnMut() -> u32> Clock for FnClock<F> {
+    fn now_ms(&mut self) -> u32 {
+        (self.0)()
+    }
+}
+
+/// Changes the host UART's baud rate; needed only by [`Radio::bring_up`], which looks for a radio
+/// at several rates. Implement it on the serial type (a newtype around arduino-hal's `Usart`
+/// will do). The driver calls it only after the radio has answered its last command, so the
+/// UART has nothing left to send.
+pub trait SetBaud {
+    /// Switches the UART to `baud` bit/s, 8N1.
+    fn set_baud(&mut self, baud: u32);
+}
+
+impl<B: SetBaud + ?Sized> SetBaud for &mut B {
+    fn set_baud(&mut self, baud: u32) {
+        (**self).set_baud(baud)
+    }
+}
+
+/// The baud rate hoploc runs the radio at (`BD=6`).
+pub const BAUD: u32 = 57_600;
+
+/// The rates [`Radio::bring_up`] tries, in order: the target first, then the XBee factory default
+/// (9600, `BD=3`), then the other common rates.
+pub const BAUD_RATES: [u32; 5] = [57_600, 9_600, 115_200, 38_400, 19_200];
+
+/// How long a frame may stall mid-way before the driver tells the decoder the line went idle
+/// ([`Decoder::idle`]). The radio sends a frame's bytes back to back, so a gap this long means
+/// the rest is lost.
+pub const IDLE_MS: u32 = 20;
+
+/// How long the UART may refuse a byte before [`Error::WriteTimeout`].
+pub const WRITE_TIMEOUT_MS: u32 = 100;
+
+/// Largest AT response value [`AtValue`] keeps (`NI`, the longest 802.15.4 register, is 20).
+pub const AT_VALUE_MAX: usize = 20;
+
+/// How many transmit requests awaiting a TX status the driver tracks exactly.
+const TRACKED: usize = 4;
+
+/// Most bytes one [`Radio::poll`] reads without finding a frame, so a babbling line cannot hold
+/// the caller.
+const POLL_BUDGET: u16 = 256;
+
+/// What went wrong. Every variant is distinct (see [`Error::code`]) so a failure can be told
+/// apart from a blinking LED.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Error {
+    /// The UART reported an error (overrun, framing…).
+    Serial(ErrorKind),
+    /// The UART refused a byte for [`WRITE_TIMEOUT_MS`].
+    WriteTimeout,
+    /// A stream error on the way in; the decoder has already resynchronised. Only
+    /// [`Radio::poll`] reports these; waits count them in [`DriverStats::decoder`] and go on.
+    Decode(DecodeError),
+    /// The frame data is longer than a radio accepts ([`MAX_FRAME_DATA`]).
+    TooLong {
+        /// Frame data length, type byte included.
+        len: usize,
+    },
+    /// No response to an AT command in time.
+    Timeout {
+        /// The command.
+        command: [u8; 2],
+    },
+    /// Transmit requests were still waiting for their TX status when the time ran out. The
+    /// driver forgets them, so a retry goes ahead.
+    TxStatusTimeout,
+    /// The radio answered an AT command with an error status.
+    At {
+        /// The command.
+        command: [u8; 2],
+        /// The status it answered.
+        status: AtStatus,
+    },
+    /// The radio's answer was not the expected value (a setting that did not stick, or a value
+    /// of the wrong size).
+    Unexpected {
+        /// The command.
+        command: [u8; 2],
+    },
+    /// Bring-up: nothing at all came back, at any baud rate.
+    NoResponse,
+    /// Bring-up: bytes came back, but never a valid answer, at any baud rate.
+    Garbage,
+    /// Bring-up: the radio answered `ERROR` to a command-mode command.
+    Rejected {
+        /// The command.
+        command: [u8; 2],
+    },
+    /// Bring-up: the radio took the command-mode configuration but then did not answer in API
+    /// mode at 57600.
+    NotConfirmed,
+}
+
+impl Error {
+    /// A small distinct number per variant (1…12), e.g. for an LED blink code.
+    pub const fn code(&self) -> u8 {
+        match self {
+            Error::Serial(_) => 1,
+            Error::WriteTimeout => 2,
+            Error::Decode(_) => 3,
+            Error::TooLong { .. } => 4,
+            Error::Timeout { .. } => 5,
+            Error::TxStatusTimeout => 6,
+            Error::At { .. } => 7,
+            Error::Unexpected { .. } => 8,
+            Error::NoResponse => 9,
+            Error::Garbage => 10,
+            Error::Rejected { .. } => 11,
+            Error::NotConfirmed => 12,
+        }
+    }
+}
+
+/// Shows a two-letter command.
+struct Cmd([u8; 2]);
+
+impl fmt::Display for Cmd {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for &b in &self.0 {
+            let c = if b.is_ascii_graphic() { b as char } else { '?' };
+            fmt::Write::write_char(f, c)?;
+        }
+        Ok(())
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Error::Serial(k) => write!(f, "serial error: {k}"),
+            Error::WriteTimeout => f.write_str("serial port did not take a byte in time"),
+            Error::Decode(e) => write!(f, "{e}"),
+            Error::TooLong { len } => {
+                write!(f, "frame data of {len} bytes (at most {MAX_FRAME_DATA})")
+            }
+            Error::Timeout { command } => write!(f, "no response to AT{}", Cmd(command)),
+            Error::TxStatusTimeout => f.write_str("TX status still outstanding"),
+            Error::At { command, status } => {
+                write!(f, "AT{} failed with status {}", Cmd(command), status.0)
+            }
+            Error::Unexpected { command } => write!(f, "unexpected answer to AT{}", Cmd(command)),
+            Error::NoResponse => f.write_str("no response from the radio at any baud rate"),
+            Error::Garbage => f.write_str("no valid answer from the radio at any baud rate"),
+            Error::Rejected { command } => write!(f, "radio rejected AT{}", Cmd(command)),
+            Error::NotConfirmed => f.write_str("radio configured but silent in API mode"),
+        }
+    }
+}
+
+impl core::error::Error for Error {}
+
+/// The value of an AT response, copied out of the decoder's buffer (so the decoder can go on
+/// reading while the caller looks at it). Numeric registers are big endian.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct AtValue {
+    len: u8,
+    buf: [u8; AT_VALUE_MAX],
+}
+
+impl AtValue {
+    /// Copies `data`, keeping at most [`AT_VALUE_MAX`] bytes.
+    pub fn new(data: &[u8]) -> AtValue {
+        let mut v = AtValue {
+            len: 0,
+            buf: [0; AT_VALUE_MAX],
+        };
+        for (slot, &b) in v.buf.iter_mut().zip(data) {
+            *slot = b;
+            v.len += 1;
+        }
+        v
+    }
+    /// The value bytes (empty after a set command).
+    pub fn as_bytes(&self) -> &[u8] {
+        self.buf.get(..self.len as usize).unwrap_or(&[])
+    }
+    /// The value as a big-endian number of 1 to 4 bytes.
+    pub fn as_u32(&self) -> Option<u32> {
+        let b = self.as_bytes();
+        (1..=4)
+            .contains(&b.len())
+            .then(|| b.iter().fold(0u32, |v, &x| (v << 8) | x as u32))
+    }
+}
+
+/// The settings [`Radio::read_config`] reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct RadioConfig {
+    /// `MY`: 16-bit source address.
+    pub my: u16,
+    /// `ID`: PAN id.
+    pub pan_id: u16,
+    /// `CH`: channel, 0x0B…0x1A (the S1 Pro only has 0x0C…0x17).
+    pub channel: u8,
+    /// `AP`: 0 transparent, 1 API, 2 API with escaping.
+    pub ap: u8,
+}
+
+/// What [`Radio::bring_up`] should leave the radio with, and how patient to be.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct BringUpConfig {
+    /// `MY` to set, if any.
+    pub my: Option<u16>,
+    /// `ID` (PAN id) to set, if any.
+    pub pan_id: Option<u16>,
+    /// `CH` to set, if any: 0x0B…0x1A on the S1; channel 0x0B does not exist on the S1 Pro
+    /// (0x0C…0x17), which answers it with an error.
+    pub channel: Option<u8>,
+    /// Silence before and after `+++`. Must exceed the radio's `GT` (default 1000 ms).
+    pub guard_ms: u32,
+    /// How long to wait for each answer (API AT response, or `OK` in command mode).
+    pub timeout_ms: u32,
+}
+
+impl BringUpConfig {
+    /// Sets nothing; guard time 1100 ms (the radio's default `GT` is 1000 ms), 500 ms timeouts.
+    pub const fn new() -> Self {
+        BringUpConfig {
+            my: None,
+            pan_id: None,
+            channel: None,
+            guard_ms: 1100,
+            timeout_ms: 500,
+        }
+    }
+}
+
+impl Default for BringUpConfig {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// How [`Radio::bring_up`] found the radio.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BringUp {
+    /// It already answered in the configured API mode at 57600.
+    AlreadyApi,
+    /// It was configured (`AP`, `BD=6`, `WR`) in command mode, found at `baud`.
+    Configured {
+        /// The baud rate it answered at.
+        baud: u32,
+    },
+}
+
+/// Counters of the driver, for diagnostics. They saturate.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct DriverStats {
+    /// The decoder's counters (good frames, checksum/length/truncation errors, garbage bytes).
+    pub decoder: DecoderStats,
+    /// AT responses that matched no waiting command (wrong frame id or command, too late).
+    pub unexpected: u32,
+    /// Frames the driver parsed while waiting that were too short for their type.
+    pub malformed: u32,
+    /// Frames thrown away during [`Radio::bring_up`], which has no one to give them to.
+    pub dropped: u32,
+    /// Serial errors reported by the UART.
+    pub serial_errors: u32,
+}
+
+fn bump(c: &mut u32, by: u32) {
+    *c = c.saturating_add(by);
+}
+
+/// An XBee 802.15.4 radio on serial port `S`, timed by clock `C`.
+pub struct Radio<S, C> {
+    serial: S,
+    clock: C,
+    decoder: Decoder,
+    /// Last frame id handed out (0 before the first).
+    last_id: u8,
+    /// Frame ids of transmit requests still waiting for their TX status (0: free slot).
+    pending_tx: [u8; TRACKED],
+    /// When bytes were last seen, for [`IDLE_MS`].
+    last_rx_ms: u32,
+    /// Bytes were read since the clock was last looked at.
+    rx_since_check: bool,
+    unexpected: u32,
+    malformed: u32,
+    dropped: u32,
+    serial_errors: u32,
+}
+
+impl<S, C> Radio<S, C> {
+    /// A driver for a radio in API mode `mode` (the mode [`Radio::bring_up`] will also set).
+    pub fn new(serial: S, clock: C, mode: Mode) -> Self {
+        Radio {
+            serial,
+            clock,
+            decoder: Decoder::new(mode),
+            last_id: 0,
+            pending_tx: [0; TRACKED],
+            last_rx_ms: 0,
+            rx_since_check: false,
+            unexpected: 0,
+            malformed: 0,
+            dropped: 0,
+            serial_errors: 0,
+        }
+    }
+
+    /// The API mode frames are written and read in.
+    pub fn mode(&self) -> Mode {
+        self.decoder.mode()
+    }
+
+    /// Switches the API mode (after the radio's `AP` was changed), dropping any partial frame.
+    pub fn set_mode(&mut self, mode: Mode) {
+        self.decoder.set_mode(mode);
+    }
+
+    /// The counters so far.
+    pub fn stats(&self) -> DriverStats {
+        DriverStats {
+            decoder: self.decoder.stats(),
+            unexpected: self.unexpected,
+            malformed: self.malformed,
+            dropped: self.dropped,
+            serial_errors: self.serial_errors,
+        }
+    }
+
+    /// A fresh frame id: 1…255, wrapping, never 0 (0 asks the radio for no answer).
+    pub fn next_frame_id(&mut self) -> u8 {
+        self.last_id = self.last_id.checked_add(1).unwrap_or(1);
+        self.last_id
+    }
+
+    /// True while a transmit request sent with a nonzero frame id still waits for its TX status.
+    pub fn tx_pending(&self) -> bool {
+        self.pending_tx.iter().any(|&id| id != 0)
+    }
+
+    /// The serial port, e.g. for the board layer to write text lines between frames.
+    pub fn serial_mut(&mut self) -> &mut S {
+        &mut self.serial
+    }
+
+    /// The clock.
+    pub fn clock_mut(&mut self) -> &mut C {
+        &mut self.clock
+    }
+
+    /// Gives the serial port and the clock back.
+    pub fn release(self) -> (S, C) {
+        (self.serial, self.clock)
+    }
+
+    fn track_tx(&mut self, id: u8) {
+        if id == 0 || self.pending_tx.contains(&id) {
+            return;
+        }
+        // A free slot, else (more than TRACKED outstanding) reuse one: that request is then
+        // no longer waited for.
+        let i = self
+            .pending_tx
+            .iter()
+            .position(|&x| x == 0)
+            .unwrap_or(id as usize % TRACKED);
+        if let Some(slot) = self.pending_tx.get_mut(i) {
+            *slot = id;
+        }
+    }
+}
+
+/// Clears the slot of a TX status frame's id.
+fn note_tx_status(pending: &mut [u8; TRACKED], data: &[u8]) {
+    if let [0x89, id, _, ..] = *data {
+        for slot in pending.iter_mut().filter(|s| **s == id) {
+            *slot = 0;
+        }
+    }
+}
+
+/// Writes one byte, waiting at most [`WRITE_TIMEOUT_MS`] for the UART to take it.
+fn write_byte<S: Write<u8>, C: Clock>(serial: &mut S, clock: &mut C, b: u8) -> Result<(), Error> {
+    let mut start = None;
+    loop {
+        match serial.write(b) {
+            Ok(()) => return Ok(()),
+            Err(nb::Error::Other(e)) => return Err(Error::Serial(e.kind())),
+            Err(nb::Error::WouldBlock) => {
+                let now = clock.now_ms();
+                if now.wrapping_sub(*start.get_or_insert(now)) >= WRITE_TIMEOUT_MS {
+                    return Err(Error::WriteTimeout);
+                }
+            }
+        }
+    }
+}
+
+/// Escapes and checksums a frame on its way to the UART (the same bytes as [`Frame::encode`]).
+struct FrameWriter<'a, S, C> {
+    serial: &'a mut S,
+    clock: &'a mut C,
+    escape: bool,
+    sum: u8,
+    result: Result<(), Error>,
+}
+
+impl<S: Write<u8>, C: Clock> FrameWriter<'_, S, C> {
+    fn raw(&mut self, b: u8) {
+        if self.result.is_ok() {
+            self.result = write_byte(self.serial, self.clock, b);
+        }
+    }
+    fn put(&mut self, b: u8) {
+        if self.escape && needs_escape(b) {
+            self.raw(ESCAPE);
+            self.raw(b ^ ESCAPE_XOR);
+        } else {
+            self.raw(b);
+        }
+    }
+}
+
+impl<S, C> Radio<S, C>
+where
+    S: Read<u8> + Write<u8>,
+    C: Clock,
+{
+    /// Writes `frame`, encoded in the radio's mode. A TX64/TX16 request with a nonzero frame id
+    /// is remembered until its TX status arrives (see [`Radio::wait_tx_status`]).
+    pub fn send(&mut self, frame: &Frame<'_>) -> Result<(), Error> {
+        let len = frame.data_len();
+        if len > MAX_FRAME_DATA {
+            return Err(Error::TooLong { len });
+        }
+        let mut w = FrameWriter {
+            serial: &mut self.serial,
+            clock: &mut self.clock,
+            escape: self.decoder.mode() == Mode::Escaped,
+            sum: 0,
+            result: Ok(()),
+        };
+        w.raw(START);
+        for b in (len as u16).to_be_bytes() {
+            w.put(b);
+        }
+        frame.for_each_byte(&mut |b| {
+            w.sum = w.sum.wrapping_add(b);
+            w.put(b);
+        });
+        w.put(0xFF - w.sum);
+        if let Err(e) = w.result {
+            if let Error::Serial(_) = e {
+                bump(&mut self.serial_errors, 1);
+            }
+            return Err(e);
+        }
+        if let Frame::Tx16 { frame_id, .. } | Frame::Tx64 { frame_id, .. } = *frame {
+            self.track_tx(frame_id);
+        }
+        Ok(())
+    }
+
+    /// Sends `data` to 16-bit address `dest` (0xFFFF: broadcast) with a fresh frame id, which it
+    /// returns: the radio answers with a TX status of that id.
+    pub fn send_tx16(&mut self, dest: u16, data: &[u8]) -> Result<u8, Error> {
+        let frame_id = self.next_frame_id();
+        self.send(&Frame::Tx16 {
+            frame_id,
+            dest,
+            options: 0,
+            data,
+        })?;
+        Ok(frame_id)
+    }
+
+    /// Reads what the UART has until a frame is complete, and hands that frame to `f`.
+    ///
+    /// * `Some(Ok(r))`: a frame arrived; `r` is what `f` returned for it.
+    /// * `Some(Err(e))`: a stream error ([`Error::Decode`], counted and resynchronised) or a
+    ///   UART error; call again.
+    /// * `None`: nothing more for now (the UART is empty, or 256 bytes went by without a frame).
+    ///
+    /// At most one frame per call; bytes after it stay in the UART for the next call. TX status
+    /// frames are noted (see [`Radio::tx_pending`]) and still handed to `f`.
+    pub fn poll<R>(&mut self, f: impl FnOnce(RawFrame<'_>) -> R) -> Option<Result<R, Error>> {
+        let mut f = Some(f);
+        let mut out = None;
+        let ev = self.poll_dyn(&mut |raw| {
+            if let Some(f) = f.take() {
+                out = Some(f(raw));
+            }
+        })?;
+        Some(ev.and_then(|()| out.ok_or(Error::NoResponse)))
+    }
+
+    /// [`Radio::poll`] with one code path for every caller (it is the driver's inner loop).
+    fn poll_dyn(&mut self, f: &mut dyn FnMut(RawFrame<'_>)) -> Option<Result<(), Error>> {
+        let mut budget = POLL_BUDGET;
+        loop {
+            match self.decoder.poll() {
+                Some(Ok(raw)) => {
+                    note_tx_status(&mut self.pending_tx, raw.data());
+                    f(raw);
+                    return Some(Ok(()));
+                }
+                Some(Err(e)) => return Some(Err(Error::Decode(e))),
+                None => {}
+            }
+            budget = budget.checked_sub(1)?;
+            match self.serial.read() {
+                Ok(b) => {
+                    // Cannot fail: the decoder was polled to `None` just above.
+                    let _ = self.decoder.push(b);
+                    self.rx_since_check = true;
+                }
+                Err(nb::Error::WouldBlock) => {
+                    let now = self.clock.now_ms();
+                    if core::mem::take(&mut self.rx_since_check) {
+                        self.last_rx_ms = now;
+                    } else if self.decoder.in_frame()
+                        && now.wrapping_sub(self.last_rx_ms) >= IDLE_MS
+                    {
+                        // The rest of the frame is not coming: let the decoder report it and,
+                        // in AP=1, re-read a frame that started inside it.
+                        self.decoder.idle();
+                        continue;
+                    }
+                    return None;
+                }
+                Err(nb::Error::Other(e)) => {
+                    bump(&mut self.serial_errors, 1);
+                    return Some(Err(Error::Serial(e.kind())));
+                }
+            }
+        }
+    }
+
+    /// Sends AT command `command` (with `parameter`; empty to query) in a 0x08 frame with a fresh
+    /// frame id, and waits up to `timeout_ms` for the 0x88 response with the same frame id and
+    /// command. Every other frame that arrives meanwhile goes to `on_other`.
+    ///
+    /// Returns the response value (empty for a set command), or [`Error::At`] if the radio
+    /// answered with an error status, or [`Error::Timeout`].
+    pub fn at_command(
+        &mut self,
+        command: [u8; 2],
+        parameter: &[u8],
+        timeout_ms: u32,
+        mut on_other: impl FnMut(RawFrame<'_>),
+    ) -> Result<AtValue, Error> {
+        self.at_dyn(command, parameter, timeout_ms, &mut on_other)
+    }
+
+    fn at_dyn(
+        &mut self,
+        command: [u8; 2],
+        parameter: &[u8],
+        timeout_ms: u32,
+        on_other: &mut dyn FnMut(RawFrame<'_>),
+    ) -> Result<AtValue, Error> {
+        let id = self.next_frame_id();
+        self.send(&Frame::AtCommand {
+            frame_id: id,
+            command,
+            parameter,
+        })?;
+        let start = self.clock.now_ms();
+        loop {
+            let (mut reply, mut unexpected, mut malformed) = (None, false, false);
+            let ev = self.poll_dyn(&mut |raw| match raw.parse() {
+                Ok(Frame::AtResponse {
+                    frame_id,
+                    command: c,
+                    status,
+                    data,
+                }) if frame_id == id && c == command => reply = Some((status, AtValue::new(data))),
+                parsed => {
+                    unexpected = matches!(parsed, Ok(Frame::AtResponse { .. }));
+                    malformed = parsed.is_err();
+                    on_other(raw);
+                }
+            });
+            bump(&mut self.unexpected, unexpected as u32);
+            bump(&mut self.malformed, malformed as u32);
+            if let Some((status, value)) = reply {
+                return if status.is_ok() {
+                    Ok(value)
+                } else {
+                    Err(Error::At { command, status })
+                };
+            }
+            if let Some(Err(e @ (Error::Serial(_) | Error::WriteTimeout))) = ev {
+                return Err(e);
+            }
+            if self.clock.now_ms().wrapping_sub(start) >= timeout_ms {
+                return Err(Error::Timeout { command });
+            }
+        }
+    }
+
+    /// Waits up to `timeout_ms` until every transmit request sent with a nonzero frame id has
+    /// had its TX status, handing every frame that arrives (TX statuses included) to
+    /// `on_other`. On [`Error::TxStatusTimeout`] the outstanding requests are forgotten.
+    pub fn wait_tx_status(
+        &mut self,
+        timeout_ms: u32,
+        mut on_other: impl FnMut(RawFrame<'_>),
+    ) -> Result<(), Error> {
+        self.wait_tx_dyn(timeout_ms, &mut on_other)
+    }
+
+    fn wait_tx_dyn(
+        &mut self,
+        timeout_ms: u32,
+        on_other: &mut dyn FnMut(RawFrame<'_>),
+    ) -> Result<(), Error> {
+        let start = self.clock.now_ms();
+        while self.tx_pending() {
+            if let Some(Err(e @ (Error::Serial(_) | Error::WriteTimeout))) = self.poll_dyn(on_other)
+            {
+                return Err(e);
+            }
+            if self.tx_pending() && self.clock.now_ms().wrapping_sub(start) >= timeout_ms {
+                self.pending_tx = [0; TRACKED];
+                return Err(Error::TxStatusTimeout);
+            }
+        }
+        Ok(())
+    }
+
+    /// Switches the radio to channel `channel` (the XBee `CH` value, 0x0B…0x1A; the S1 Pro has
+    /// only 0x0C…0x17). First waits for the TX status of every frame still being sent, because
+    /// changing channel mid-transmission would lose it; then sends `CH` and waits for the OK.
+    /// `timeout_ms` bounds each of the two waits; frames arriving meanwhile go to `on_other`.
+    pub fn set_channel(
+        &mut self,
+        channel: u8,
+        timeout_ms: u32,
+        mut on_other: impl FnMut(RawFrame<'_>),
+    ) -> Result<(), Error> {
+        self.wait_tx_dyn(timeout_ms, &mut on_other)?;
+        self.at_dyn(*b"CH", &[channel], timeout_ms, &mut on_other)
+            .map(|_| ())
+    }
+
+    /// Reads `MY`, `ID`, `CH` and `AP` (each query bounded by `timeout_ms`).
+    pub fn read_config(
+        &mut self,
+        timeout_ms: u32,
+        mut on_other: impl FnMut(RawFrame<'_>),
+    ) -> Result<RadioConfig, Error> {
+        self.read_config_dyn(timeout_ms, &mut on_other)
+    }
+
+    /// Queries a register that must be a number no larger than `max`.
+    fn query(
+        &mut self,
+        command: [u8; 2],
+        max: u32,
+        timeout_ms: u32,
+        on_other: &mut dyn FnMut(RawFrame<'_>),
+    ) -> Result<u32, Error> {
+        let v = self.at_dyn(command, &[], timeout_ms, on_other)?;
+        v.as_u32()
+            .filter(|&v| v <= max)
+            .ok_or(Error::Unexpected { command })
+    }
+
+    fn read_config_dyn(
+        &mut self,
+        timeout_ms: u32,
+        on_other: &mut dyn FnMut(RawFrame<'_>),
+    ) -> Result<RadioConfig, Error> {
+        Ok(RadioConfig {
+            my: self.query(*b"MY", 0xFFFF, timeout_ms, on_other)? as u16,
+            pan_id: self.query(*b"ID", 0xFFFF, timeout_ms, on_other)? as u16,
+            channel: self.query(*b"CH", 0xFF, timeout_ms, on_other)? as u8,
+            ap: self.query(*b"AP", 0xFF, timeout_ms, on_other)? as u8,
+        })
+    }
+
+    fn write_all(&mut self, bytes: &[u8]) -> Result<(), Error> {
+        bytes
+            .iter()
+            .try_for_each(|&b| write_byte(&mut self.serial, &mut self.clock, b))
+    }
+
+    /// Reads and discards input for `ms`; true if any came (or the UART reported errors).
+    fn quiet(&mut self, ms: u32) -> bool {
+        let start = self.clock.now_ms();
+        let mut heard = false;
+        while self.clock.now_ms().wrapping_sub(start) < ms {
+            heard |= !matches!(self.serial.read(), Err(nb::Error::WouldBlock));
+        }
+        heard
+    }
+
+    /// Command mode: reads up to `ms` for a line `OK\r` (anything before it on the line is
+    /// ignored) or `ERROR\r`.
+    fn expect_ok(&mut self, ms: u32) -> Reply {
+        let start = self.clock.now_ms();
+        let mut window = [0u8; 6];
+        let mut heard = false;
+        while self.clock.now_ms().wrapping_sub(start) < ms {
+            match self.serial.read() {
+                Ok(b) => {
+                    heard = true;
+                    window.copy_within(1.., 0);
+                    window[5] = b;
+                    if window == *b"ERROR\r" {
+                        return Reply::Error;
+                    }
+                    if window[3..] == *b"OK\r" {
+                        return Reply::Ok;
+                    }
+                }
+                Err(nb::Error::WouldBlock) => {}
+                Err(nb::Error::Other(_)) => heard = true,
+            }
+        }
+        if heard {
+            Reply::Garbage
+        } else {
+            Reply::Silent
+        }
+    }
+
+    /// Queries `AP` in API mode: the radio's mode if it answered.
+    fn query_ap(&mut self, timeout_ms: u32, drop: &mut dyn FnMut(RawFrame<'_>)) -> Option<u32> {
+        // Twice: a radio still starting up may miss the first.
+        (0..2)
+            .find_map(|_| self.at_dyn(*b"AP", &[], timeout_ms, drop).ok())?
+            .as_u32()
+    }
+}
+
+/// A command-mode answer.
+enum Reply {
+    Ok,
+    Error,
+    Garbage,
+    Silent,
+}
+
+impl<S, C> Radio<S, C>
+where
+    S: Read<u8> + Write<u8> + SetBaud,
+    C: Clock,
+{
+    /// Radio bring-up: makes sure the radio talks API mode [`Radio::mode`] at 57600 baud, then
+    /// sets `MY`, `ID` and `CH` as `config` asks and reads them back.
+    ///
+    /// 1. At 57600, query `AP` in API mode. If the radio answers with our mode: done
+    ///    ([`BringUp::AlreadyApi`]), the usual case, taking milliseconds.
+    /// 2. Otherwise (transparent mode, the other API mode, another baud rate), for each of
+    ///    [`BAUD_RATES`]: keep silent for the guard time, send `+++`, and if `OK\r` comes back
+    ///    (after the radio's own guard time), send `ATAPn\r`, `ATBD6\r`, `ATWR\r`, `ATCN\r`,
+    ///    each answered `OK\r`. `WR` makes it stick, so this happens once per radio.
+    /// 3. Back at 57600, confirm with an `AP` query ([`BringUp::Configured`]).
+    ///
+    /// A radio that never answers costs about `5 × (2 × guard_ms + timeout_ms)` plus the API
+    /// queries, then [`Error::NoResponse`] (or [`Error::Garbage`] if bytes came back but never
+    /// a valid answer). Frames received during bring-up are dropped (counted in
+    /// [`DriverStats::dropped`]).
+    pub fn bring_up(&mut self, config: &BringUpConfig) -> Result<BringUp, Error> {
+        let mut dropped = 0u32;
+        let result = self.bring_up_dyn(config, &mut |_| dropped += 1);
+        bump(&mut self.dropped, dropped);
+        result
+    }
+
+    fn bring_up_dyn(
+        &mut self,
+        cfg: &BringUpConfig,
+        drop: &mut dyn FnMut(RawFrame<'_>),
+    ) -> Result<BringUp, Error> {
+        let mode = self.mode();
+        let ap = u32::from(mode.ap());
+        self.serial.set_baud(BAUD);
+        self.decoder.set_mode(mode);
+        let how = if self.query_ap(cfg.timeout_ms, drop) == Some(ap) {
+            BringUp::AlreadyApi
+        } else {
+            let baud = self.configure_in_command_mode(cfg)?;
+            self.serial.set_baud(BAUD);
+            self.decoder.set_mode(mode);
+            match self.query_ap(cfg.timeout_ms, drop) {
+                Some(v) if v == ap => {}
+                Some(_) => return Err(Error::Unexpected { command: *b"AP" }),
+                None => return Err(Error::NotConfirmed),
+            }
+            BringUp::Configured { baud }
+        };
+        let t = cfg.timeout_ms;
+        if let Some(my) = cfg.my {
+            self.at_dyn(*b"MY", &my.to_be_bytes(), t, drop)?;
+        }
+        if let Some(id) = cfg.pan_id {
+            self.at_dyn(*b"ID", &id.to_be_bytes(), t, drop)?;
+        }
+        if let Some(ch) = cfg.channel {
+            self.at_dyn(*b"CH", &[ch], t, drop)?;
+        }
+        if cfg.my.is_some() || cfg.pan_id.is_some() || cfg.channel.is_some() {
+            let got = self.read_config_dyn(t, drop)?;
+            let checks = [
+                (*b"MY", cfg.my.is_some_and(|v| v != got.my)),
+                (*b"ID", cfg.pan_id.is_some_and(|v| v != got.pan_id)),
+                (*b"CH", cfg.channel.is_some_and(|v| v != got.channel)),
+            ];
+            if let Some(&(command, _)) = checks.iter().find(|c| c.1) {
+                return Err(Error::Unexpected { command });
+            }
+        }
+        Ok(how)
+    }
+
+    /// Step 2 of [`Radio::bring_up`]: the baud rate the radio was found at.
+    fn configure_in_command_mode(&mut self, cfg: &BringUpConfig) -> Result<u32, Error> {
+        let mut heard = false;
+        for baud in BAUD_RATES {
+            self.serial.set_baud(baud);
+            heard |= self.quiet(cfg.guard_ms);
+            self.write_all(b"+++")?;
+            match self.expect_ok(cfg.guard_ms + cfg.timeout_ms) {
+                Reply::Ok => {}
+                Reply::Silent => continue,
+                Reply::Garbage | Reply::Error => {
+                    heard = true;
+                    continue;
+                }
+            }
+            let set_ap = [b'A', b'T', b'A', b'P', b'0' + self.mode().ap(), b'\r'];
+            for line in [&set_ap[..], b"ATBD6\r", b"ATWR\r", b"ATCN\r"] {
+                self.write_all(line)?;
+                let command = [
+                    line.get(2).copied().unwrap_or(0),
+                    line.get(3).copied().unwrap_or(0),
+                ];
+                match self.expect_ok(cfg.timeout_ms) {
+                    Reply::Ok => {}
+                    Reply::Error => return Err(Error::Rejected { command }),
+                    Reply::Garbage | Reply::Silent => return Err(Error::Timeout { command }),
+                }
+            }
+            return Ok(baud);
+        }
+        Err(if heard {
+            Error::Garbage
+        } else {
+            Error::NoResponse
+        })
+    }
+}
