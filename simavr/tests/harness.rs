@@ -192,7 +192,9 @@ fn watchdog_reset_keeps_the_cycle_count_monotonic() {
 }
 
 /// Echo + sleepy, step by step, returning everything observable.
-fn scenario(text: &[u8]) -> (Vec<(u64, u8)>, Vec<(u64, u8)>) {
+type Trace = Vec<(u64, u8)>;
+
+fn scenario(text: &[u8]) -> (Trace, Trace) {
     let mut echo = load("echo");
     let mut sleepy = load("sleepy");
     echo.run_for_ms(1.0);
