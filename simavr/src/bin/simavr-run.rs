@@ -1,0 +1,102 @@
+//! `simavr-run FIRMWARE.elf [MS] [--eeprom FILE]`: runs an ATmega328P firmware in simavr for MS
+//! milliseconds of simulated time (default 1000) and prints its UART0 output line by line with
+//! timestamps, then the final state, stack peak and simulation speed.
+
+use std::process::ExitCode;
+use std::time::Instant;
+
+use simavr::{cycles_to_ms, Avr};
+
+fn main() -> ExitCode {
+    let mut args = std::env::args().skip(1);
+    let mut elf = None;
+    let mut ms = 1000.0;
+    let mut eeprom = None;
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--eeprom" => eeprom = args.next(),
+            "-h" | "--help" => {
+                eprintln!("usage: simavr-run FIRMWARE.elf [MS] [--eeprom FILE]");
+                return ExitCode::SUCCESS;
+            }
+            _ if elf.is_none() => elf = Some(a),
+            _ => match a.parse::<f64>() {
+                Ok(v) if v > 0.0 => ms = v,
+                _ => {
+                    eprintln!("bad duration {a:?} (milliseconds)");
+                    return ExitCode::FAILURE;
+                }
+            },
+        }
+    }
+    let Some(elf) = elf else {
+        eprintln!("usage: simavr-run FIRMWARE.elf [MS] [--eeprom FILE]");
+        return ExitCode::FAILURE;
+    };
+    let mut avr = match Avr::load(&elf) {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("{e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if let Some(f) = eeprom {
+        let data = match std::fs::read(&f) {
+            Ok(d) => d,
+            Err(e) => {
+                eprintln!("cannot read {f}: {e}");
+                return ExitCode::FAILURE;
+            }
+        };
+        if let Err(e) = avr.eeprom_write(0, &data) {
+            eprintln!("{e}");
+            return ExitCode::FAILURE;
+        }
+    }
+    let t = Instant::now();
+    let target = simavr::ms_to_cycles(ms);
+    let mut line: Vec<u8> = Vec::new();
+    let mut line_start = 0;
+    let mut state = avr.state();
+    while avr.cycle() < target && state.is_alive() {
+        let next = target.min(avr.cycle() + simavr::ms_to_cycles(10.0));
+        state = avr.run_until(next);
+        for b in avr.take_uart_output() {
+            if line.is_empty() {
+                line_start = b.cycle;
+            }
+            if b.byte == b'\n' {
+                print_line(line_start, &line);
+                line.clear();
+            } else {
+                line.push(b.byte);
+            }
+        }
+    }
+    if !line.is_empty() {
+        print_line(line_start, &line);
+    }
+    let wall = t.elapsed().as_secs_f64();
+    eprintln!(
+        "-- {:?} at {:.3} ms; stack peak {} B; static data {} B; {:.1} simulated MHz",
+        state,
+        avr.time_ms(),
+        avr.stack_peak().map_or("?".into(), |p| p.to_string()),
+        avr.static_data_size().map_or("?".into(), |p| p.to_string()),
+        avr.cycle() as f64 / wall.max(1e-9) / 1e6
+    );
+    ExitCode::SUCCESS
+}
+
+/// Prints a line with its time; bytes that are not printable ASCII (API frames) as `\xNN`.
+fn print_line(cycle: u64, bytes: &[u8]) {
+    let mut s = String::new();
+    for &b in bytes.strip_suffix(b"\r").unwrap_or(bytes) {
+        if (0x20..0x7f).contains(&b) {
+            s.push(b as char);
+        } else {
+            s.push_str(&format!("\\x{b:02x}"));
+        }
+    }
+    println!("{:10.3} ms  {s}", cycles_to_ms(cycle));
+}
