@@ -60,7 +60,7 @@ use embedded_hal_nb::serial::{Error as _, ErrorKind, Read, Write};
 
 use crate::{
     needs_escape, AtStatus, DecodeError, Decoder, DecoderStats, Frame, Mode, RawFrame, ESCAPE,
-    ESCAPE_XOR, MAX_FRAME_DATA, START,
+    ESCAPE_XOR, MAX_FRAME_DATA, MAX_RF_PAYLOAD, START,
 };
 
 /// A free-running millisecond clock. It may wrap: the driver only ever compares
@@ -136,7 +136,8 @@ pub enum Error {
     /// A stream error on the way in; the decoder has already resynchronised. Only
     /// [`Radio::poll`] reports these; waits count them in [`DriverStats::decoder`] and go on.
     Decode(DecodeError),
-    /// The frame data is longer than a radio accepts ([`MAX_FRAME_DATA`]).
+    /// The frame data is longer than a radio accepts ([`MAX_FRAME_DATA`]), or a TX request's
+    /// payload longer than [`MAX_RF_PAYLOAD`].
     TooLong {
         /// Frame data length, type byte included.
         len: usize,
@@ -508,7 +509,11 @@ where
     /// is remembered until its TX status arrives (see [`Radio::wait_tx_status`]).
     pub fn send(&mut self, frame: &Frame<'_>) -> Result<(), Error> {
         let len = frame.data_len();
-        if len > MAX_FRAME_DATA {
+        let payload = match *frame {
+            Frame::Tx16 { data, .. } | Frame::Tx64 { data, .. } => data.len(),
+            _ => 0,
+        };
+        if len > MAX_FRAME_DATA || payload > MAX_RF_PAYLOAD {
             return Err(Error::TooLong { len });
         }
         let mut w = FrameWriter {

@@ -1,0 +1,713 @@
+//! The radio driver against a scripted fake XBee (tests/common): exact bytes on the wire,
+//! frame-id matching, nothing lost while waiting, bounded timeouts, channel switching order and
+//! bring-up from every state a radio can be found in.
+
+mod common;
+
+use common::{at_resp, data, enc, setup, Reply};
+use xbee_api::driver::{BringUp, BringUpConfig, Error, RadioConfig, BAUD_RATES};
+use xbee_api::{AtStatus, DecodeError, Frame, Mode, Rssi, TxStatus};
+
+const MODES: [Mode; 2] = [Mode::Api, Mode::Escaped];
+
+fn ap_of(mode: Mode) -> u8 {
+    mode.ap()
+}
+
+/// Frame data of an RX16 frame whose header and payload need escaping.
+fn rx16() -> Vec<u8> {
+    data(&Frame::Rx16 {
+        source: 0x7E11,
+        rssi: Rssi(0x13),
+        options: 0x02,
+        data: &[0x7E, 0x7D, 0x11, 0x13, b'h', b'i'],
+    })
+}
+
+#[test]
+fn send_writes_exactly_the_encoded_frame_in_both_modes() {
+    // Digi's own example frame (AP=1), as in the crate README.
+    let (m, mut radio) = setup(1, 57600, Mode::Api);
+    let hello = Frame::Tx16 {
+        frame_id: 1,
+        dest: 0x5001,
+        options: 0,
+        data: b"Hello",
+    };
+    radio.send(&hello).unwrap();
+    assert_eq!(
+        m.borrow().wire,
+        [0x7E, 0x00, 0x0A, 0x01, 0x01, 0x50, 0x01, 0x00, 0x48, 0x65, 0x6C, 0x6C, 0x6F, 0xB8]
+    );
+
+    for mode in MODES {
+        let (m, mut radio) = setup(ap_of(mode), 57600, mode);
+        // Payload, address and (for id 0x11) frame id all need escaping in AP=2.
+        let payload = [0x7E, 0x7D, 0x11, 0x13, 0x00, 0xFF];
+        let mut expected = vec![];
+        for i in 1..=0x13u8 {
+            let id = radio.send_tx16(0x7D13, &payload).unwrap();
+            assert_eq!(id, i, "frame ids count from 1");
+            expected.extend(enc(
+                &Frame::Tx16 {
+                    frame_id: id,
+                    dest: 0x7D13,
+                    options: 0,
+                    data: &payload,
+                },
+                mode,
+            ));
+        }
+        assert_eq!(m.borrow().wire, expected, "{mode:?}");
+        assert_eq!(
+            m.borrow().frames.len(),
+            0x13,
+            "the radio decodes every frame"
+        );
+    }
+}
+
+#[test]
+fn frame_ids_skip_zero() {
+    let (_m, mut radio) = setup(2, 57600, Mode::Escaped);
+    let ids: Vec<u8> = (0..300).map(|_| radio.next_frame_id()).collect();
+    assert_eq!(ids[0], 1);
+    assert_eq!(ids[254], 255);
+    assert_eq!(ids[255], 1);
+    assert!(!ids.contains(&0));
+}
+
+#[test]
+fn send_rejects_oversize_frames() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    let big = [0u8; 120];
+    // More than 100 bytes of RF payload…
+    assert_eq!(
+        radio.send_tx16(0xFFFF, &big[..101]),
+        Err(Error::TooLong { len: 106 })
+    );
+    // …or frame data longer than any S1 frame.
+    let unknown = Frame::Unknown {
+        frame_type: 0x42,
+        data: &big[..111],
+    };
+    assert_eq!(radio.send(&unknown), Err(Error::TooLong { len: 112 }));
+    assert!(m.borrow().wire.is_empty());
+    // 100 bytes of payload is the most an S1 takes, and goes.
+    radio.send_tx16(0xFFFF, &big[..100]).unwrap();
+    assert_eq!(m.borrow().frames.len(), 1);
+}
+
+#[test]
+fn at_command_returns_the_response_with_its_frame_id() {
+    for mode in MODES {
+        let (m, mut radio) = setup(ap_of(mode), 57600, mode);
+        m.borrow_mut().ch = 0x11; // escaped in AP=2
+        let mut others = 0;
+        let v = radio.at_command(*b"CH", &[], 100, |_| others += 1).unwrap();
+        assert_eq!(v.as_bytes(), [0x11]);
+        assert_eq!(v.as_u32(), Some(0x11));
+        assert_eq!(others, 0);
+        assert_eq!(
+            m.borrow().wire,
+            enc(
+                &Frame::AtCommand {
+                    frame_id: 1,
+                    command: *b"CH",
+                    parameter: &[]
+                },
+                mode
+            )
+        );
+        // A set command answers an empty value.
+        let v = radio
+            .at_command(*b"CH", &[0x0F], 100, |_| others += 1)
+            .unwrap();
+        assert!(v.as_bytes().is_empty());
+        assert_eq!(v.as_u32(), None);
+        assert_eq!(m.borrow().ch, 0x0F);
+        assert_eq!(m.borrow().host_frames()[1], "ATCH id=2 [0F]");
+    }
+}
+
+#[test]
+fn response_with_wrong_frame_id_or_command_goes_to_the_callback() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    let stale = at_resp(99, b"MY", AtStatus::OK, &[0x00, 0x07]);
+    let wrong_cmd = at_resp(1, b"ID", AtStatus::OK, &[0x33, 0x32]);
+    let right = at_resp(1, b"MY", AtStatus::OK, &[0x12, 0x34]);
+    m.borrow_mut().expect(
+        Some(data(&Frame::AtCommand {
+            frame_id: 1,
+            command: *b"MY",
+            parameter: &[],
+        })),
+        Reply::Frames(vec![stale.clone(), wrong_cmd.clone(), right]),
+    );
+    let mut others = vec![];
+    let v = radio
+        .at_command(*b"MY", &[], 100, |raw| others.push(raw.data().to_vec()))
+        .unwrap();
+    assert_eq!(v.as_u32(), Some(0x1234));
+    assert_eq!(others, vec![stale, wrong_cmd]);
+    assert_eq!(radio.stats().unexpected, 2);
+}
+
+#[test]
+fn frames_arriving_during_an_at_command_reach_the_callback_intact() {
+    for mode in MODES {
+        let (m, mut radio) = setup(ap_of(mode), 57600, mode);
+        let status = data(&Frame::ModemStatus {
+            status: xbee_api::ModemStatus::HARDWARE_RESET,
+        });
+        let unknown = vec![0x42, 0x7E, 0x01];
+        let short = vec![0x81, 0x00]; // RX16 too short to parse: still delivered
+        m.borrow_mut().expect(
+            None,
+            Reply::Frames(vec![
+                rx16(),
+                status.clone(),
+                unknown.clone(),
+                short.clone(),
+                at_resp(1, b"ID", AtStatus::OK, &[0x7E, 0x7D]),
+                rx16(),
+            ]),
+        );
+        let mut others = vec![];
+        let v = radio
+            .at_command(*b"ID", &[], 100, |raw| others.push(raw.data().to_vec()))
+            .unwrap();
+        assert_eq!(v.as_u32(), Some(0x7E7D));
+        assert_eq!(others, vec![rx16(), status, unknown, short], "{mode:?}");
+        assert_eq!(radio.stats().malformed, 1);
+        // The RX16 after the response stays for the next poll, whole.
+        let got = radio.poll(|raw| raw.data().to_vec());
+        assert_eq!(got, Some(Ok(rx16())));
+        assert_eq!(radio.poll(|_| ()), None);
+    }
+}
+
+#[test]
+fn at_command_times_out_when_nothing_answers() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().expect(None, Reply::Silent);
+    let t0 = m.borrow().now;
+    let r = radio.at_command(*b"CH", &[], 50, |_| panic!("no frames"));
+    assert_eq!(r, Err(Error::Timeout { command: *b"CH" }));
+    let took = m.borrow().now - t0;
+    assert!((50..=52).contains(&took), "took {took} ms");
+}
+
+#[test]
+fn a_late_answer_after_a_timeout_is_not_taken_for_the_next_command() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().at_delay = 80; // slower than the timeout
+    assert_eq!(
+        radio.at_command(*b"CH", &[], 50, |_| {}),
+        Err(Error::Timeout { command: *b"CH" })
+    );
+    m.borrow_mut().at_delay = 2;
+    let mut others = vec![];
+    let v = radio
+        .at_command(*b"CH", &[], 100, |raw| others.push(raw.data().to_vec()))
+        .unwrap();
+    assert_eq!(v.as_u32(), Some(0x0C));
+    // The first answer (id 1) arrived during the second wait and was passed on.
+    assert_eq!(others, vec![at_resp(1, b"CH", AtStatus::OK, &[0x0C])]);
+}
+
+#[test]
+fn timeouts_work_across_clock_wraparound() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().now = u32::MAX - 10;
+    // Answered across the wrap…
+    m.borrow_mut().at_delay = 20;
+    let v = radio.at_command(*b"CH", &[], 50, |_| {}).unwrap();
+    assert_eq!(v.as_u32(), Some(0x0C));
+    assert!(m.borrow().now < 100, "the clock wrapped");
+    // …and timing out across it.
+    m.borrow_mut().now = u32::MAX - 10;
+    m.borrow_mut().expect(None, Reply::Silent);
+    let r = radio.at_command(*b"CH", &[], 50, |_| {});
+    assert_eq!(r, Err(Error::Timeout { command: *b"CH" }));
+    assert_eq!(m.borrow().now, (u32::MAX - 10).wrapping_add(50));
+}
+
+#[test]
+fn at_error_status_is_a_typed_error() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    // The model radio refuses channel 0x30…
+    assert_eq!(
+        radio.at_command(*b"CH", &[0x30], 100, |_| {}),
+        Err(Error::At {
+            command: *b"CH",
+            status: AtStatus::INVALID_PARAMETER
+        })
+    );
+    // …and unknown commands.
+    assert_eq!(
+        radio.at_command(*b"ZZ", &[], 100, |_| {}),
+        Err(Error::At {
+            command: *b"ZZ",
+            status: AtStatus::INVALID_COMMAND
+        })
+    );
+    // A scripted plain ERROR.
+    m.borrow_mut().expect(
+        None,
+        Reply::Frames(vec![at_resp(3, b"MY", AtStatus::ERROR, &[])]),
+    );
+    assert_eq!(
+        radio.at_command(*b"MY", &[0, 1], 100, |_| {}),
+        Err(Error::At {
+            command: *b"MY",
+            status: AtStatus::ERROR
+        })
+    );
+}
+
+#[test]
+fn set_channel_waits_for_outstanding_tx_status_then_sends_ch_and_waits_for_ok() {
+    for mode in MODES {
+        let (m, mut radio) = setup(ap_of(mode), 57600, mode);
+        m.borrow_mut().tx_delay = 30;
+        let id1 = radio.send_tx16(0xFFFF, b"beacon").unwrap();
+        let id2 = radio.send_tx16(0x0002, b"unicast").unwrap();
+        // Frame id 0: no TX status comes, so none is waited for.
+        radio
+            .send(&Frame::Tx16 {
+                frame_id: 0,
+                dest: 0xFFFF,
+                options: 0,
+                data: b"x",
+            })
+            .unwrap();
+        assert!(radio.tx_pending());
+        let mut seen = vec![];
+        radio
+            .set_channel(0x0F, 100, |raw| seen.push(raw.data().to_vec()))
+            .unwrap();
+        assert!(!radio.tx_pending());
+        let st = |frame_id| {
+            data(&Frame::TxStatus {
+                frame_id,
+                status: TxStatus::SUCCESS,
+            })
+        };
+        assert_eq!(
+            seen,
+            vec![st(id1), st(id2)],
+            "TX statuses go to the caller too"
+        );
+        assert_eq!(m.borrow().ch, 0x0F);
+        assert_eq!(
+            m.borrow().log,
+            vec![
+                "-> TX16 id=1",
+                "-> TX16 id=2",
+                "-> TX16 id=0",
+                "<- TXSTATUS id=1 st=0",
+                "<- TXSTATUS id=2 st=0",
+                "-> ATCH id=3 [0F]",
+                "<- RESPCH id=3 st=0",
+            ],
+            "{mode:?}"
+        );
+    }
+}
+
+#[test]
+fn set_channel_with_nothing_outstanding_goes_straight_to_ch() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    radio.set_channel(0x1A, 100, |_| {}).unwrap();
+    assert_eq!(m.borrow().host_frames(), vec!["ATCH id=1 [1A]"]);
+    assert!(m.borrow().now < 10);
+}
+
+#[test]
+fn set_channel_gives_up_on_a_lost_tx_status_and_a_retry_proceeds() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().expect(None, Reply::Silent); // the TX status never comes
+    radio.send_tx16(0xFFFF, b"lost").unwrap();
+    assert_eq!(
+        radio.set_channel(0x0D, 40, |_| {}),
+        Err(Error::TxStatusTimeout)
+    );
+    assert_eq!(m.borrow().host_frames(), vec!["TX16 id=1"], "no CH sent");
+    radio.set_channel(0x0D, 40, |_| {}).unwrap();
+    assert_eq!(m.borrow().ch, 0x0D);
+}
+
+#[test]
+fn set_channel_reports_a_refused_channel() {
+    // Channel 0x0B does not exist on the S1 Pro, which answers INVALID_PARAMETER.
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().expect(
+        None,
+        Reply::Frames(vec![at_resp(1, b"CH", AtStatus::INVALID_PARAMETER, &[])]),
+    );
+    assert_eq!(
+        radio.set_channel(0x0B, 40, |_| {}),
+        Err(Error::At {
+            command: *b"CH",
+            status: AtStatus::INVALID_PARAMETER
+        })
+    );
+}
+
+#[test]
+fn read_config_reads_my_id_ch_ap() {
+    for mode in MODES {
+        let (m, mut radio) = setup(ap_of(mode), 57600, mode);
+        {
+            let mut m = m.borrow_mut();
+            m.my = 0x0102;
+            m.id = 0x7E7D;
+            m.ch = 0x13;
+        }
+        let c = radio.read_config(100, |_| {}).unwrap();
+        assert_eq!(
+            c,
+            RadioConfig {
+                my: 0x0102,
+                pan_id: 0x7E7D,
+                channel: 0x13,
+                ap: mode.ap()
+            }
+        );
+        assert_eq!(
+            m.borrow().host_frames(),
+            vec![
+                "ATMY id=1 []",
+                "ATID id=2 []",
+                "ATCH id=3 []",
+                "ATAP id=4 []"
+            ]
+        );
+    }
+}
+
+#[test]
+fn read_config_rejects_a_malformed_value() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().expect(
+        None,
+        Reply::Frames(vec![at_resp(1, b"MY", AtStatus::OK, &[1, 2, 3, 4, 5])]),
+    );
+    assert_eq!(
+        radio.read_config(100, |_| {}),
+        Err(Error::Unexpected { command: *b"MY" })
+    );
+}
+
+#[test]
+fn poll_hands_frames_to_the_closure_and_reports_stream_errors() {
+    for mode in MODES {
+        let (m, mut radio) = setup(ap_of(mode), 57600, mode);
+        assert_eq!(radio.poll(|_| ()), None);
+        {
+            let mut m = m.borrow_mut();
+            m.emit(b"noise", 0, None);
+            let f = rx16();
+            m.emit_frame(&f, 0);
+            m.emit_frame(&f, 0);
+        }
+        assert_eq!(
+            radio.poll(|_| ()),
+            Some(Err(Error::Decode(DecodeError::Garbage { bytes: 5 })))
+        );
+        let rssi = radio.poll(|raw| raw.parse().unwrap().rssi());
+        assert_eq!(rssi, Some(Ok(Some(Rssi(0x13)))));
+        let got = radio.poll(|raw| raw.data().to_vec());
+        assert_eq!(got, Some(Ok(rx16())));
+        assert_eq!(radio.poll(|_| ()), None);
+        assert_eq!(radio.stats().decoder.frames, 2);
+        assert_eq!(radio.stats().decoder.garbage_bytes, 5);
+    }
+}
+
+#[test]
+fn poll_ends_a_frame_that_stalls() {
+    for mode in MODES {
+        let (m, mut radio) = setup(ap_of(mode), 57600, mode);
+        let whole = enc(
+            &Frame::Rx16 {
+                source: 1,
+                rssi: Rssi(40),
+                options: 0,
+                data: b"abc",
+            },
+            mode,
+        );
+        m.borrow_mut().emit(&whole[..6], 0, None);
+        let mut events = vec![];
+        for _ in 0..100 {
+            if let Some(ev) = radio.poll(|_| ()) {
+                events.push(ev);
+            }
+        }
+        assert_eq!(
+            events,
+            vec![Err(Error::Decode(DecodeError::Truncated { received: 5 }))],
+            "{mode:?}"
+        );
+        // And the next frame is read normally.
+        m.borrow_mut().emit(&whole, 0, None);
+        assert_eq!(radio.poll(|raw| raw.data().len()), Some(Ok(8)));
+    }
+}
+
+#[test]
+fn poll_stops_on_a_babbling_line() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().emit(&[0x55; 1000], 0, None);
+    // Returns within its byte budget rather than reading forever.
+    assert_eq!(radio.poll(|_| ()), None);
+    assert!(m.borrow().now == 0);
+}
+
+#[test]
+fn a_uart_that_never_takes_a_byte_times_out() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().write_blocked = true;
+    assert_eq!(radio.send_tx16(1, b"x"), Err(Error::WriteTimeout));
+    assert!(m.borrow().now <= 101);
+}
+
+fn fast() -> BringUpConfig {
+    BringUpConfig {
+        guard_ms: 25, // the model's GT is 20 ms
+        timeout_ms: 50,
+        ..BringUpConfig::new()
+    }
+}
+
+#[test]
+fn bring_up_of_a_radio_already_in_api_mode_2_sends_one_query() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    assert_eq!(radio.bring_up(&fast()), Ok(BringUp::AlreadyApi));
+    let m = m.borrow();
+    assert_eq!(
+        m.wire,
+        enc(
+            &Frame::AtCommand {
+                frame_id: 1,
+                command: *b"AP",
+                parameter: &[]
+            },
+            Mode::Escaped
+        )
+    );
+    assert!(m.cmd_lines.is_empty());
+    assert_eq!(m.writes, 0);
+    assert_eq!(m.host_bauds, vec![57600]);
+}
+
+#[test]
+fn bring_up_sets_and_verifies_my_id_ch() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().emit_frame(
+        &data(&Frame::ModemStatus {
+            status: xbee_api::ModemStatus::HARDWARE_RESET,
+        }),
+        0,
+    );
+    let cfg = BringUpConfig {
+        my: Some(0x0003),
+        pan_id: Some(0x1234),
+        channel: Some(0x0E),
+        ..fast()
+    };
+    assert_eq!(radio.bring_up(&cfg), Ok(BringUp::AlreadyApi));
+    let m = m.borrow();
+    assert_eq!(
+        m.host_frames(),
+        vec![
+            "ATAP id=1 []",
+            "ATMY id=2 [00, 03]",
+            "ATID id=3 [12, 34]",
+            "ATCH id=4 [0E]",
+            "ATMY id=5 []",
+            "ATID id=6 []",
+            "ATCH id=7 []",
+            "ATAP id=8 []",
+        ]
+    );
+    assert_eq!((m.my, m.id, m.ch), (3, 0x1234, 0x0E));
+    assert_eq!(
+        radio.stats().dropped,
+        1,
+        "the modem status was dropped, and counted"
+    );
+}
+
+#[test]
+fn bring_up_reports_a_setting_that_does_not_stick() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().stuck_ch = true;
+    let cfg = BringUpConfig {
+        channel: Some(0x0E),
+        ..fast()
+    };
+    assert_eq!(
+        radio.bring_up(&cfg),
+        Err(Error::Unexpected { command: *b"CH" })
+    );
+}
+
+/// Checks the command-mode session and the radio's final state.
+fn assert_configured(m: &common::Model, mode: Mode) {
+    assert_eq!(
+        m.cmd_lines,
+        vec![
+            format!("ATAP{}", mode.ap()),
+            "ATBD6".into(),
+            "ATWR".into(),
+            "ATCN".into()
+        ]
+    );
+    assert_eq!(m.ap, mode.ap());
+    assert_eq!(m.baud, 57600);
+    assert_eq!(m.writes, 1);
+    // The last frame the host wrote confirms the mode in API at 57600.
+    let last = m.frames.last().unwrap();
+    assert_eq!(common::describe(last).split(' ').next(), Some("ATAP"));
+}
+
+#[test]
+fn bring_up_of_a_radio_in_the_other_api_mode() {
+    for (radio_ap, mode) in [(1, Mode::Escaped), (2, Mode::Api)] {
+        let (m, mut radio) = setup(radio_ap, 57600, mode);
+        assert_eq!(
+            radio.bring_up(&fast()),
+            Ok(BringUp::Configured { baud: 57600 })
+        );
+        let m = m.borrow();
+        assert_configured(&m, mode);
+        assert_eq!(m.host_bauds, vec![57600, 57600, 57600]);
+    }
+}
+
+#[test]
+fn bring_up_of_a_radio_in_transparent_mode_at_57600() {
+    let (m, mut radio) = setup(0, 57600, Mode::Escaped);
+    assert_eq!(
+        radio.bring_up(&fast()),
+        Ok(BringUp::Configured { baud: 57600 })
+    );
+    let m = m.borrow();
+    assert_configured(&m, Mode::Escaped);
+    // Two AP queries that went on air as transparent data, +++ after the guard time, the four
+    // commands, then the confirming query.
+    let query = |id| {
+        enc(
+            &Frame::AtCommand {
+                frame_id: id,
+                command: *b"AP",
+                parameter: &[],
+            },
+            Mode::Escaped,
+        )
+    };
+    let mut expected = [query(1), query(2)].concat();
+    expected.extend_from_slice(b"+++ATAP2\rATBD6\rATWR\rATCN\r");
+    expected.extend(query(3));
+    assert_eq!(m.wire, expected);
+}
+
+#[test]
+fn bring_up_of_a_fresh_radio_at_9600() {
+    let (m, mut radio) = setup(0, 9600, Mode::Escaped);
+    let t0 = m.borrow().now;
+    assert_eq!(
+        radio.bring_up(&fast()),
+        Ok(BringUp::Configured { baud: 9600 })
+    );
+    let m = m.borrow();
+    assert_configured(&m, Mode::Escaped);
+    assert_eq!(m.host_bauds, vec![57600, 57600, 9600, 57600]);
+    assert!(m.now - t0 < 1000, "took {} ms", m.now - t0);
+}
+
+#[test]
+fn bring_up_finds_a_radio_at_every_common_rate() {
+    for (i, &baud) in BAUD_RATES.iter().enumerate() {
+        for ap in [0, 1] {
+            let (m, mut radio) = setup(ap, baud, Mode::Escaped);
+            assert_eq!(radio.bring_up(&fast()), Ok(BringUp::Configured { baud }));
+            let m = m.borrow();
+            assert_configured(&m, Mode::Escaped);
+            assert_eq!(m.host_bauds.len(), i + 3, "{baud}");
+        }
+    }
+}
+
+#[test]
+fn bring_up_of_a_radio_that_never_answers_fails_in_bounded_time() {
+    let (m, mut radio) = setup(0, 57600, Mode::Escaped);
+    m.borrow_mut().dead = true;
+    let cfg = fast();
+    assert_eq!(radio.bring_up(&cfg), Err(Error::NoResponse));
+    let m = m.borrow();
+    let bound = 2 * cfg.timeout_ms + 5 * (2 * cfg.guard_ms + cfg.timeout_ms) + 20;
+    assert!(m.now <= bound, "took {} ms, bound {bound}", m.now);
+    assert_eq!(m.host_bauds, [&[57600][..], &BAUD_RATES[..]].concat());
+    assert_eq!(m.wire.iter().filter(|&&b| b == b'+').count(), 15);
+}
+
+#[test]
+fn bring_up_of_a_radio_that_answers_garbage() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().babble = true;
+    assert_eq!(radio.bring_up(&fast()), Err(Error::Garbage));
+    assert_ne!(Error::Garbage.code(), Error::NoResponse.code());
+}
+
+#[test]
+fn bring_up_reports_a_rejected_command() {
+    let (m, mut radio) = setup(0, 57600, Mode::Escaped);
+    m.borrow_mut().reject = Some("WR");
+    assert_eq!(
+        radio.bring_up(&fast()),
+        Err(Error::Rejected { command: *b"WR" })
+    );
+    assert_eq!(m.borrow().cmd_lines, vec!["ATAP2", "ATBD6", "ATWR"]);
+}
+
+#[test]
+fn bring_up_reports_a_radio_silent_after_configuration() {
+    let (m, mut radio) = setup(0, 57600, Mode::Escaped);
+    // Answers command mode, but drops every API frame it is sent afterwards.
+    for _ in 0..4 {
+        m.borrow_mut().expect(None, Reply::Silent);
+    }
+    assert_eq!(radio.bring_up(&fast()), Err(Error::NotConfirmed));
+}
+
+#[test]
+fn error_codes_are_distinct() {
+    let all = [
+        Error::Serial(embedded_hal_nb::serial::ErrorKind::Overrun),
+        Error::WriteTimeout,
+        Error::Decode(DecodeError::Garbage { bytes: 1 }),
+        Error::TooLong { len: 200 },
+        Error::Timeout { command: *b"CH" },
+        Error::TxStatusTimeout,
+        Error::At {
+            command: *b"CH",
+            status: AtStatus::ERROR,
+        },
+        Error::Unexpected { command: *b"AP" },
+        Error::NoResponse,
+        Error::Garbage,
+        Error::Rejected { command: *b"AP" },
+        Error::NotConfirmed,
+    ];
+    let mut codes: Vec<u8> = all.iter().map(Error::code).collect();
+    codes.sort();
+    codes.dedup();
+    assert_eq!(codes.len(), all.len());
+    for e in all {
+        assert!(!e.to_string().is_empty());
+    }
+}
