@@ -463,11 +463,11 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(256))]
+    #![proptest_config(ProptestConfig::with_cases(200))]
 
     /// Frames back to back, and the same frames re-encoded in the other mode, decode in order.
     #[test]
-    fn roundtrip_streams(fs in prop::collection::vec(frame(), 1..12), mode in mode()) {
+    fn roundtrip_streams(fs in prop::collection::vec(frame(), 1..8), mode in mode()) {
         let mut stream = Vec::new();
         let mut expected = Vec::new();
         for f in &fs {
@@ -520,7 +520,7 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(600))]
+    #![proptest_config(ProptestConfig::with_cases(512))]
 
     /// Valid frames mixed with truncated and bit-flipped frames and garbage. AP=2: every intact
     /// frame comes out, in order, as the bytes arrive. AP=1: every intact frame comes out once the
@@ -560,7 +560,7 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(400))]
+    #![proptest_config(ProptestConfig::with_cases(256))]
 
     /// AP=1 without `idle()`: enough bytes after the damage (here 2 × 114 bytes that hold no start
     /// delimiter) complete every pending partial frame, so the intact frames come out.
@@ -584,7 +584,7 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(300))]
+    #![proptest_config(ProptestConfig::with_cases(256))]
 
     /// Pushing several bytes before polling (until the input queue is full) gives exactly the
     /// events of pushing one byte at a time, idle included.
