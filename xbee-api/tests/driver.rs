@@ -525,12 +525,11 @@ fn bring_up_sets_and_verifies_my_id_ch() {
         vec![
             "ATAP id=1 []",
             "ATMY id=2 [00, 03]",
-            "ATID id=3 [12, 34]",
-            "ATCH id=4 [0E]",
-            "ATMY id=5 []",
-            "ATID id=6 []",
+            "ATMY id=3 []",
+            "ATID id=4 [12, 34]",
+            "ATID id=5 []",
+            "ATCH id=6 [0E]",
             "ATCH id=7 []",
-            "ATAP id=8 []",
         ]
     );
     assert_eq!((m.my, m.id, m.ch), (3, 0x1234, 0x0E));
@@ -709,5 +708,102 @@ fn error_codes_are_distinct() {
     assert_eq!(codes.len(), all.len());
     for e in all {
         assert!(!e.to_string().is_empty());
+    }
+}
+
+#[test]
+fn send_writes_every_frame_type_as_the_codec_encodes_it() {
+    let payload: &[u8] = &[0x7E, 0x7D, 0x11, 0x13, 0x00];
+    let frames = [
+        Frame::Tx64 {
+            frame_id: 0x7E,
+            dest: 0x0013_A200_4000_7D11,
+            options: 0x04,
+            data: payload,
+        },
+        Frame::Tx16 {
+            frame_id: 0x11,
+            dest: 0x1313,
+            options: 0x01,
+            data: payload,
+        },
+        Frame::AtCommand {
+            frame_id: 0x13,
+            command: *b"NI",
+            parameter: payload,
+        },
+        Frame::AtCommandQueue {
+            frame_id: 5,
+            command: *b"CH",
+            parameter: &[0x0C],
+        },
+        Frame::RemoteAtCommand {
+            frame_id: 6,
+            dest64: 0x0013_A200_4000_7E7E,
+            dest16: 0xFFFE,
+            options: 0x02,
+            command: *b"D0",
+            parameter: &[0x05],
+        },
+        Frame::Rx64 {
+            source: 0x7D7D_7D7D_7D7D_7D7D,
+            rssi: Rssi(0x7E),
+            options: 2,
+            data: payload,
+        },
+        Frame::Rx16 {
+            source: 0x7E11,
+            rssi: Rssi(40),
+            options: 0,
+            data: payload,
+        },
+        Frame::Rx64Io {
+            source: 1,
+            rssi: Rssi(41),
+            options: 0,
+            data: &[1, 0x02, 0x00, 0x11, 0x13],
+        },
+        Frame::Rx16Io {
+            source: 2,
+            rssi: Rssi(42),
+            options: 0,
+            data: &[1, 0x02, 0x00, 0x7E, 0x7D],
+        },
+        Frame::AtResponse {
+            frame_id: 7,
+            command: *b"MY",
+            status: AtStatus::OK,
+            data: &[0x7E, 0x7D],
+        },
+        Frame::TxStatus {
+            frame_id: 0x7D,
+            status: TxStatus::NO_ACK,
+        },
+        Frame::ModemStatus {
+            status: xbee_api::ModemStatus::HARDWARE_RESET,
+        },
+        Frame::RemoteAtResponse {
+            frame_id: 8,
+            source64: 0x0013_A200_4000_1111,
+            source16: 0x1313,
+            command: *b"SL",
+            status: AtStatus::OK,
+            data: &[0x40, 0x00, 0x11, 0x13],
+        },
+        Frame::Unknown {
+            frame_type: 0x42,
+            data: payload,
+        },
+        Frame::Unknown {
+            frame_type: 0x7E,
+            data: &[],
+        },
+    ];
+    for mode in MODES {
+        for f in &frames {
+            let (m, mut radio) = setup(ap_of(mode), 57600, mode);
+            radio.send(f).unwrap();
+            assert_eq!(m.borrow().wire, enc(f, mode), "{f:?} {mode:?}");
+        }
     }
 }
