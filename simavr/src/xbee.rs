@@ -1,0 +1,274 @@
+//! A modelled XBee 802.15.4 (Series 1) radio on an [`Avr`]'s UART0, behaving like the real one
+//! from the firmware's point of view.
+//!
+//! Two layers:
+//!
+//! * [`XBeeCore`] — the radio itself, sans IO: bytes from the host go in with the cycle their
+//!   stop bit ended ([`XBeeCore::rx_byte`]), bytes to the host come out with the cycle of their
+//!   start bit ([`XBeeCore::take_output`]), packets put on air come out as [`Transmission`]s
+//!   ([`XBeeCore::take_transmissions`]) and received packets go in with
+//!   [`XBeeCore::deliver`]. Time is simulated cycles at [`crate::F_CPU`]; the core never looks
+//!   at a clock, so it is tested on the host and drives the multi-node testbed the same way.
+//! * [`XBee`] — the thin attachment to an [`Avr`]: steps the core in slices ending at the
+//!   core's next event, feeds it the firmware's UART output, queues its output on the
+//!   firmware's RX line at the cycles it asks for, and keeps the firmware's text lines.
+//!
+//! A radio medium plugs in by draining [`XBee::take_transmissions`] of every node and calling
+//! [`XBee::deliver`] on the receivers with an [`RxPacket`] (e.g.
+//! [`RxPacket::from_transmission`]) at the transmission's end cycle.
+//!
+//! # What is modelled
+//!
+//! * **Registers** ([`Registers`]): `CH ID DH DL MY RR RN MM NT NO CE SC SD A1 A2 EE PL CA SM ST
+//!   SP DP BD NB RO AP PR IU IT IC IR RP CT GT CC` with the S1 ranges and factory defaults,
+//!   `NI` (≤ 20 printable characters), read-only `SH SL VR HV DB EC EA AI`, and `WR RE AC FR
+//!   CN`. Queries answer big endian in the register's width (`BD` 4 bytes, `CH` 1, `MY` 2…);
+//!   unknown commands answer status 2 (invalid command), out-of-range values 3 (invalid
+//!   parameter; `CH` follows [`Model`]: S1 0x0B…0x1A, S1 Pro 0x0C…0x17), sets of read-only
+//!   registers 1 (error). There is an active set and a persisted set: `WR` copies active to
+//!   persisted, a power cycle ([`XBee::reset`]) or `FR` restores the persisted set, `RE`
+//!   loads factory defaults into the active set. Registers without modelled behaviour (sleep,
+//!   I/O, encryption, MAC mode) are stored and answered only.
+//! * **API mode** (`AP`=1, 2): frames decoded with [`xbee_api::Decoder`] in the current mode.
+//!   0x08 AT command → 0x88 response with the same frame id ([`XBeeConfig::at_latency_ms`],
+//!   default 1 ms, after the frame's end; none for frame id 0) and the change applied at once:
+//!   `CH`, `AP` (the response still goes out in the old mode) and `BD` (the UART switches once
+//!   the response is on the line). 0x09 is checked and answered but applied only with the next
+//!   0x08 or `AC`. TX16 (0x01) / TX64 (0x00) → a [`Transmission`] on air for
+//!   [`time_on_air_ms`] (SPEC §1 best case, after an optional CSMA backoff [`Csma`];
+//!   transmissions queue behind each other) and, for a frame id ≠ 0, a 0x89 TX status SUCCESS
+//!   when it is off the air. Payloads over 100 bytes are refused: no transmission, no status
+//!   (counted in [`XBeeStats::oversize_tx`]). Modem status 0x8A (hardware reset) goes out
+//!   [`XBeeConfig::power_up_ms`] (default 5 ms) after power-up; host bytes before then are
+//!   lost.
+//! * **Transparent mode** (`AP`=0): host bytes are RF payload to `DH:DL`, sent after `RO`
+//!   character times of silence or at 100 bytes; received payloads go to the host bare.
+//! * **Command mode**: `GT` of silence, three `CC` characters (`+`), each within `GT` of the
+//!   previous, `GT` of silence → `OK\r`. Works in API mode too, as on the 802.15.4 firmware
+//!   (the bring-up of the `xbee-api` driver relies on it). Any other byte (or garbage from a
+//!   mismatched UART) inside the window cancels. Then text lines `AT…\r`: query → uppercase
+//!   hex without leading zeros (`NI`: the string) + `\r`; set (hex, optional `0x`, spaces
+//!   ignored) → `OK\r`; several commands per line separated by commas
+//!   (`ATAP2,BD6,WR,CN\r`), one answer each, stopping at the first `ERROR\r`. As the manual
+//!   says, values set in command mode are stored at once (queries see them) but take effect
+//!   (`CH`, `AP`, the UART rate `BD`) only on `AC`, `CN` or the `CT` timeout; the answer to the
+//!   command that applies them goes out at the old rate. In transparent mode held `+`
+//!   characters that turn out not to be a command sequence are sent as data.
+//! * **UART rates**: the radio runs at `BD`'s rate, the firmware at whatever its `UBRR0` gives
+//!   ([`Avr::uart_cycles_per_byte`]). When the two byte times differ by more than
+//!   [`XBeeConfig::baud_tolerance`] (4 %), both directions are garbled: the receiver gets a
+//!   garbage byte (0xF0…0xFF: never a frame delimiter, `+`, `O`, `K` or `\r`) per byte, or
+//!   fewer bytes when it is the slower side (about one per its own byte time), counted in
+//!   [`XBeeStats::garbled_in`]/[`XBeeStats::garbled_out`]. Byte times are counted as simavr
+//!   does (11 bit times per 8N1 byte, [`BIT_TIMES_PER_BYTE`]), so both sides compare like for
+//!   like (57600 on the radio vs. `UBRR0`=34 with U2X: 0.8 % apart).
+//! * **Reception** ([`XBee::deliver`]): passed on only if powered up, on the packet's channel,
+//!   same PAN (or broadcast PAN), addressed to `MY`/`SH:SL` or broadcast, not overlapping the
+//!   radio's own transmissions (half duplex), not in command mode: as RX16 (0x81, 16-bit
+//!   source) or RX64 (0x80) with the RSSI byte and options (0x02 address broadcast, 0x04 PAN
+//!   broadcast) [`XBeeConfig::rx_latency_ms`] after the packet's end; `DB` keeps the RSSI.
+//!
+//! # Not modelled
+//!
+//! ACKs, retries and NO_ACK/CCA-failure statuses (every transmission succeeds until a medium
+//! says otherwise), sleep, I/O sampling and remote AT (0x17 frames are counted as unsupported),
+//! encryption, association, `ND`/`AS`, non-standard `BD` rates, hardware flow control, framing
+//! error flags on the AVR side (simavr has none: garbage arrives as ordinary bytes).
+
+pub mod core;
+pub mod regs;
+
+use std::collections::VecDeque;
+
+use xbee_api::{Decoder, Mode};
+
+use crate::avr::{ms_to_cycles, Avr, State, UartByte};
+use crate::radio::{SeenFrame, TextLine};
+
+pub use self::core::{
+    byte_cycles, encode_frame, time_on_air_ms, Address, Csma, RxPacket, Transmission, XBeeConfig,
+    XBeeCore, XBeeStats, BIT_TIMES_PER_BYTE,
+};
+pub use self::regs::{baud_of_bd, Model, Registers, BAUD_RATES};
+
+/// Splits the firmware's raw UART output into text lines, skipping API frames.
+#[derive(Debug)]
+struct Lines {
+    decoder: Decoder,
+    buf: Vec<u8>,
+    start: u64,
+    lines: Vec<TextLine>,
+}
+
+impl Lines {
+    fn ingest(&mut self, b: UartByte, mode: Mode) {
+        if self.decoder.mode() != mode && !self.decoder.in_frame() {
+            self.decoder.set_mode(mode);
+        }
+        if !self.decoder.in_frame() && b.byte != xbee_api::START {
+            if self.buf.is_empty() {
+                self.start = b.cycle;
+            }
+            if b.byte == b'\n' {
+                let mut t = std::mem::take(&mut self.buf);
+                if t.last() == Some(&b'\r') {
+                    t.pop();
+                }
+                self.lines.push(TextLine {
+                    cycle: self.start,
+                    text: String::from_utf8_lossy(&t).into_owned(),
+                });
+            } else {
+                self.buf.push(b.byte);
+            }
+        }
+        let _ = self.decoder.push(b.byte);
+        while self.decoder.poll().is_some() {}
+    }
+}
+
+/// A modelled XBee on an [`Avr`]'s UART0 (see the module docs). Powered up at cycle 0, with
+/// the Avr (a fresh [`Avr`] starts at cycle 0); [`XBee::reset`] power-cycles it.
+#[derive(Debug)]
+pub struct XBee {
+    core: XBeeCore,
+    consumed: usize,
+    /// Firmware bytes not yet through the UART: (cycle their stop bit ends, byte).
+    pending: VecDeque<(u64, u8)>,
+    lines: Lines,
+    sent: Vec<UartByte>,
+}
+
+impl XBee {
+    /// A radio configured by `cfg`, powered up at cycle 0.
+    pub fn new(cfg: XBeeConfig) -> Self {
+        XBee {
+            core: XBeeCore::new(cfg),
+            consumed: 0,
+            pending: VecDeque::new(),
+            lines: Lines {
+                decoder: Decoder::new(Mode::Escaped),
+                buf: Vec::new(),
+                start: 0,
+                lines: Vec::new(),
+            },
+            sent: Vec::new(),
+        }
+    }
+
+    /// The model itself.
+    pub fn core(&self) -> &XBeeCore {
+        &self.core
+    }
+
+    /// The model itself, mutably (e.g. to deliver packets or inspect timers).
+    pub fn core_mut(&mut self) -> &mut XBeeCore {
+        &mut self.core
+    }
+
+    /// Runs `avr` until cycle `target` with the radio attached; returns the core's state (the
+    /// run ends early if the core stops).
+    pub fn run_until(&mut self, avr: &mut Avr, target: u64) -> State {
+        self.pump(avr);
+        let mut state = avr.state();
+        while avr.cycle() < target && state.is_alive() {
+            let now = avr.cycle();
+            // Slices of at most one byte time (≥ 16 µs): events land exactly, bytes within a
+            // slice of their end.
+            let slice = avr.uart_cycles_per_byte().clamp(256, 4000);
+            let mut next = target.min(now + slice);
+            if let Some(e) = self.core.next_event() {
+                next = next.min(e.max(now + 1));
+            }
+            if let Some(&(end, _)) = self.pending.front() {
+                next = next.min(end.max(now + 1));
+            }
+            state = avr.run_until(next);
+            self.pump(avr);
+        }
+        state
+    }
+
+    /// Runs `avr` for `ms` more milliseconds (see [`XBee::run_until`]).
+    pub fn run_for_ms(&mut self, avr: &mut Avr, ms: f64) -> State {
+        let target = avr.cycle() + ms_to_cycles(ms);
+        self.run_until(avr, target)
+    }
+
+    /// Moves bytes between the firmware's UART and the model up to the Avr's current cycle.
+    fn pump(&mut self, avr: &mut Avr) {
+        let cpb = avr.uart_cycles_per_byte();
+        self.core.set_host_byte_cycles(cpb);
+        let mode = self.core.mode().unwrap_or(Mode::Escaped);
+        let out = avr.uart_output();
+        if out.len() < self.consumed {
+            // Someone took the output: start over on what is there.
+            self.consumed = 0;
+        }
+        for &b in &out[self.consumed..] {
+            self.lines.ingest(b, mode);
+            self.pending.push_back((b.cycle + cpb, b.byte));
+        }
+        self.consumed = out.len();
+        let now = avr.cycle();
+        while let Some(&(end, byte)) = self.pending.front() {
+            if end > now {
+                break;
+            }
+            self.pending.pop_front();
+            self.core.rx_byte(end.max(self.core.now()), byte);
+        }
+        self.core.advance(now);
+        for b in self.core.take_output() {
+            avr.uart_send_at(b.cycle, &[b.byte]);
+            self.sent.push(b);
+        }
+    }
+
+    /// Power-cycles the radio at cycle `at` (see [`XBeeCore::reset`]).
+    pub fn reset(&mut self, at: u64) {
+        self.core.reset(at);
+    }
+
+    /// The active registers.
+    pub fn registers(&self) -> &Registers {
+        self.core.registers()
+    }
+
+    /// The frames the radio decoded from the firmware, with the cycles of their first and last
+    /// byte (none while the UART rates do not match).
+    pub fn frames_from_firmware(&self) -> &[SeenFrame] {
+        self.core.frames_from_host()
+    }
+
+    /// The text lines the firmware wrote outside API frames (its boot lines, etc.; the Uno's
+    /// USB serial sees them too), from the raw UART output.
+    pub fn text_lines(&self) -> &[TextLine] {
+        &self.lines.lines
+    }
+
+    /// The texts of [`XBee::text_lines`].
+    pub fn texts(&self) -> Vec<&str> {
+        self.lines.lines.iter().map(|l| l.text.as_str()).collect()
+    }
+
+    /// Every byte the radio put on the firmware's RX line, with its start cycle.
+    pub fn sent(&self) -> &[UartByte] {
+        &self.sent
+    }
+
+    /// Takes the packets the radio put on air so far.
+    pub fn take_transmissions(&mut self) -> Vec<Transmission> {
+        self.core.take_transmissions()
+    }
+
+    /// A packet arriving at cycle `at` (see [`XBeeCore::deliver`]).
+    pub fn deliver(&mut self, packet: RxPacket, at: u64) {
+        self.core.deliver(packet, at);
+    }
+
+    /// The counters.
+    pub fn stats(&self) -> XBeeStats {
+        self.core.stats()
+    }
+}

@@ -1,0 +1,1004 @@
+//! The modelled XBee: the sans-IO core on the host (exact response bytes and times), the
+//! `xbee-api` driver's bring-up against it, and the Avr attachment with a C fixture.
+
+mod common;
+
+use std::cell::RefCell;
+use std::collections::VecDeque;
+use std::rc::Rc;
+
+use embedded_hal_nb::serial::{ErrorKind, ErrorType, Read, Write};
+use simavr::xbee::{
+    byte_cycles, encode_frame, time_on_air_ms, Address, Csma, Model, RxPacket, XBee, XBeeConfig,
+    XBeeCore,
+};
+use simavr::{ms_to_cycles, Avr, UartByte};
+use xbee_api::driver::{BringUp, BringUpConfig, Clock, Radio, SetBaud};
+use xbee_api::{Decoder, Mode};
+
+fn ms(x: f64) -> u64 {
+    ms_to_cycles(x)
+}
+
+/// A host on the model's UART: sends bytes back to back at its own rate, collects output.
+struct Host {
+    core: XBeeCore,
+    baud: u32,
+    /// Cycle the host's TX line is free.
+    t: u64,
+    out: Vec<UartByte>,
+}
+
+impl Host {
+    fn new(cfg: XBeeConfig) -> Host {
+        let baud = simavr::xbee::baud_of_bd(cfg.bd).unwrap();
+        let mut core = XBeeCore::new(cfg);
+        core.set_host_baud(baud);
+        let mut h = Host {
+            core,
+            baud,
+            t: 0,
+            out: Vec::new(),
+        };
+        // Past the power-up; the modem status (API mode) is in `out`.
+        h.run_to(ms(10.0));
+        h
+    }
+
+    fn set_baud(&mut self, baud: u32) {
+        self.baud = baud;
+        self.core.set_host_baud(baud);
+    }
+
+    /// Sends bytes starting at `at` (or when the line is free); returns the last byte's end.
+    fn send_at(&mut self, at: u64, bytes: &[u8]) -> u64 {
+        let start = at.max(self.t);
+        self.run_to(start);
+        let end = self.core.rx_bytes(start, bytes);
+        self.t = end;
+        self.collect();
+        end
+    }
+
+    fn send(&mut self, bytes: &[u8]) -> u64 {
+        self.send_at(self.t, bytes)
+    }
+
+    fn frame(&mut self, data: &[u8], mode: Mode) -> u64 {
+        self.send(&encode_frame(data, mode))
+    }
+
+    fn run_to(&mut self, t: u64) {
+        self.core.advance(t);
+        self.t = self.t.max(t);
+        self.collect();
+    }
+
+    fn run_ms(&mut self, x: f64) {
+        self.run_to(self.t + ms(x));
+    }
+
+    fn collect(&mut self) {
+        self.out.extend(self.core.take_output());
+    }
+
+    fn take(&mut self) -> Vec<UartByte> {
+        std::mem::take(&mut self.out)
+    }
+
+    fn take_bytes(&mut self) -> Vec<u8> {
+        self.take().iter().map(|b| b.byte).collect()
+    }
+}
+
+fn bytes(out: &[UartByte]) -> Vec<u8> {
+    out.iter().map(|b| b.byte).collect()
+}
+
+/// Frame data of every frame in `out`.
+fn frames(out: &[u8], mode: Mode) -> Vec<Vec<u8>> {
+    let mut d = Decoder::new(mode);
+    let mut v = Vec::new();
+    d.feed(out, |r| {
+        if let Ok(raw) = r {
+            v.push(raw.data().to_vec())
+        }
+    });
+    v
+}
+
+const MODES: [Mode; 2] = [Mode::Api, Mode::Escaped];
+
+// ---- power-up ----
+
+#[test]
+fn modem_status_at_power_up_in_api_mode_only() {
+    for mode in MODES {
+        let mut core = XBeeCore::new(XBeeConfig::api(mode.ap()));
+        core.advance(ms(4.9));
+        assert!(core.take_output().is_empty(), "nothing before power-up");
+        core.advance(ms(5.0));
+        let out = core.take_output();
+        assert_eq!(bytes(&out), [0x7E, 0x00, 0x02, 0x8A, 0x00, 0x75]);
+        assert_eq!(out[0].cycle, ms(5.0));
+        // Paced at 57600 (BD=6), 11 bit times per byte as simavr counts.
+        assert_eq!(out[1].cycle - out[0].cycle, byte_cycles(57_600));
+    }
+    let mut core = XBeeCore::new(XBeeConfig::default());
+    core.advance(ms(100.0));
+    assert!(
+        core.take_output().is_empty(),
+        "transparent mode: no modem status"
+    );
+}
+
+#[test]
+fn bytes_before_power_up_are_lost() {
+    let mut core = XBeeCore::new(XBeeConfig::api(2));
+    core.set_host_baud(57_600);
+    core.rx_bytes(
+        ms(1.0),
+        &encode_frame(&[0x08, 0x01, b'C', b'H'], Mode::Escaped),
+    );
+    core.advance(ms(20.0));
+    assert_eq!(core.stats().dropped_powering_up, 8);
+    assert_eq!(
+        frames(&bytes(&core.take_output()), Mode::Escaped),
+        [vec![0x8A, 0x00]]
+    );
+}
+
+// ---- API mode AT commands ----
+
+#[test]
+fn at_query_answers_big_endian_in_the_register_width_with_exact_bytes() {
+    for mode in MODES {
+        let cfg = XBeeConfig {
+            sh_sl: 0x0013_A200_4012_3456,
+            ..XBeeConfig::api(mode.ap())
+        };
+        let mut h = Host::new(cfg);
+        assert_eq!(h.take_bytes(), [0x7E, 0x00, 0x02, 0x8A, 0x00, 0x75]);
+        // Exact bytes on the wire: CH = 0x0C (1 byte).
+        let end = h.frame(&[0x08, 0x52, b'C', b'H'], mode);
+        h.run_ms(5.0);
+        let out = h.take();
+        assert_eq!(
+            bytes(&out),
+            [0x7E, 0x00, 0x06, 0x88, 0x52, 0x43, 0x48, 0x00, 0x0C, 0x8E]
+        );
+        assert_eq!(out[0].cycle, end + ms(1.0), "1 ms after the frame's end");
+        let cases: [(&[u8; 2], &[u8]); 9] = [
+            (b"MY", &[0x00, 0x00]),
+            (b"ID", &[0x33, 0x32]),
+            (b"BD", &[0, 0, 0, 6]),
+            (b"AP", &[mode.ap()]),
+            (b"SH", &[0x00, 0x13, 0xA2, 0x00]),
+            (b"SL", &[0x40, 0x12, 0x34, 0x56]),
+            (b"VR", &[0x10, 0xEF]),
+            (b"GT", &[0x03, 0xE8]),
+            (b"NI", &[]),
+        ];
+        for (i, (cmd, value)) in cases.iter().enumerate() {
+            let id = i as u8 + 1;
+            h.frame(&[0x08, id, cmd[0], cmd[1]], mode);
+            h.run_ms(5.0);
+            let mut expect = vec![0x88, id, cmd[0], cmd[1], 0x00];
+            expect.extend_from_slice(value);
+            assert_eq!(frames(&h.take_bytes(), mode), [expect], "{mode:?} {cmd:?}");
+        }
+    }
+}
+
+#[test]
+fn at_set_applies_and_answers_ok_escaping_in_ap2() {
+    let mut h = Host::new(XBeeConfig::api(2));
+    h.take();
+    // MY = 0x7E11: the query answer needs escaping in AP=2.
+    h.frame(&[0x08, 0x07, b'M', b'Y', 0x7E, 0x11], Mode::Escaped);
+    h.run_ms(5.0);
+    assert_eq!(
+        h.take_bytes(),
+        [0x7E, 0x00, 0x05, 0x88, 0x07, 0x4D, 0x59, 0x00, 0xCA]
+    );
+    assert_eq!(h.core.registers().my(), 0x7E11);
+    h.frame(&[0x08, 0x08, b'M', b'Y'], Mode::Escaped);
+    h.run_ms(5.0);
+    // 88 08 4D 59 00 7E 11: sum 0x1C5, checksum 0xFF - 0xC5 = 0x3A.
+    assert_eq!(
+        h.take_bytes(),
+        [0x7E, 0x00, 0x07, 0x88, 0x08, 0x4D, 0x59, 0x00, 0x7D, 0x5E, 0x7D, 0x31, 0x3A]
+    );
+    // CH applies at once.
+    h.frame(&[0x08, 0x09, b'C', b'H', 0x15], Mode::Escaped);
+    h.run_ms(5.0);
+    assert_eq!(h.core.channel(), 0x15);
+    // NI takes a string.
+    h.frame(&[0x08, 0x0A, b'N', b'I', b'n', b'1'], Mode::Escaped);
+    h.frame(&[0x08, 0x0B, b'N', b'I'], Mode::Escaped);
+    h.run_ms(5.0);
+    let f = frames(&h.take_bytes(), Mode::Escaped);
+    assert_eq!(f[2], [0x88, 0x0B, b'N', b'I', 0x00, b'n', b'1']);
+}
+
+#[test]
+fn frame_id_zero_gets_no_response_but_still_applies() {
+    for mode in MODES {
+        let mut h = Host::new(XBeeConfig::api(mode.ap()));
+        h.take();
+        h.frame(&[0x08, 0x00, b'M', b'Y', 0x12, 0x34], mode);
+        h.frame(&[0x08, 0x00, b'C', b'H'], mode);
+        h.run_ms(20.0);
+        assert!(h.take().is_empty());
+        assert_eq!(h.core.registers().my(), 0x1234);
+        assert_eq!(h.core.stats().frames_ok, 2);
+    }
+}
+
+#[test]
+fn invalid_values_and_commands_answer_error_statuses() {
+    let query = |model: Model, cmd: &[u8]| {
+        let mut h = Host::new(XBeeConfig {
+            model,
+            ..XBeeConfig::api(2)
+        });
+        h.take();
+        let mut d = vec![0x08, 0x01];
+        d.extend_from_slice(cmd);
+        h.frame(&d, Mode::Escaped);
+        h.run_ms(5.0);
+        let f = frames(&h.take_bytes(), Mode::Escaped);
+        assert_eq!(f.len(), 1);
+        (f[0][4], h.core.registers().ch())
+    };
+    // Status 3: invalid parameter; the register keeps its value.
+    assert_eq!(query(Model::S1, b"CH\x0B"), (0, 0x0B));
+    assert_eq!(query(Model::S1, b"CH\x1A"), (0, 0x1A));
+    assert_eq!(query(Model::S1, b"CH\x1B"), (3, 0x0C));
+    assert_eq!(query(Model::S1, b"CH\x0A"), (3, 0x0C));
+    assert_eq!(
+        query(Model::S1Pro, b"CH\x0B"),
+        (3, 0x0C),
+        "no channel 0x0B on the Pro"
+    );
+    assert_eq!(query(Model::S1Pro, b"CH\x17"), (0, 0x17));
+    assert_eq!(query(Model::S1Pro, b"CH\x18"), (3, 0x0C));
+    assert_eq!(query(Model::S1, b"AP\x03").0, 3);
+    assert_eq!(query(Model::S1, b"BD\x08").0, 3);
+    assert_eq!(query(Model::S1, b"MY\x01\x00\x00").0, 3, "wider than MY");
+    // Status 2: unknown command; 1: read-only register.
+    assert_eq!(query(Model::S1, b"ZZ").0, 2);
+    assert_eq!(query(Model::S1, b"SH\x01").0, 1);
+}
+
+#[test]
+fn queued_parameters_apply_with_the_next_at_command_or_ac() {
+    let mut h = Host::new(XBeeConfig::api(2));
+    h.take();
+    h.frame(&[0x09, 0x01, b'C', b'H', 0x0D], Mode::Escaped);
+    h.frame(&[0x09, 0x02, b'M', b'Y', 0x00, 0x05], Mode::Escaped);
+    h.run_ms(5.0);
+    assert_eq!(h.core.registers().ch(), 0x0C, "queued, not applied");
+    assert_eq!(h.core.registers().my(), 0);
+    assert_eq!(
+        frames(&h.take_bytes(), Mode::Escaped),
+        [
+            vec![0x88, 0x01, b'C', b'H', 0x00],
+            vec![0x88, 0x02, b'M', b'Y', 0x00]
+        ]
+    );
+    h.frame(&[0x08, 0x03, b'A', b'C'], Mode::Escaped);
+    h.run_ms(5.0);
+    assert_eq!(h.core.registers().ch(), 0x0D);
+    assert_eq!(h.core.channel(), 0x0D);
+    assert_eq!(h.core.registers().my(), 5);
+    // An invalid queued value is refused at once.
+    h.take();
+    h.frame(&[0x09, 0x04, b'C', b'H', 0x30], Mode::Escaped);
+    h.run_ms(5.0);
+    assert_eq!(frames(&h.take_bytes(), Mode::Escaped)[0][4], 3);
+}
+
+#[test]
+fn ap_change_takes_effect_after_the_response() {
+    let mut h = Host::new(XBeeConfig::api(2));
+    h.take();
+    h.frame(&[0x08, 0x01, b'A', b'P', 0x01], Mode::Escaped);
+    h.run_ms(5.0);
+    assert_eq!(h.core.mode(), Some(Mode::Api));
+    assert_eq!(
+        frames(&h.take_bytes(), Mode::Escaped),
+        [vec![0x88, 0x01, b'A', b'P', 0x00]]
+    );
+    // MY = 0x7D7E unescaped in AP=1.
+    h.frame(&[0x08, 0x02, b'M', b'Y', 0x7D, 0x7E], Mode::Api);
+    h.frame(&[0x08, 0x03, b'M', b'Y'], Mode::Api);
+    h.run_ms(5.0);
+    let out = h.take_bytes();
+    assert_eq!(
+        frames(&out, Mode::Api)[1],
+        [0x88, 0x03, b'M', b'Y', 0x00, 0x7D, 0x7E]
+    );
+    assert!(out.windows(2).any(|w| w == [0x7D, 0x7E]), "not escaped");
+}
+
+#[test]
+fn bd_change_switches_the_uart_after_the_response() {
+    let mut h = Host::new(XBeeConfig::api(2));
+    h.take();
+    h.frame(&[0x08, 0x01, b'B', b'D', 0x03], Mode::Escaped);
+    h.run_ms(5.0);
+    let out = h.take();
+    // The response still at 57600…
+    assert_eq!(
+        frames(&bytes(&out), Mode::Escaped),
+        [vec![0x88, 0x01, b'B', b'D', 0x00]]
+    );
+    assert_eq!(out[1].cycle - out[0].cycle, byte_cycles(57_600));
+    assert_eq!(h.core.uart_baud(), 9600);
+    // …then the host at 57600 is not understood, and does not understand.
+    h.frame(&[0x08, 0x02, b'C', b'H'], Mode::Escaped);
+    h.run_ms(10.0);
+    assert!(frames(&h.take_bytes(), Mode::Escaped).is_empty());
+    assert!(h.core.stats().garbled_in > 0);
+    h.set_baud(9600);
+    h.run_ms(2000.0);
+    h.frame(&[0x08, 0x03, b'C', b'H'], Mode::Escaped);
+    h.run_ms(30.0);
+    let out = h.take();
+    assert_eq!(
+        frames(&bytes(&out), Mode::Escaped),
+        [vec![0x88, 0x03, b'C', b'H', 0x00, 0x0C]]
+    );
+    assert_eq!(out[1].cycle - out[0].cycle, byte_cycles(9600));
+}
+
+// ---- transmit ----
+
+#[test]
+fn tx16_goes_on_air_and_tx_status_follows_after_the_time_on_air() {
+    for mode in MODES {
+        let mut h = Host::new(XBeeConfig {
+            my: 0x0042,
+            ch: 0x0E,
+            ..XBeeConfig::api(mode.ap())
+        });
+        h.take();
+        let payload = b"0123456789";
+        let mut d = vec![0x01, 0x33, 0x12, 0x34, 0x00];
+        d.extend_from_slice(payload);
+        let end = h.frame(&d, mode);
+        h.run_ms(10.0);
+        let out = h.take();
+        assert_eq!(
+            frames(&bytes(&out), mode),
+            [vec![0x89, 0x33, 0x00]],
+            "{mode:?}"
+        );
+        let toa = ms(time_on_air_ms(10));
+        assert_eq!(toa, ms(1.248));
+        assert_eq!(
+            out[0].cycle,
+            end + toa,
+            "status when the packet is off the air"
+        );
+        let txs = h.core.take_transmissions();
+        assert_eq!(txs.len(), 1);
+        let tx = &txs[0];
+        assert_eq!(tx.channel, 0x0E);
+        assert_eq!(tx.pan_id, 0x3332);
+        assert_eq!(tx.source, Address::Short(0x0042));
+        assert_eq!(tx.source16(), Some(0x0042));
+        assert_eq!(tx.dest, Address::Short(0x1234));
+        assert_eq!(tx.payload, payload);
+        assert_eq!((tx.start_cycle, tx.end_cycle), (end, end + toa));
+        assert_eq!(tx.frame_id, 0x33);
+    }
+}
+
+#[test]
+fn tx_frame_id_zero_tx64_queueing_and_oversize_payloads() {
+    let mut h = Host::new(XBeeConfig::api(2));
+    h.take();
+    let end1 = h.frame(&[0x01, 0x00, 0xFF, 0xFF, 0x00, b'a'], Mode::Escaped);
+    let mut tx64 = vec![0x00, 0x05];
+    tx64.extend_from_slice(&0x0013_A200_0000_0001u64.to_be_bytes());
+    tx64.push(0x01);
+    tx64.extend_from_slice(&[0x55; 100]);
+    h.frame(&tx64, Mode::Escaped);
+    // 101 bytes: refused.
+    let mut big = vec![0x01, 0x06, 0xFF, 0xFF, 0x00];
+    big.extend_from_slice(&[0x55; 101]);
+    h.frame(&big, Mode::Escaped);
+    h.run_ms(20.0);
+    assert_eq!(
+        frames(&h.take_bytes(), Mode::Escaped),
+        [vec![0x89, 0x05, 0x00]],
+        "no status for frame id 0 nor for the refused frame"
+    );
+    let txs = h.core.take_transmissions();
+    assert_eq!(txs.len(), 2);
+    assert_eq!(txs[0].end_cycle, end1 + ms(time_on_air_ms(1)));
+    assert_eq!(txs[1].dest, Address::Long(0x0013_A200_0000_0001));
+    assert_eq!(txs[1].options, 0x01);
+    assert_eq!(txs[1].payload.len(), 100);
+    assert!(txs[1].start_cycle >= txs[0].end_cycle, "one at a time");
+    assert_eq!(h.core.stats().oversize_tx, 1);
+}
+
+#[test]
+fn csma_backoff_delays_within_eight_backoff_periods_reproducibly() {
+    let run = |seed| {
+        let mut h = Host::new(XBeeConfig {
+            csma: Csma::Random { seed },
+            ..XBeeConfig::api(2)
+        });
+        let mut delays = Vec::new();
+        for i in 0..20u8 {
+            let end = h.frame(&[0x01, i + 1, 0xFF, 0xFF, 0x00, i], Mode::Escaped);
+            h.run_ms(20.0);
+            let tx = h.core.take_transmissions().pop().unwrap();
+            delays.push(tx.start_cycle - end);
+        }
+        delays
+    };
+    let a = run(7);
+    assert_eq!(a, run(7));
+    assert!(a.iter().all(|&d| d <= ms(7.0 * 0.32) && d % ms(0.32) == 0));
+    assert!(a.iter().any(|&d| d > 0));
+}
+
+// ---- receive ----
+
+#[test]
+fn delivered_packets_reach_the_host_only_on_the_radios_channel() {
+    for mode in MODES {
+        let mut h = Host::new(XBeeConfig {
+            ch: 0x0B,
+            my: 0x0002,
+            ..XBeeConfig::api(mode.ap())
+        });
+        h.take();
+        let at = ms(20.0);
+        h.core
+            .deliver(RxPacket::broadcast16(0x0B, 0x3332, 0x1234, -40, b"hi"), at);
+        h.core.deliver(
+            RxPacket::broadcast16(0x16, 0x3332, 0x1234, -41, b"no"),
+            at + ms(5.0),
+        );
+        h.run_to(ms(40.0));
+        let out = h.take();
+        assert_eq!(
+            frames(&bytes(&out), mode),
+            [vec![0x81, 0x12, 0x34, 40, 0x02, b'h', b'i']]
+        );
+        assert_eq!(out[0].cycle, at + ms(0.2));
+        assert_eq!(h.core.last_rssi(), 40);
+        assert_eq!(h.core.stats().rx_filtered, 1);
+        // Switch to 0x16: now that channel is heard; unicast to MY, and to someone else.
+        h.frame(&[0x08, 0x01, b'C', b'H', 0x16], mode);
+        h.run_ms(5.0);
+        let t = h.t;
+        let mut p = RxPacket::broadcast16(0x16, 0x3332, 0x7E7D, -77, &[0x7E]);
+        p.dest = Address::Short(0x0002);
+        h.core.deliver(p.clone(), t + ms(1.0));
+        p.dest = Address::Short(0x0003);
+        h.core.deliver(p.clone(), t + ms(3.0));
+        p.dest = Address::Short(0x0002);
+        p.pan_id = 0x1111;
+        h.core.deliver(p.clone(), t + ms(5.0));
+        // 64-bit source → RX64.
+        let mut p64 = RxPacket::broadcast16(0x16, 0x3332, 0, -60, b"x");
+        p64.source = Address::Long(0x0013_A200_0000_0009);
+        h.core.deliver(p64, t + ms(7.0));
+        h.run_ms(20.0);
+        let f = frames(&h.take_bytes(), mode);
+        assert_eq!(f.len(), 3, "{f:x?}");
+        assert_eq!(f[1], [0x81, 0x7E, 0x7D, 77, 0x00, 0x7E]);
+        let mut rx64 = vec![0x80];
+        rx64.extend_from_slice(&0x0013_A200_0000_0009u64.to_be_bytes());
+        rx64.extend_from_slice(&[60, 0x02, b'x']);
+        assert_eq!(f[2], rx64);
+        // DB answers the last RSSI.
+        h.frame(&[0x08, 0x02, b'D', b'B'], mode);
+        h.run_ms(5.0);
+        assert_eq!(
+            frames(&h.take_bytes(), mode),
+            [vec![0x88, 0x02, b'D', b'B', 0x00, 60]]
+        );
+    }
+}
+
+#[test]
+fn transparent_mode_sends_after_ro_and_passes_payloads_bare() {
+    let mut h = Host::new(XBeeConfig {
+        bd: 6,
+        ..XBeeConfig::default()
+    });
+    let end = h.send(b"hello");
+    h.run_ms(5.0);
+    let txs = h.core.take_transmissions();
+    assert_eq!(txs.len(), 1);
+    assert_eq!(txs[0].payload, b"hello");
+    assert_eq!(txs[0].dest, Address::Short(0));
+    assert_eq!(
+        txs[0].start_cycle,
+        end + 3 * byte_cycles(57_600),
+        "RO = 3 characters"
+    );
+    h.core
+        .deliver(RxPacket::broadcast16(0x0C, 0x3332, 1, -50, b"abc"), h.t);
+    h.run_ms(5.0);
+    assert_eq!(h.take_bytes(), b"abc");
+    // 250 bytes in one go: 100 + 100 + 50.
+    h.send(&[b'z'; 250]);
+    h.run_ms(5.0);
+    let lens: Vec<usize> = h
+        .core
+        .take_transmissions()
+        .iter()
+        .map(|t| t.payload.len())
+        .collect();
+    assert_eq!(lens, [100, 100, 50]);
+}
+
+// ---- command mode ----
+
+fn transparent(gt_ms: u16) -> Host {
+    Host::new(XBeeConfig {
+        gt_ms,
+        ..XBeeConfig::default()
+    })
+}
+
+#[test]
+fn command_mode_needs_guard_times_around_plus_plus_plus() {
+    let gt = ms(100.0);
+    // Proper: silence, +++, silence → OK exactly GT after the last '+'.
+    let mut h = transparent(100);
+    h.run_to(ms(200.0));
+    let end = h.send(b"+++");
+    h.run_to(end + gt - 1);
+    assert!(h.take().is_empty());
+    h.run_to(end + gt + ms(5.0));
+    let out = h.take();
+    assert_eq!(bytes(&out), b"OK\r");
+    assert_eq!(out[0].cycle, end + gt);
+    assert!(h.core.in_command_mode());
+    assert!(
+        h.core.take_transmissions().is_empty(),
+        "+++ is not sent as data"
+    );
+
+    // Too early: a byte 30 ms before the "+++".
+    let mut h = transparent(100);
+    h.run_to(ms(200.0));
+    h.send(b"x");
+    h.send_at(ms(230.0), b"+++");
+    h.run_to(ms(600.0));
+    assert!(h.take().is_empty());
+    assert!(!h.core.in_command_mode());
+
+    // A byte right after the "+++" cancels it; the held '+' go out as data.
+    let mut h = transparent(100);
+    h.run_to(ms(200.0));
+    let end = h.send(b"+++");
+    h.send_at(end + ms(50.0), b"y");
+    h.run_to(ms(600.0));
+    assert!(h.take().is_empty());
+    let data: Vec<u8> = h
+        .core
+        .take_transmissions()
+        .into_iter()
+        .flat_map(|t| t.payload)
+        .collect();
+    assert_eq!(data, b"+++y");
+
+    // The '+' too far apart (more than GT between them).
+    let mut h = transparent(100);
+    h.run_to(ms(200.0));
+    h.send(b"+");
+    h.send_at(ms(350.0), b"+");
+    h.send_at(ms(500.0), b"+");
+    h.run_to(ms(900.0));
+    assert!(h.take().is_empty());
+    assert_eq!(
+        h.core
+            .take_transmissions()
+            .iter()
+            .map(|t| t.payload.clone())
+            .collect::<Vec<_>>(),
+        [b"+".to_vec(), b"+".to_vec(), b"+".to_vec()]
+    );
+}
+
+fn enter_command_mode(h: &mut Host) {
+    let t = h.t + ms(f64::from(h.core.registers().gt()) + 10.0);
+    let end = h.send_at(t, b"+++");
+    h.run_to(end + ms(f64::from(h.core.registers().gt()) + 5.0));
+    assert_eq!(h.take_bytes(), b"OK\r");
+}
+
+#[test]
+fn command_mode_queries_sets_errors_and_the_bring_up_sequence() {
+    let mut h = transparent(50);
+    enter_command_mode(&mut h);
+    let ask = |h: &mut Host, line: &[u8]| {
+        h.send(line);
+        h.run_ms(10.0);
+        String::from_utf8(h.take_bytes()).unwrap()
+    };
+    assert_eq!(ask(&mut h, b"ATCH\r"), "C\r");
+    assert_eq!(ask(&mut h, b"ATID\r"), "3332\r");
+    assert_eq!(ask(&mut h, b"ATMY\r"), "0\r");
+    assert_eq!(ask(&mut h, b"ATVR\r"), "10EF\r");
+    assert_eq!(ask(&mut h, b"AT\r"), "OK\r");
+    assert_eq!(ask(&mut h, b"ATXX\r"), "ERROR\r");
+    assert_eq!(ask(&mut h, b"ATCH1B\r"), "ERROR\r");
+    assert_eq!(ask(&mut h, b"ATCH 0x1a\r"), "OK\r");
+    assert_eq!(ask(&mut h, b"ATCH\r"), "1A\r");
+    assert_eq!(h.core.channel(), 0x0C, "applied only on CN/AC");
+    assert_eq!(ask(&mut h, b"ATNI node one\r"), "OK\r");
+    assert_eq!(ask(&mut h, b"ATNI\r"), "node one\r");
+    assert_eq!(ask(&mut h, b"hello\r"), "ERROR\r");
+    // A line stops at its first error.
+    assert_eq!(ask(&mut h, b"ATMY5,CH99,MY6\r"), "OK\rERROR\r");
+    assert_eq!(h.core.registers().my(), 5);
+
+    // The bring-up sequence: one OK each; AP, BD and CH apply after the last OK.
+    let end = h.send(b"ATAP2,BD6,WR,CN\r");
+    h.run_ms(10.0);
+    let out = h.take();
+    assert_eq!(bytes(&out), b"OK\rOK\rOK\rOK\r");
+    assert_eq!(out[0].cycle, end + ms(1.0));
+    assert_eq!(
+        out[11].cycle - out[10].cycle,
+        byte_cycles(9600),
+        "still at 9600"
+    );
+    assert!(!h.core.in_command_mode());
+    assert_eq!(h.core.mode(), Some(Mode::Escaped));
+    assert_eq!(h.core.uart_baud(), 57_600);
+    assert_eq!(h.core.channel(), 0x1A);
+    assert_eq!(h.core.persisted().ap(), 2);
+    assert_eq!(h.core.persisted().bd(), 6);
+    // Now it speaks API at 57600.
+    h.set_baud(57_600);
+    h.frame(&[0x08, 0x01, b'A', b'P'], Mode::Escaped);
+    h.run_ms(5.0);
+    assert_eq!(
+        frames(&h.take_bytes(), Mode::Escaped),
+        [vec![0x88, 0x01, b'A', b'P', 0x00, 0x02]]
+    );
+}
+
+#[test]
+fn command_mode_times_out_after_ct_and_applies_changes() {
+    let mut h = transparent(50);
+    enter_command_mode(&mut h);
+    h.send(b"ATCT2\r");
+    h.run_ms(5.0);
+    assert_eq!(h.take_bytes(), b"OK\r");
+    let end = h.send(b"ATBD6\r");
+    h.run_ms(5.0);
+    assert_eq!(h.take_bytes(), b"OK\r");
+    h.run_to(end + ms(199.0));
+    assert!(h.core.in_command_mode());
+    assert_eq!(h.core.uart_baud(), 9600);
+    h.run_to(end + ms(201.0));
+    assert!(!h.core.in_command_mode());
+    assert_eq!(h.core.uart_baud(), 57_600);
+    assert_eq!(h.core.persisted().bd(), 3, "not written");
+}
+
+#[test]
+fn command_mode_works_in_api_mode_too() {
+    let mut h = Host::new(XBeeConfig {
+        gt_ms: 50,
+        ..XBeeConfig::api(1)
+    });
+    h.take();
+    enter_command_mode(&mut h);
+    h.send(b"ATAP\r");
+    h.run_ms(5.0);
+    assert_eq!(h.take_bytes(), b"1\r");
+}
+
+// ---- baud rates, persistence ----
+
+#[test]
+fn mismatched_baud_rates_garble_both_directions() {
+    // The radio at 57600, the host at 9600 (the host is the slower receiver).
+    let mut h = Host::new(XBeeConfig::api(2));
+    h.take();
+    h.set_baud(9600);
+    assert!(!h.core.baud_matches());
+    h.frame(&[0x08, 0x01, b'C', b'H'], Mode::Escaped);
+    h.core
+        .deliver(RxPacket::broadcast16(0x0C, 0x3332, 1, -40, &[0u8; 60]), h.t);
+    h.run_ms(50.0);
+    let out = h.take_bytes();
+    let s = h.core.stats();
+    assert_eq!(s.frames_ok, 0);
+    assert_eq!(s.garbled_in, 8);
+    assert_eq!(s.rx_delivered, 1);
+    assert_eq!(
+        s.garbled_out, 69,
+        "the RX frame's 69 bytes went out garbled"
+    );
+    assert!(
+        !out.is_empty() && out.len() < 69,
+        "the slow side sees fewer bytes"
+    );
+    assert!(
+        out.iter().all(|&b| b >= 0xF0),
+        "garbage, never a frame: {out:x?}"
+    );
+    // Within the tolerance (UBRR 34 with U2X is 0.8 % off 57600): understood.
+    let mut h = Host::new(XBeeConfig::api(2));
+    h.core.set_host_byte_cycles(3080);
+    assert!(h.core.baud_matches());
+    h.frame(&[0x08, 0x01, b'C', b'H'], Mode::Escaped);
+    h.run_ms(5.0);
+    assert_eq!(h.core.stats().frames_ok, 1);
+}
+
+#[test]
+fn wr_and_power_cycle_restore_the_written_values() {
+    let mut h = Host::new(XBeeConfig::api(2));
+    h.frame(&[0x08, 0x01, b'M', b'Y', 0x00, 0x07], Mode::Escaped);
+    h.frame(&[0x08, 0x02, b'W', b'R'], Mode::Escaped);
+    h.frame(&[0x08, 0x03, b'M', b'Y', 0x00, 0x09], Mode::Escaped);
+    h.frame(&[0x08, 0x04, b'C', b'H', 0x11], Mode::Escaped);
+    h.run_ms(5.0);
+    assert_eq!(h.core.registers().my(), 9);
+    assert_eq!(h.core.persisted().my(), 7);
+    h.take();
+    let t = h.t + ms(1.0);
+    h.core.reset(t);
+    h.run_to(t + ms(10.0));
+    let out = h.take();
+    assert_eq!(bytes(&out), [0x7E, 0x00, 0x02, 0x8A, 0x00, 0x75]);
+    assert_eq!(out[0].cycle, t + ms(5.0));
+    assert_eq!(h.core.registers().my(), 7);
+    assert_eq!(h.core.registers().ch(), 0x0C);
+    assert_eq!(h.core.channel(), 0x0C);
+    // FR: OK, then a reset with modem status "watchdog reset".
+    h.frame(&[0x08, 0x05, b'F', b'R'], Mode::Escaped);
+    h.run_ms(20.0);
+    assert_eq!(
+        frames(&h.take_bytes(), Mode::Escaped),
+        [vec![0x88, 0x05, b'F', b'R', 0x00], vec![0x8A, 0x01]]
+    );
+    // RE loads factory defaults (AP=0, BD=3): applied after the response.
+    h.frame(&[0x08, 0x06, b'R', b'E'], Mode::Escaped);
+    h.run_ms(5.0);
+    assert_eq!(h.core.mode(), None);
+    assert_eq!(h.core.uart_baud(), 9600);
+    assert_eq!(h.core.persisted().ap(), 2);
+}
+
+// ---- the xbee-api driver against the model ----
+
+/// The model behind an in-memory serial port and clock: every read or clock look advances
+/// simulated time by 10 µs; a write blocks for the byte's time at the host's rate.
+struct Sim {
+    core: XBeeCore,
+    now: u64,
+    baud: u32,
+    rx: VecDeque<(u64, u8)>,
+    bauds: Vec<u32>,
+}
+
+impl Sim {
+    fn tick(&mut self, dt: u64) {
+        self.now += dt;
+        self.core.advance(self.now);
+        let cpb = byte_cycles(self.baud);
+        for b in self.core.take_output() {
+            self.rx.push_back((b.cycle + cpb, b.byte));
+        }
+    }
+}
+
+struct SimSerial(Rc<RefCell<Sim>>);
+struct SimClock(Rc<RefCell<Sim>>);
+
+impl ErrorType for SimSerial {
+    type Error = ErrorKind;
+}
+
+impl Read<u8> for SimSerial {
+    fn read(&mut self) -> nb::Result<u8, ErrorKind> {
+        let mut s = self.0.borrow_mut();
+        s.tick(160);
+        match s.rx.front() {
+            Some(&(at, b)) if at <= s.now => {
+                s.rx.pop_front();
+                Ok(b)
+            }
+            _ => Err(nb::Error::WouldBlock),
+        }
+    }
+}
+
+impl Write<u8> for SimSerial {
+    fn write(&mut self, b: u8) -> nb::Result<(), ErrorKind> {
+        let mut s = self.0.borrow_mut();
+        let end = s.now + byte_cycles(s.baud);
+        s.core.rx_byte(end, b);
+        s.now = end;
+        s.tick(0);
+        Ok(())
+    }
+
+    fn flush(&mut self) -> nb::Result<(), ErrorKind> {
+        Ok(())
+    }
+}
+
+impl SetBaud for SimSerial {
+    fn set_baud(&mut self, baud: u32) {
+        let mut s = self.0.borrow_mut();
+        s.baud = baud;
+        s.bauds.push(baud);
+        s.core.set_host_baud(baud);
+        // Bytes in flight at the old rate are lost with the rate change.
+        s.rx.clear();
+    }
+}
+
+impl Clock for SimClock {
+    fn now_ms(&mut self) -> u32 {
+        let mut s = self.0.borrow_mut();
+        s.tick(160);
+        (s.now / 16_000) as u32
+    }
+}
+
+fn driver_on(cfg: XBeeConfig) -> (Rc<RefCell<Sim>>, Radio<SimSerial, SimClock>) {
+    let sim = Rc::new(RefCell::new(Sim {
+        core: XBeeCore::new(cfg),
+        now: 0,
+        baud: 57_600,
+        rx: VecDeque::new(),
+        bauds: Vec::new(),
+    }));
+    let radio = Radio::new(SimSerial(sim.clone()), SimClock(sim.clone()), Mode::Escaped);
+    (sim, radio)
+}
+
+#[test]
+fn driver_bring_up_configures_a_factory_radio() {
+    let (sim, mut radio) = driver_on(XBeeConfig {
+        gt_ms: 100,
+        ..XBeeConfig::default()
+    });
+    let cfg = BringUpConfig {
+        my: Some(0x0001),
+        pan_id: Some(0x4242),
+        channel: Some(0x0B),
+        guard_ms: 150,
+        timeout_ms: 200,
+    };
+    let how = radio.bring_up(&cfg).expect("bring-up");
+    assert_eq!(how, BringUp::Configured { baud: 9600 });
+    let s = sim.borrow();
+    let r = s.core.registers();
+    assert_eq!(
+        (r.ap(), r.bd(), r.my(), r.id(), r.ch()),
+        (2, 6, 1, 0x4242, 0x0B)
+    );
+    assert_eq!(s.core.mode(), Some(Mode::Escaped));
+    assert_eq!(s.core.uart_baud(), 57_600);
+    assert_eq!(s.core.channel(), 0x0B);
+    assert_eq!((s.core.persisted().ap(), s.core.persisted().bd()), (2, 6));
+    assert_eq!(s.bauds[..2], [57_600, 57_600], "tried 57600 first");
+    drop(s);
+
+    // Once written, a power cycle comes back in API mode at 57600: bring-up is quick.
+    let now = sim.borrow().now;
+    sim.borrow_mut().core.reset(now);
+    let how = radio.bring_up(&cfg).expect("second bring-up");
+    assert_eq!(how, BringUp::AlreadyApi);
+    // The driver and the model agree on TX and AT exchanges.
+    let id = radio.send_tx16(0xFFFF, b"beacon").unwrap();
+    radio.wait_tx_status(100, |_| {}).unwrap();
+    let txs = sim.borrow_mut().core.take_transmissions();
+    assert_eq!(txs.last().unwrap().payload, b"beacon");
+    assert_eq!(txs.last().unwrap().frame_id, id);
+    radio.set_channel(0x0D, 100, |_| {}).unwrap();
+    assert_eq!(sim.borrow().core.channel(), 0x0D);
+    let rc = radio.read_config(100, |_| {}).unwrap();
+    assert_eq!((rc.my, rc.pan_id, rc.channel, rc.ap), (1, 0x4242, 0x0D, 2));
+}
+
+#[test]
+fn driver_bring_up_of_a_radio_in_ap1_at_57600() {
+    let (sim, mut radio) = driver_on(XBeeConfig {
+        gt_ms: 100,
+        ..XBeeConfig::api(1)
+    });
+    let cfg = BringUpConfig {
+        guard_ms: 150,
+        timeout_ms: 200,
+        ..BringUpConfig::new()
+    };
+    assert_eq!(
+        radio.bring_up(&cfg).unwrap(),
+        BringUp::Configured { baud: 57_600 }
+    );
+    assert_eq!(sim.borrow().core.mode(), Some(Mode::Escaped));
+}
+
+// ---- on an Avr, with the C fixture ----
+
+fn fixture() -> Avr {
+    Avr::load(common::fixture("xbee_model")).expect("load xbee_model fixture")
+}
+
+#[test]
+fn avr_firmware_gets_modem_status_at_response_and_tx_status() {
+    let mut avr = fixture();
+    let mut radio = XBee::new(XBeeConfig {
+        my: 0x0007,
+        ..XBeeConfig::api(2)
+    });
+    radio.run_for_ms(&mut avr, 40.0);
+    assert_eq!(
+        radio.texts(),
+        ["boot", "rx 8a 00", "rx 88 01 43 48 00 0c", "rx 89 10 00",]
+    );
+    let f = radio.frames_from_firmware().to_vec();
+    assert_eq!(f.len(), 2);
+    assert_eq!(f[0].data, [0x08, 0x01, b'C', b'H']);
+    assert_eq!(f[1].data, [0x01, 0x10, 0x12, 0x34, 0x00, b'o', b'k']);
+    // The AT response's first byte reaches the RX line 1 ms after the query's last byte.
+    let input = avr.uart_input();
+    let resp = input
+        .iter()
+        .find(|b| b.cycle > f[0].end_cycle && b.byte == 0x7E)
+        .unwrap();
+    let late = resp.cycle - (f[0].end_cycle + ms(1.0));
+    assert!(late < 100, "{late} cycles late");
+    let txs = radio.take_transmissions();
+    assert_eq!(txs.len(), 1);
+    assert_eq!(txs[0].payload, b"ok");
+    assert_eq!(txs[0].source, Address::Short(0x0007));
+    assert_eq!(txs[0].start_cycle, f[1].end_cycle);
+    let s = radio.stats();
+    assert_eq!((s.frames_ok, s.checksum_errors), (2, 0));
+    // "boot\n" went out before the radio was up; the three "rx …" lines reach it.
+    assert_eq!(s.dropped_powering_up, 5);
+    assert_eq!(s.foreign_bytes, 9 + 21 + 12);
+    assert_eq!(avr.uart_rx_dropped(), 0);
+}
+
+#[test]
+fn avr_firmware_receives_delivered_packets_on_its_channel() {
+    let mut avr = fixture();
+    let mut radio = XBee::new(XBeeConfig::api(2));
+    radio.run_for_ms(&mut avr, 40.0);
+    let at = avr.cycle() + ms(1.0);
+    radio.deliver(
+        RxPacket::broadcast16(0x0C, 0x3332, 0xBEEF, -55, b"\x7e!"),
+        at,
+    );
+    radio.deliver(RxPacket::broadcast16(0x0D, 0x3332, 0xBEEF, -56, b"no"), at);
+    radio.run_for_ms(&mut avr, 20.0);
+    assert_eq!(radio.texts()[4..], ["rx 81 be ef 37 02 7e 21"]);
+}
+
+#[test]
+fn avr_firmware_at_the_wrong_baud_rate_sees_garbage() {
+    let mut avr = fixture();
+    avr.eeprom_write(0, &[1]).unwrap(); // the fixture then runs its UART at 9600
+    let mut radio = XBee::new(XBeeConfig::api(2));
+    radio.run_for_ms(&mut avr, 60.0);
+    assert!(radio.frames_from_firmware().is_empty());
+    let s = radio.stats();
+    assert!(s.garbled_in > 0 && s.garbled_out > 0, "{s:?}");
+    assert_eq!(s.frames_ok, 0);
+    assert_eq!(radio.texts(), ["boot"], "no frame came through either way");
+    assert!(radio.sent().iter().all(|b| b.byte >= 0xF0));
+}
