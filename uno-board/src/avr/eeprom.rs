@@ -1,0 +1,75 @@
+//! The 1 KB EEPROM (byte and slice access; writes skip unchanged bytes).
+
+use super::pac::EEPROM;
+use crate::{eeprom_range, EepromError};
+use core::arch::asm;
+
+/// The ATmega328P's EEPROM. A byte write takes ~3.4 ms and blocks; writes only touch bytes whose
+/// value changes (the cells last ~100 000 writes).
+pub struct Eeprom {
+    ee: EEPROM,
+}
+
+impl Eeprom {
+    pub(crate) fn new(ee: EEPROM) -> Eeprom {
+        Eeprom { ee }
+    }
+
+    fn wait_ready(&self) {
+        while self.ee.eecr().read().eepe().bit_is_set() {}
+    }
+
+    fn read_at(&self, addr: u16) -> u8 {
+        self.wait_ready();
+        self.ee.eear().write(|w| w.set(addr));
+        self.ee.eecr().write(|w| w.eere().set_bit());
+        self.ee.eedr().read().bits()
+    }
+
+    fn write_at(&mut self, addr: u16, value: u8) {
+        if self.read_at(addr) == value {
+            return;
+        }
+        // The watchdog may be running: each write is bounded (~3.4 ms), so progress is not a hang.
+        avr_device::asm::wdr();
+        self.wait_ready();
+        self.ee.eear().write(|w| w.set(addr));
+        self.ee.eedr().write(|w| w.set(value));
+        avr_device::interrupt::free(|_| {
+            // SAFETY: the datasheet's timed sequence: EEMPE (EECR bit 2) then, within four cycles,
+            // EEPE (bit 1), with interrupts off. EEPM1:0 are 0 (erase + write). EECR is I/O 0x1F.
+            unsafe { asm!("sbi 0x1F, 2", "sbi 0x1F, 1", options(nostack)) };
+        });
+    }
+
+    /// Reads the byte at `addr`.
+    pub fn read_byte(&self, addr: u16) -> Result<u8, EepromError> {
+        eeprom_range(addr, 1)?;
+        Ok(self.read_at(addr))
+    }
+
+    /// Writes `value` at `addr` (no-op if unchanged; blocks ~3.4 ms otherwise).
+    pub fn write_byte(&mut self, addr: u16, value: u8) -> Result<(), EepromError> {
+        eeprom_range(addr, 1)?;
+        self.write_at(addr, value);
+        Ok(())
+    }
+
+    /// Fills `buf` from the bytes starting at `addr`.
+    pub fn read(&self, addr: u16, buf: &mut [u8]) -> Result<(), EepromError> {
+        eeprom_range(addr, buf.len())?;
+        for (a, b) in (addr..).zip(buf.iter_mut()) {
+            *b = self.read_at(a);
+        }
+        Ok(())
+    }
+
+    /// Writes `data` starting at `addr`, skipping bytes that already hold the value.
+    pub fn write(&mut self, addr: u16, data: &[u8]) -> Result<(), EepromError> {
+        eeprom_range(addr, data.len())?;
+        for (a, &b) in (addr..).zip(data.iter()) {
+            self.write_at(a, b);
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,243 @@
+//! USART0: interrupt-driven RX ring, blocking/non-blocking TX, `embedded-hal-nb` serial traits.
+
+use super::cell::IrqCell;
+use super::pac::USART0;
+use crate::ring::Ring;
+use crate::{baud, BaudError, RX_BUFFER_SIZE};
+use core::convert::Infallible;
+
+/// What this driver writes to UCSR0A: U2X0 (double speed, always on) and UDRE0 (read-only on the
+/// chip, where the write is ignored). MPCM0 stays 0; FE0/DOR0/UPE0 must be written 0.
+const UCSR0A_BASE: u8 = (1 << 1) | (1 << 5);
+/// UCSR0A TXC0: written 1 to clear the transmit-complete flag.
+const UCSR0A_TXC0: u8 = 1 << 6;
+
+/// Receive-side counters since boot (saturating).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RxStats {
+    /// Bytes dropped because the ring was full (the main loop did not drain it in time).
+    pub ring_full: u16,
+    /// Hardware data overruns (DOR0: a byte was lost because the RX interrupt ran too late,
+    /// i.e. interrupts were disabled for more than ~2 byte times).
+    pub data_overrun: u16,
+    /// Framing errors (FE0: wrong baud rate or line noise); the byte is still delivered.
+    pub frame_error: u16,
+}
+
+impl RxStats {
+    /// All lost bytes: ring-full drops plus hardware overruns.
+    pub fn overruns(&self) -> u16 {
+        self.ring_full.saturating_add(self.data_overrun)
+    }
+}
+
+struct RxState {
+    ring: Ring<RX_BUFFER_SIZE>,
+    stats: RxStats,
+}
+
+static RX: IrqCell<RxState> = IrqCell::new(RxState {
+    ring: Ring::new(),
+    stats: RxStats {
+        ring_full: 0,
+        data_overrun: 0,
+        frame_error: 0,
+    },
+});
+
+#[avr_device::interrupt(atmega328p)]
+fn USART_RX() {
+    // SAFETY: the handler only reads UCSR0A and UDR0, which the main program never reads (it reads
+    // only the ring); reading UDR0 here is what acknowledges the interrupt.
+    let usart = unsafe { &*USART0::ptr() };
+    // Status first: FE0/DOR0 describe the byte at the head of the receive FIFO.
+    let status = usart.ucsr0a().read();
+    let byte = usart.udr0().read().bits();
+    RX.with(|rx| {
+        if status.dor0().bit_is_set() {
+            rx.stats.data_overrun = rx.stats.data_overrun.saturating_add(1);
+        }
+        if status.fe0().bit_is_set() {
+            rx.stats.frame_error = rx.stats.frame_error.saturating_add(1);
+        }
+        if !rx.ring.push(byte) {
+            rx.stats.ring_full = rx.stats.ring_full.saturating_add(1);
+        }
+    });
+}
+
+/// True when at least one received byte waits in the ring (for [`sleep_unless`](crate::sleep_unless)).
+#[inline]
+pub fn rx_pending() -> bool {
+    RX.with(|rx| !rx.ring.is_empty())
+}
+
+/// USART0 on D0/D1, 8N1, always in double-speed mode (U2X0); see [`baud`] for the divisors.
+pub struct Serial {
+    usart: USART0,
+    /// A byte was written since the last completed flush.
+    tx_pending: bool,
+}
+
+impl Serial {
+    /// Called with interrupts still disabled (from `Board::take`).
+    pub(crate) fn init(usart: USART0) -> Serial {
+        // Off first, in case the bootloader left it running.
+        usart.ucsr0b().reset();
+        usart.ucsr0c().write(|w| {
+            w.umsel0()
+                .usart_async()
+                .upm0()
+                .disabled()
+                .usbs0()
+                .stop1()
+                .ucsz0()
+                .chr8()
+        });
+        // U2X0 before UBRR0: simavr computes its byte time when UBRR0 is written (SPEC §9).
+        // SAFETY: a valid UCSR0A value (see `UCSR0A_BASE`).
+        usart.ucsr0a().write(|w| unsafe { w.bits(UCSR0A_BASE) });
+        usart
+            .ubrr0()
+            .write(|w| w.set(const { ubrr_or_panic(crate::DEFAULT_BAUD) }));
+        usart
+            .ucsr0b()
+            .write(|w| w.rxen0().set_bit().txen0().set_bit().udrie0().set_bit());
+        // Debian's simavr 1.6 clears UDRE0 on a UCSR0A write and raises it again when UDRIE0 gets
+        // enabled; on the chip (and in newer simavr) UDRE0 is simply still set. UDRIE0 is on only
+        // while interrupts are disabled, so no UDRE interrupt is ever taken.
+        usart
+            .ucsr0b()
+            .write(|w| w.rxen0().set_bit().txen0().set_bit().rxcie0().set_bit());
+        Serial {
+            usart,
+            tx_pending: false,
+        }
+    }
+
+    /// Changes the bit rate (e.g. 9600…115200 during radio bring-up): waits until the bytes
+    /// already written have left, then switches. Received bytes are kept; call
+    /// [`clear_rx`](Self::clear_rx) to drop what arrived at the old rate.
+    pub fn set_baud(&mut self, baud: u32) -> Result<(), BaudError> {
+        let ubrr = baud::ubrr_u2x(baud::F_CPU, baud).ok_or(BaudError::Unreachable)?;
+        self.flush_blocking();
+        // U2X0 is already set (by `init`); only the divisor changes.
+        self.usart.ubrr0().write(|w| w.set(ubrr));
+        Ok(())
+    }
+
+    /// Drops every byte waiting in the RX ring.
+    pub fn clear_rx(&mut self) {
+        RX.with(|rx| rx.ring.clear());
+    }
+
+    /// Bytes waiting in the RX ring.
+    pub fn rx_len(&self) -> usize {
+        RX.with(|rx| rx.ring.len())
+    }
+
+    /// Receive counters since boot.
+    pub fn rx_stats(&self) -> RxStats {
+        RX.with(|rx| rx.stats)
+    }
+
+    /// Lost bytes since boot: ring-full drops plus hardware data overruns.
+    pub fn overruns(&self) -> u16 {
+        self.rx_stats().overruns()
+    }
+
+    /// The next received byte, if any.
+    #[inline]
+    pub fn try_read(&mut self) -> Option<u8> {
+        RX.with(|rx| rx.ring.pop())
+    }
+
+    /// Writes `byte` if the transmit buffer is free; `false` if it is busy.
+    #[inline]
+    pub fn try_write(&mut self, byte: u8) -> bool {
+        if self.usart.ucsr0a().read().udre0().bit_is_clear() {
+            return false;
+        }
+        // Writing 1 clears TXC0, so `flush` can tell when this byte has left.
+        // SAFETY: a valid UCSR0A value (see `UCSR0A_BASE`).
+        self.usart
+            .ucsr0a()
+            .write(|w| unsafe { w.bits(UCSR0A_BASE | UCSR0A_TXC0) });
+        self.usart.udr0().write(|w| w.set(byte));
+        self.tx_pending = true;
+        true
+    }
+
+    /// Writes `byte`, waiting for room in the transmit buffer.
+    #[inline]
+    pub fn write_byte(&mut self, byte: u8) {
+        while !self.try_write(byte) {}
+    }
+
+    /// Writes all of `bytes`, blocking.
+    pub fn write_bytes(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_byte(b);
+        }
+    }
+
+    /// Writes a string stored in flash (see [`avr_progmem`](crate::avr_progmem)), blocking.
+    pub fn write_progmem<const N: usize>(&mut self, s: &avr_progmem::string::PmString<N>) {
+        for b in s.as_bytes().iter() {
+            self.write_byte(b);
+        }
+    }
+
+    /// True once every written byte has left the shift register.
+    pub fn tx_done(&mut self) -> bool {
+        if self.tx_pending && self.usart.ucsr0a().read().txc0().bit_is_set() {
+            self.tx_pending = false;
+        }
+        !self.tx_pending
+    }
+
+    /// Waits until every written byte has left the shift register.
+    pub fn flush_blocking(&mut self) {
+        while !self.tx_done() {}
+    }
+}
+
+/// Evaluated at compile time for the default rate.
+const fn ubrr_or_panic(baud: u32) -> u16 {
+    match baud::ubrr_u2x(baud::F_CPU, baud) {
+        Some(u) => u,
+        None => panic!("unreachable baud rate"),
+    }
+}
+
+impl embedded_hal_nb::serial::ErrorType for Serial {
+    /// Reads and writes cannot fail; lost bytes are counted in [`RxStats`] instead.
+    type Error = Infallible;
+}
+
+impl embedded_hal_nb::serial::Read<u8> for Serial {
+    #[inline]
+    fn read(&mut self) -> nb::Result<u8, Infallible> {
+        self.try_read().ok_or(nb::Error::WouldBlock)
+    }
+}
+
+impl embedded_hal_nb::serial::Write<u8> for Serial {
+    #[inline]
+    fn write(&mut self, word: u8) -> nb::Result<(), Infallible> {
+        if self.try_write(word) {
+            Ok(())
+        } else {
+            Err(nb::Error::WouldBlock)
+        }
+    }
+
+    #[inline]
+    fn flush(&mut self) -> nb::Result<(), Infallible> {
+        if self.tx_done() {
+            Ok(())
+        } else {
+            Err(nb::Error::WouldBlock)
+        }
+    }
+}
