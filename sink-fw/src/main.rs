@@ -9,6 +9,9 @@
 fn main() {}
 
 #[cfg(target_arch = "avr")]
+uno_board::link_avr_libc!();
+
+#[cfg(target_arch = "avr")]
 uno_board::avr_progmem::progmem! {
     /// The boot line (no 0x7E: the radio shares the TX line).
     static progmem string BANNER = "hoploc sink boot\r\n";

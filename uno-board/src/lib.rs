@@ -6,9 +6,10 @@
 //! * [`Serial`]: USART0 (pins D0/D1, the XBee and the USB serial) at 57600 8N1 by default,
 //!   interrupt-driven RX into a [`RX_BUFFER_SIZE`]-byte ring with overrun counters ([`RxStats`]),
 //!   blocking or non-blocking TX, [`Serial::set_baud`] for radio bring-up; it implements the
-//!   `embedded-hal-nb` 1.0 serial traits, which is all `xbee-api`'s driver needs.
+//!   `embedded-hal-nb` 1.0 serial traits and `xbee_api::driver::SetBaud`, which is all
+//!   `xbee-api`'s driver needs.
 //! * Time: a 1 ms tick from Timer0 (CTC, /64, OCR0A = 249) and a wrapping [`now_ms`]; [`delay_ms`]
-//!   and [`SysClock`].
+//!   and [`SysClock`] (which implements `xbee_api::driver::Clock`).
 //! * [`Eeprom`] (1 KB, byte and slice access), [`Led`] on D13 with an error-code blinker,
 //!   [`sleep_unless`]/[`sleep_idle`] (idle mode, interrupts keep running), [`Watchdog`], and
 //!   [`ResetCause`].

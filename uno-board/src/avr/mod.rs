@@ -22,11 +22,30 @@ pub use avr_device::entry;
 /// Flash-resident constants: `uno_board::avr_progmem::progmem! { static progmem string S = "…"; }`.
 pub use avr_progmem;
 
-// Link avr-libc (`-lm`) and libgcc ahead of compiler-builtins so their hand-written assembly
-// float and integer routines are used (f32 mul 942 -> 132 cycles, u32 div 855 -> 581, SPEC §9).
+// For builds without LTO, where upstream native libraries precede compiler-builtins; with LTO
+// only the binary's own `link_avr_libc!()` is early enough (see there).
 #[link(name = "m")]
+#[link(name = "c")]
 #[link(name = "gcc")]
 extern "C" {}
+
+/// Links avr-libc (`-lm -lc`) and libgcc into the calling binary, ahead of compiler-builtins.
+///
+/// Invoke it once at the top level of every AVR binary (each `*-fw` main.rs does). The native
+/// libraries of the binary crate itself are the only ones the linker sees before
+/// compiler-builtins (with LTO, those of upstream crates such as this one come after it), and
+/// compiler-builtins exports slower and larger versions of the same symbols, which would win:
+/// measured on the xbee-api driver probe, `__udivmodsi4` 1208 -> 68 B of flash and memcpy/memmove/
+/// memset ~1.1 KB smaller; SPEC §9 has the cycle counts (f32 mul 942 -> 132, u32 div 855 -> 581).
+#[macro_export]
+macro_rules! link_avr_libc {
+    () => {
+        #[link(name = "m")]
+        #[link(name = "c")]
+        #[link(name = "gcc")]
+        extern "C" {}
+    };
+}
 
 /// Everything on the board, configured: USART0 at 57600 8N1 with RX interrupts, the 1 ms tick,
 /// LED off, idle sleep mode selected, watchdog off, interrupts enabled.

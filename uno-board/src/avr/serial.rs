@@ -241,3 +241,12 @@ impl embedded_hal_nb::serial::Write<u8> for Serial {
         }
     }
 }
+
+/// Radio bring-up (`xbee_api::driver::Radio::bring_up`) probes the XBee at several rates.
+impl xbee_api::driver::SetBaud for Serial {
+    /// Switches USART0 to `baud` (after the pending bytes have left). Every rate the driver tries
+    /// (9600…115200) is reachable; an unreachable one leaves the rate unchanged.
+    fn set_baud(&mut self, baud: u32) {
+        let _ = Serial::set_baud(self, baud);
+    }
+}

@@ -49,3 +49,11 @@ impl SysClock {
         now_ms()
     }
 }
+
+/// The radio driver's clock.
+impl xbee_api::driver::Clock for SysClock {
+    #[inline]
+    fn now_ms(&mut self) -> u32 {
+        now_ms()
+    }
+}
