@@ -49,10 +49,9 @@ impl fmt::Display for DecodeError {
                 f,
                 "bad checksum: computed {computed:#04x}, received {received:#04x}"
             ),
-            DecodeError::BadLength { length } => write!(
-                f,
-                "bad length {length} (1..={MAX_FRAME_DATA} allowed)"
-            ),
+            DecodeError::BadLength { length } => {
+                write!(f, "bad length {length} (1..={MAX_FRAME_DATA} allowed)")
+            }
             DecodeError::Truncated { received } => {
                 write!(f, "frame truncated after {received} bytes")
             }

@@ -59,13 +59,9 @@ impl Writer<'_> {
     }
 }
 
-fn encode_with(
-    mode: Mode,
-    data_len: usize,
-    out: &mut [u8],
-    body: impl FnOnce(&mut dyn FnMut(u8)),
-) -> Result<usize, EncodeError> {
-    let len = u16::try_from(data_len).map_err(|_| EncodeError::TooLong)?;
+/// Writes a frame whose data is `parts` concatenated.
+fn encode_parts(mode: Mode, parts: [&[u8]; 2], out: &mut [u8]) -> Result<usize, EncodeError> {
+    let len = u16::try_from(parts[0].len() + parts[1].len()).map_err(|_| EncodeError::TooLong)?;
     let mut w = Writer {
         out,
         pos: 0,
@@ -76,7 +72,9 @@ fn encode_with(
     for b in len.to_be_bytes() {
         w.put(b);
     }
-    body(&mut |b| w.data(b));
+    for &b in parts[0].iter().chain(parts[1]) {
+        w.data(b);
+    }
     w.put(0xFF - w.sum);
     if w.pos > w.out.len() {
         return Err(EncodeError::BufferTooSmall { needed: w.pos });
@@ -90,16 +88,15 @@ impl Frame<'_> {
     /// On [`EncodeError::BufferTooSmall`] the buffer may hold a partial frame; the error gives the
     /// size that fits. [`crate::MAX_ENCODED`] always fits a frame the radio accepts.
     pub fn encode(&self, mode: Mode, out: &mut [u8]) -> Result<usize, EncodeError> {
-        encode_with(mode, self.data_len(), out, |put| self.for_each_byte(&mut |b| put(b)))
+        let (header, rest) = crate::frame::Header::split(self);
+        encode_parts(mode, [header.as_bytes(), rest], out)
     }
 }
 
 /// Encodes frame data given as raw bytes (type byte first), e.g. a frame type this crate does not
 /// name.
 pub fn encode_raw(frame_data: &[u8], mode: Mode, out: &mut [u8]) -> Result<usize, EncodeError> {
-    encode_with(mode, frame_data.len(), out, |put| {
-        frame_data.iter().for_each(|&b| put(b))
-    })
+    encode_parts(mode, [frame_data, &[]], out)
 }
 
 /// The number of bytes [`Frame::encode`] writes for `frame` in `mode`.

@@ -21,8 +21,8 @@ mod frame;
 pub use decode::{DecodeError, Decoder, DecoderStats, PushError, RawFrame};
 pub use encode::{encode_raw, encoded_len, EncodeError};
 pub use frame::{
-    AtStatus, Frame, IoSample, IoSamples, ModemStatus, ParseError, Rssi, TxStatus, ADDR16_BROADCAST,
-    ADDR64_BROADCAST,
+    AtStatus, Frame, IoSample, IoSamples, ModemStatus, ParseError, Rssi, TxStatus,
+    ADDR16_BROADCAST, ADDR64_BROADCAST,
 };
 
 /// Start delimiter of every API frame.
