@@ -335,6 +335,7 @@ impl core::error::Error for ParseError {}
 struct Fields<'a>(&'a [u8]);
 
 impl<'a> Fields<'a> {
+    #[inline(never)]
     fn u8(&mut self) -> u8 {
         let (b, rest) = self.0.split_first().map_or((0, &[][..]), |(b, r)| (*b, r));
         self.0 = rest;
@@ -343,6 +344,7 @@ impl<'a> Fields<'a> {
     fn u16(&mut self) -> u16 {
         u16::from_be_bytes([self.u8(), self.u8()])
     }
+    #[inline(never)]
     fn u64(&mut self) -> u64 {
         let mut v = 0u64;
         for _ in 0..8 {
