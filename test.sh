@@ -4,4 +4,6 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")"
 bash scripts/setup.sh
+# The firmware must build for the Uno; simavr-based tests run the ELFs.
+cargo fw
 cargo test --workspace "$@"

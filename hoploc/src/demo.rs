@@ -24,7 +24,9 @@ struct Node {
 /// A frame the firmware sent its radio, in a few words.
 pub fn describe(data: &[u8]) -> String {
     match Frame::parse(data) {
-        Ok(Frame::AtCommand { command, parameter, .. }) => {
+        Ok(Frame::AtCommand {
+            command, parameter, ..
+        }) => {
             let cmd = String::from_utf8_lossy(&command);
             if parameter.is_empty() {
                 format!("API AT {cmd}?")
@@ -50,7 +52,13 @@ pub fn run(firmware_dir: &Path, seconds: f64) -> Result<(), String> {
             sh_sl: 0x0013_A200_4000_0001 + i as u64,
             ..XBeeConfig::default()
         });
-        nodes.push(Node { role, avr, radio, lines_seen: 0, frames_seen: 0 });
+        nodes.push(Node {
+            role,
+            avr,
+            radio,
+            lines_seen: 0,
+            frames_seen: 0,
+        });
     }
     println!(
         "hoploc demo: {} nodes in simavr, each with a factory-fresh XBee (AP=0, 9600 baud)\n",
@@ -80,14 +88,27 @@ pub fn run(firmware_dir: &Path, seconds: f64) -> Result<(), String> {
         }
     }
     println!("\nradios after {seconds} s:");
-    println!("{:<7} {:>3} {:>7} {:>6} {:>6} {:>4} {:>7} {:>9}", "node", "AP", "baud", "MY", "ID", "CH", "frames", "stack");
+    println!(
+        "{:<7} {:>3} {:>7} {:>6} {:>6} {:>4} {:>7} {:>9}",
+        "node", "AP", "baud", "MY", "ID", "CH", "frames", "stack"
+    );
     for n in &nodes {
         let r = n.radio.registers();
         let baud = match r.bd() {
-            0 => 1200, 1 => 2400, 2 => 4800, 3 => 9600, 4 => 19200, 5 => 38400, 6 => 57600, 7 => 115200,
+            0 => 1200,
+            1 => 2400,
+            2 => 4800,
+            3 => 9600,
+            4 => 19200,
+            5 => 38400,
+            6 => 57600,
+            7 => 115200,
             other => other,
         };
-        let stack = n.avr.stack_peak().map_or("-".to_string(), |s| format!("{s} B"));
+        let stack = n
+            .avr
+            .stack_peak()
+            .map_or("-".to_string(), |s| format!("{s} B"));
         println!(
             "{:<7} {:>3} {:>7} {:>6} {:>6} {:>4} {:>7} {:>9}",
             n.role.name(),

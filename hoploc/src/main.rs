@@ -38,9 +38,10 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Demo { seconds, firmware_dir } => {
-            demo::run(&firmware_dir.unwrap_or_else(firmware::default_dir), seconds)
-        }
+        Command::Demo {
+            seconds,
+            firmware_dir,
+        } => demo::run(&firmware_dir.unwrap_or_else(firmware::default_dir), seconds),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -24,7 +24,12 @@ const AT_MY: &[u8] = &[0x7E, 0x00, 0x04, 0x08, 0x52, 0x4D, 0x59, 0xFF];
 const MODES: [Mode; 2] = [Mode::Api, Mode::Escaped];
 
 fn rx16(data: &[u8]) -> Frame<'_> {
-    Frame::Rx16 { source: 0x7E7D, rssi: xbee_api::Rssi(0x11), options: 0x13, data }
+    Frame::Rx16 {
+        source: 0x7E7D,
+        rssi: xbee_api::Rssi(0x11),
+        options: 0x13,
+        data,
+    }
 }
 
 #[test]
@@ -53,7 +58,13 @@ fn bad_checksum_is_reported_and_the_next_frame_survives() {
             Err(e) => errors.push(e),
         });
         assert_eq!(frames, 1, "{mode:?}");
-        assert_eq!(errors, vec![DecodeError::BadChecksum { computed: 0xFF, received: 0xFE }]);
+        assert_eq!(
+            errors,
+            vec![DecodeError::BadChecksum {
+                computed: 0xFF,
+                received: 0xFE
+            }]
+        );
         assert_eq!(dec.stats().bad_checksum, 1);
         assert_eq!(dec.stats().frames, 1);
     }
@@ -76,7 +87,12 @@ fn oversize_and_zero_lengths_are_rejected_without_losing_the_next_frame() {
 #[test]
 fn largest_legal_frame_is_accepted() {
     let payload = [0x7Eu8; 100];
-    let f = Frame::Tx64 { frame_id: 1, dest: 0xFFFF, options: 0, data: &payload };
+    let f = Frame::Tx64 {
+        frame_id: 1,
+        dest: 0xFFFF,
+        options: 0,
+        data: &payload,
+    };
     assert_eq!(f.data_len(), xbee_api::MAX_FRAME_DATA);
     for mode in MODES {
         let (frames, errors) = run(mode, &enc(&f, mode));
@@ -108,8 +124,14 @@ fn truncated_frame_followed_by_good_one_api_mode() {
         s.extend_from_slice(AT_MY);
         let (frames, errors) = run(Mode::Api, &s);
         assert!(!errors.is_empty(), "cut {cut}");
-        assert!(frames.contains(&good[3..good.len() - 1].to_vec()), "cut {cut}: {frames:?}");
-        assert!(frames.iter().filter(|f| f[..] == AT_MY[3..7]).count() >= 1, "cut {cut}");
+        assert!(
+            frames.contains(&good[3..good.len() - 1].to_vec()),
+            "cut {cut}: {frames:?}"
+        );
+        assert!(
+            frames.iter().filter(|f| f[..] == AT_MY[3..7]).count() >= 1,
+            "cut {cut}"
+        );
     }
 }
 
@@ -125,7 +147,10 @@ fn idle_line_ends_a_truncated_api_mode_frame_and_recovers_the_inner_one() {
     });
     assert_eq!(frames, 0);
     dec.idle();
-    assert_eq!(dec.poll(), Some(Err(DecodeError::Truncated { received: 11 })));
+    assert_eq!(
+        dec.poll(),
+        Some(Err(DecodeError::Truncated { received: 11 }))
+    );
     let f = dec.poll().unwrap().unwrap();
     assert_eq!(f.data(), &AT_MY[3..7]);
     assert_eq!(dec.poll(), None);
@@ -150,10 +175,21 @@ fn escaped_mode_escapes_length_and_checksum() {
     let partial: u8 = data.iter().fold(0x42u8, |s, &b| s.wrapping_add(b));
     body[15] = 0xFFu8.wrapping_sub(0x7E).wrapping_sub(partial);
     data.fill(0);
-    let f = Frame::Unknown { frame_type: 0x42, data: &body };
+    let f = Frame::Unknown {
+        frame_type: 0x42,
+        data: &body,
+    };
     let bytes = enc(&f, Mode::Escaped);
-    assert_eq!(&bytes[..4], &[0x7E, 0x00, 0x7D, 0x31], "length 0x11 escaped");
-    assert_eq!(&bytes[bytes.len() - 2..], &[0x7D, 0x5E], "checksum 0x7E escaped");
+    assert_eq!(
+        &bytes[..4],
+        &[0x7E, 0x00, 0x7D, 0x31],
+        "length 0x11 escaped"
+    );
+    assert_eq!(
+        &bytes[bytes.len() - 2..],
+        &[0x7D, 0x5E],
+        "checksum 0x7E escaped"
+    );
     let (frames, errors) = run(Mode::Escaped, &bytes);
     assert!(errors.is_empty());
     assert_eq!(Frame::parse(&frames[0]).unwrap(), f);
@@ -170,7 +206,11 @@ fn every_prefix_then_good_frame_yields_the_good_frame() {
             s.extend_from_slice(&good);
             s.extend_from_slice(&good);
             let (frames, _) = run(mode, &s);
-            assert!(frames.len() >= 2, "{mode:?} cut {cut}: {} frames", frames.len());
+            assert!(
+                frames.len() >= 2,
+                "{mode:?} cut {cut}: {} frames",
+                frames.len()
+            );
             assert!(frames.iter().all(|f| f[..] == good_data(&good, mode)[..]));
         }
     }
