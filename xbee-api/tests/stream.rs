@@ -169,12 +169,10 @@ fn start_byte_inside_api_mode_frame_data_is_data() {
 #[test]
 fn escaped_mode_escapes_length_and_checksum() {
     // Frame data of length 0x11 (escaped length byte) whose checksum is 0x7E (escaped checksum).
-    let mut data = [0u8; 13];
-    // Unknown type 0x42 + 16 bytes = 0x11 bytes; choose the last byte so the checksum is 0x7E.
+    // Unknown type 0x42 + 16 bytes = 0x11 bytes; the last byte makes the checksum 0x7E:
+    // 0xFF - (0x42 + last) = 0x7E.
     let mut body = [0u8; 16];
-    let partial: u8 = data.iter().fold(0x42u8, |s, &b| s.wrapping_add(b));
-    body[15] = 0xFFu8.wrapping_sub(0x7E).wrapping_sub(partial);
-    data.fill(0);
+    body[15] = 0xFFu8.wrapping_sub(0x7E).wrapping_sub(0x42);
     let f = Frame::Unknown {
         frame_type: 0x42,
         data: &body,
