@@ -20,22 +20,5 @@ uno_board::avr_progmem::progmem! {
 #[cfg(target_arch = "avr")]
 #[uno_board::entry]
 fn main() -> ! {
-    use uno_board::{now_ms, rx_pending, sleep_unless, Board, WdtTimeout};
-
-    let Some(mut board) = Board::take() else {
-        uno_board::reset()
-    };
-    board.serial.write_progmem(&BANNER);
-    board.led.blink(2, 100, 100);
-    board.watchdog.start(WdtTimeout::S1);
-    let mut last_blink = now_ms();
-    loop {
-        board.watchdog.feed();
-        while board.serial.try_read().is_some() {}
-        if now_ms().wrapping_sub(last_blink) >= 1000 {
-            last_blink = now_ms();
-            board.led.toggle();
-        }
-        sleep_unless(rx_pending);
-    }
+    uno_board::boot_and_idle(&BANNER)
 }

@@ -97,3 +97,25 @@ impl Board {
 fn panic(_info: &core::panic::PanicInfo) -> ! {
     reset()
 }
+
+/// The placeholder node of the boot firmwares until their node logic lands: announce `banner`
+/// on the UART (it must hold no 0x7E, the radio shares the TX line), blink twice, then idle with
+/// the watchdog running, draining the UART and toggling the LED once a second.
+pub fn boot_and_idle<const N: usize>(banner: &avr_progmem::string::PmString<N>) -> ! {
+    let Some(mut board) = Board::take() else {
+        reset()
+    };
+    board.serial.write_progmem(banner);
+    board.led.blink(2, 100, 100);
+    board.watchdog.start(crate::WdtTimeout::S1);
+    let mut last_blink = now_ms();
+    loop {
+        board.watchdog.feed();
+        while board.serial.try_read().is_some() {}
+        if now_ms().wrapping_sub(last_blink) >= 1000 {
+            last_blink = now_ms();
+            board.led.toggle();
+        }
+        sleep_unless(rx_pending);
+    }
+}
