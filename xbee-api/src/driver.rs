@@ -21,6 +21,10 @@
 //!   as a borrow: the closure's result comes back by value, so the caller can act on it
 //!   (send a reply, switch channel) right after. (Returning a frame borrowed from the decoder out
 //!   of a read loop is the case today's borrow checker rejects.)
+//! * **Lean on flash.** AT commands and TX16 requests are written from a few header bytes, and
+//!   answers are matched through [`RawFrame::at_response`]/[`RawFrame::tx_status`], so a node
+//!   that reads its frames with [`RawFrame::rx16`] never links the all-types [`Frame::parse`]
+//!   (the crate README has the measured AVR flash of each piece).
 //! * **Typed, distinct errors** ([`Error::code`]) so firmware can blink a code when bring-up
 //!   fails.
 //!
@@ -63,6 +67,7 @@ use core::fmt;
 
 use embedded_hal_nb::serial::{Error as _, ErrorKind, Read, Write};
 
+use crate::frame::ty::{AT as AT_COMMAND, AT_RESPONSE, TX16, TX64};
 use crate::frame::Header;
 use crate::{
     needs_escape, AtStatus, DecodeError, Decoder, DecoderStats, Frame, Mode, RawFrame, ESCAPE,
@@ -342,7 +347,7 @@ pub struct DriverStats {
     pub decoder: DecoderStats,
     /// AT responses that matched no waiting command (wrong frame id or command, too late).
     pub unexpected: u32,
-    /// Frames the driver parsed while waiting that were too short for their type.
+    /// AT responses (0x88) that arrived while waiting but were too short to read.
     pub malformed: u32,
     /// Frames thrown away during [`Radio::bring_up`], which has no one to give them to.
     pub dropped: u32,
@@ -439,25 +444,29 @@ impl<S, C> Radio<S, C> {
     }
 
     fn track_tx(&mut self, id: u8) {
-        if id == 0 || self.pending_tx.contains(&id) {
+        if id == 0 {
             return;
         }
         // A free slot, else (more than TRACKED outstanding) reuse one: that request is then
         // no longer waited for.
-        let i = self
-            .pending_tx
-            .iter()
-            .position(|&x| x == 0)
-            .unwrap_or(id as usize % TRACKED);
-        if let Some(slot) = self.pending_tx.get_mut(i) {
+        let mut free = id as usize % TRACKED;
+        for (i, &slot) in self.pending_tx.iter().enumerate() {
+            if slot == id {
+                return;
+            }
+            if slot == 0 {
+                free = i;
+            }
+        }
+        if let Some(slot) = self.pending_tx.get_mut(free) {
             *slot = id;
         }
     }
 }
 
 /// Clears the slot of a TX status frame's id.
-fn note_tx_status(pending: &mut [u8; TRACKED], data: &[u8]) {
-    if let [0x89, id, _, ..] = *data {
+fn note_tx_status(pending: &mut [u8; TRACKED], raw: RawFrame<'_>) {
+    if let Some((id, _)) = raw.tx_status() {
         for slot in pending.iter_mut().filter(|s| **s == id) {
             *slot = 0;
         }
@@ -491,39 +500,52 @@ where
     /// is remembered until its TX status arrives (see [`Radio::wait_tx_status`]).
     pub fn send(&mut self, frame: &Frame<'_>) -> Result<(), Error> {
         let (header, rest) = Header::split(frame);
-        let len = header.as_bytes().len() + rest.len();
-        let tx = matches!(frame, Frame::Tx16 { .. } | Frame::Tx64 { .. });
-        if len > MAX_FRAME_DATA || (tx && rest.len() > MAX_RF_PAYLOAD) {
+        self.send_parts(header.as_bytes(), rest)
+    }
+
+    /// Writes the frame whose data is `head` (type byte first) followed by `rest`. [`Radio::send`]
+    /// and the lean senders ([`Radio::send_tx16`], [`Radio::at_command`]) all end here; the
+    /// latter build their few header bytes themselves, so firmware that only uses them does not
+    /// link the serializer for every frame type.
+    fn send_parts(&mut self, head: &[u8], rest: &[u8]) -> Result<(), Error> {
+        let len = head.len() + rest.len();
+        // A TX64/TX16 request's frame id (0: no TX status wanted).
+        let tx_id = match *head {
+            [TX64 | TX16, id, ..] => Some(id),
+            _ => None,
+        };
+        if len > MAX_FRAME_DATA || (tx_id.is_some() && rest.len() > MAX_RF_PAYLOAD) {
             return Err(Error::TooLong { len });
         }
-        let sum = header
-            .as_bytes()
-            .iter()
-            .chain(rest)
-            .fold(0, |s: u8, &b| s.wrapping_add(b));
-        let written = self
-            .write_escaped(&[START], false)
-            .and_then(|()| self.write_escaped(&(len as u16).to_be_bytes(), true))
-            .and_then(|()| self.write_escaped(header.as_bytes(), true))
-            .and_then(|()| self.write_escaped(rest, true))
-            .and_then(|()| self.write_escaped(&[0xFF - sum], true));
-        if let Err(e) = written {
+        if let Err(e) = self.write_frame(len as u16, head, rest) {
             if let Error::Serial(_) = e {
                 bump(&mut self.serial_errors, 1);
             }
             return Err(e);
         }
-        if let Frame::Tx16 { frame_id, .. } | Frame::Tx64 { frame_id, .. } = *frame {
-            self.track_tx(frame_id);
+        if let Some(id) = tx_id {
+            self.track_tx(id);
         }
         Ok(())
     }
 
-    /// Writes `bytes`, escaped if `escape` and the radio is in API mode 2.
+    /// Writes start delimiter, length, frame data (`head` then `rest`) and checksum.
+    fn write_frame(&mut self, len: u16, head: &[u8], rest: &[u8]) -> Result<(), Error> {
+        let mut sum = 0;
+        self.write_escaped(&[START], false, &mut sum)?;
+        self.write_escaped(&len.to_be_bytes(), true, &mut sum)?;
+        sum = 0;
+        self.write_escaped(head, true, &mut sum)?;
+        self.write_escaped(rest, true, &mut sum)?;
+        self.write_escaped(&[0xFF - sum], true, &mut sum)
+    }
+
+    /// Writes `bytes`, escaped if `escape` and the radio is in API mode 2, adding them to `sum`.
     #[inline(never)]
-    fn write_escaped(&mut self, bytes: &[u8], escape: bool) -> Result<(), Error> {
+    fn write_escaped(&mut self, bytes: &[u8], escape: bool, sum: &mut u8) -> Result<(), Error> {
         let escape = escape && self.decoder.mode() == Mode::Escaped;
         for &b in bytes {
+            *sum = sum.wrapping_add(b);
             if escape && needs_escape(b) {
                 write_byte(&mut self.serial, &mut self.clock, ESCAPE)?;
                 write_byte(&mut self.serial, &mut self.clock, b ^ ESCAPE_XOR)?;
@@ -538,12 +560,8 @@ where
     /// returns: the radio answers with a TX status of that id.
     pub fn send_tx16(&mut self, dest: u16, data: &[u8]) -> Result<u8, Error> {
         let frame_id = self.next_frame_id();
-        self.send(&Frame::Tx16 {
-            frame_id,
-            dest,
-            options: 0,
-            data,
-        })?;
+        let [d0, d1] = dest.to_be_bytes();
+        self.send_parts(&[TX16, frame_id, d0, d1, 0], data)?;
         Ok(frame_id)
     }
 
@@ -577,7 +595,7 @@ where
         loop {
             match self.decoder.poll() {
                 Some(Ok(raw)) => {
-                    note_tx_status(&mut self.pending_tx, raw.data());
+                    note_tx_status(&mut self.pending_tx, raw);
                     f(raw);
                     return Some(Ok(()));
                 }
@@ -637,24 +655,18 @@ where
         on_other: &mut dyn FnMut(RawFrame<'_>),
     ) -> Result<AtValue, Error> {
         let id = self.next_frame_id();
-        self.send(&Frame::AtCommand {
-            frame_id: id,
-            command,
-            parameter,
-        })?;
+        let [c0, c1] = command;
+        self.send_parts(&[AT_COMMAND, id, c0, c1], parameter)?;
         let start = self.clock.now_ms();
         loop {
             let (mut reply, mut unexpected, mut malformed) = (None, false, false);
-            let ev = self.poll_dyn(&mut |raw| match raw.parse() {
-                Ok(Frame::AtResponse {
-                    frame_id,
-                    command: c,
-                    status,
-                    data,
-                }) if frame_id == id && c == command => reply = Some((status, AtValue::new(data))),
-                parsed => {
-                    unexpected = matches!(parsed, Ok(Frame::AtResponse { .. }));
-                    malformed = parsed.is_err();
+            let ev = self.poll_dyn(&mut |raw| match raw.at_response() {
+                Some(r) if r.frame_id == id && r.command == command => {
+                    reply = Some((r.status, AtValue::new(r.data)))
+                }
+                other => {
+                    unexpected = other.is_some();
+                    malformed = other.is_none() && raw.frame_type() == AT_RESPONSE;
                     on_other(raw);
                 }
             });
@@ -863,27 +875,35 @@ where
             }
             BringUp::Configured { baud }
         };
-        let settings = [
-            (*b"MY", cfg.my),
-            (*b"ID", cfg.pan_id),
-            (*b"CH", cfg.channel.map(u16::from)),
-        ];
-        for (command, value) in settings {
-            if let Some(v) = value {
-                let bytes = v.to_be_bytes();
-                // CH is one byte; MY and ID two.
-                let param = if command == *b"CH" {
-                    &bytes[1..]
-                } else {
-                    &bytes[..]
-                };
-                self.at_dyn(command, param, cfg.timeout_ms, drop)?;
-                if self.query(command, 0xFFFF, cfg.timeout_ms, drop)? != u32::from(v) {
-                    return Err(Error::Unexpected { command });
-                }
-            }
+        let t = cfg.timeout_ms;
+        if let Some(my) = cfg.my {
+            self.set_register(*b"MY", my, true, t, drop)?;
+        }
+        if let Some(id) = cfg.pan_id {
+            self.set_register(*b"ID", id, true, t, drop)?;
+        }
+        if let Some(ch) = cfg.channel {
+            self.set_register(*b"CH", ch.into(), false, t, drop)?;
         }
         Ok(how)
+    }
+
+    /// Sets a register to `value` (two bytes if `wide`, else one) and reads it back.
+    fn set_register(
+        &mut self,
+        command: [u8; 2],
+        value: u16,
+        wide: bool,
+        timeout_ms: u32,
+        drop: &mut dyn FnMut(RawFrame<'_>),
+    ) -> Result<(), Error> {
+        let bytes = value.to_be_bytes();
+        let param = if wide { &bytes[..] } else { &bytes[1..] };
+        self.at_dyn(command, param, timeout_ms, drop)?;
+        if self.query(command, 0xFFFF, timeout_ms, drop)? != u32::from(value) {
+            return Err(Error::Unexpected { command });
+        }
+        Ok(())
     }
 
     /// Step 2 of [`Radio::bring_up`]: the baud rate the radio was found at.
@@ -892,7 +912,7 @@ where
         for baud in BAUD_RATES {
             self.serial.set_baud(baud);
             heard |= self.quiet(cfg.guard_ms);
-            self.write_escaped(b"+++", false)?;
+            self.write_escaped(b"+++", false, &mut 0)?;
             match self.expect_ok(cfg.guard_ms + cfg.timeout_ms) {
                 Reply::Ok => {}
                 Reply::Silent => continue,
@@ -903,7 +923,7 @@ where
             }
             let set_ap = [b'A', b'T', b'A', b'P', b'0' + self.mode().ap(), b'\r'];
             for line in [&set_ap[..], b"ATBD6\r", b"ATWR\r", b"ATCN\r"] {
-                self.write_escaped(line, false)?;
+                self.write_escaped(line, false, &mut 0)?;
                 let command = [
                     line.get(2).copied().unwrap_or(0),
                     line.get(3).copied().unwrap_or(0),

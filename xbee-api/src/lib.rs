@@ -18,7 +18,7 @@ pub mod driver;
 mod encode;
 mod frame;
 
-pub use decode::{DecodeError, Decoder, DecoderStats, PushError, RawFrame};
+pub use decode::{AtResponse, DecodeError, Decoder, DecoderStats, PushError, RawFrame, Rx16};
 pub use encode::{encode_raw, encoded_len, EncodeError};
 pub use frame::{
     AtStatus, Frame, IoSample, IoSamples, ModemStatus, ParseError, Rssi, TxStatus,

@@ -162,6 +162,7 @@ fn frames_arriving_during_an_at_command_reach_the_callback_intact() {
         });
         let unknown = vec![0x42, 0x7E, 0x01];
         let short = vec![0x81, 0x00]; // RX16 too short to parse: still delivered
+        let short_at = vec![0x88, 0x01, b'I']; // an AT response too short to read: counted
         m.borrow_mut().expect(
             None,
             Reply::Frames(vec![
@@ -169,6 +170,7 @@ fn frames_arriving_during_an_at_command_reach_the_callback_intact() {
                 status.clone(),
                 unknown.clone(),
                 short.clone(),
+                short_at.clone(),
                 at_resp(1, b"ID", AtStatus::OK, &[0x7E, 0x7D]),
                 rx16(),
             ]),
@@ -178,7 +180,11 @@ fn frames_arriving_during_an_at_command_reach_the_callback_intact() {
             .at_command(*b"ID", &[], 100, |raw| others.push(raw.data().to_vec()))
             .unwrap();
         assert_eq!(v.as_u32(), Some(0x7E7D));
-        assert_eq!(others, vec![rx16(), status, unknown, short], "{mode:?}");
+        assert_eq!(
+            others,
+            vec![rx16(), status, unknown, short, short_at],
+            "{mode:?}"
+        );
         assert_eq!(radio.stats().malformed, 1);
         // The RX16 after the response stays for the next poll, whole.
         let got = radio.poll(|raw| raw.data().to_vec());

@@ -10,12 +10,13 @@
 //!   corruption happened to form a frame with a valid checksum that swallowed it, which `AP=1`
 //!   cannot tell from a real frame.
 //! * Pushing several bytes before polling gives the same events as pushing one byte at a time.
+//! * The lean views of a raw frame (`rx16`, `at_response`, `tx_status`) agree with `Frame::parse`.
 
 use proptest::prelude::*;
 use proptest::sample::select;
 use xbee_api::{
-    AtStatus, DecodeError, Decoder, Frame, IoSamples, Mode, ModemStatus, Rssi, TxStatus,
-    MAX_ENCODED, MAX_FRAME_DATA, MAX_RF_PAYLOAD,
+    AtResponse, AtStatus, DecodeError, Decoder, Frame, IoSamples, Mode, ModemStatus, RawFrame,
+    Rssi, Rx16, TxStatus, MAX_ENCODED, MAX_FRAME_DATA, MAX_RF_PAYLOAD,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -674,5 +675,75 @@ fn max_frame_data_boundary() {
                 Ev::Frame(vec![0x8A, 0x00])
             ]
         );
+    }
+}
+
+/// What the full parse says the lean views ([`RawFrame::rx16`], [`RawFrame::at_response`],
+/// [`RawFrame::tx_status`]) must return for `data`.
+fn views_by_parse(
+    data: &[u8],
+) -> (
+    Option<Rx16<'_>>,
+    Option<AtResponse<'_>>,
+    Option<(u8, TxStatus)>,
+) {
+    match Frame::parse(data) {
+        Ok(Frame::Rx16 {
+            source,
+            rssi,
+            options,
+            data,
+        }) => (
+            Some(Rx16 {
+                source,
+                rssi,
+                options,
+                data,
+            }),
+            None,
+            None,
+        ),
+        Ok(Frame::AtResponse {
+            frame_id,
+            command,
+            status,
+            data,
+        }) => (
+            None,
+            Some(AtResponse {
+                frame_id,
+                command,
+                status,
+                data,
+            }),
+            None,
+        ),
+        Ok(Frame::TxStatus { frame_id, status }) => (None, None, Some((frame_id, status))),
+        _ => (None, None, None),
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(4000))]
+
+    /// The lean views agree with `Frame::parse` on every frame of every type...
+    #[test]
+    fn lean_views_agree_with_parse_on_frames(f in frame()) {
+        let mut data = Vec::new();
+        frame_data(&f.frame(), &mut data);
+        let raw = RawFrame::new(&data);
+        prop_assert_eq!((raw.rx16(), raw.at_response(), raw.tx_status()), views_by_parse(&data));
+    }
+
+    /// ...and on arbitrary bytes, including truncated and overlong frames of their types.
+    #[test]
+    fn lean_views_agree_with_parse_on_any_bytes(
+        t in select(vec![0x81u8, 0x88, 0x89, 0x80, 0x8A, 0x00]),
+        body in bytes(12),
+    ) {
+        let mut data = vec![t];
+        data.extend(body);
+        let raw = RawFrame::new(&data);
+        prop_assert_eq!((raw.rx16(), raw.at_response(), raw.tx_status()), views_by_parse(&data));
     }
 }

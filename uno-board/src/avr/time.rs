@@ -22,7 +22,7 @@ fn TIMER0_COMPA() {
 
 /// Milliseconds since [`Board::take`](crate::Board::take), wrapping; compare times with
 /// `wrapping_sub`. Read atomically (the u32 is four bytes on AVR).
-#[inline]
+#[inline(never)] // called from many wait loops; inlined it costs ~20 B each
 pub fn now_ms() -> u32 {
     MILLIS.with(|ms| *ms)
 }
