@@ -1,2 +1,52 @@
-//! The wire contract: beacon/report messages, sink output lines, provisioning frames, node config.
+//! The wire contract of hoploc, defined once: everything one node says to another node or to a
+//! person, with an encoder for the firmware and a parser for the host tools.
+//!
+//! * [`line`]: the text lines every node writes on its UART at boot ([`line::BootLine`]).
+//!
+//! Beacon and report messages, the sink's estimate lines, provisioning frames and the node config
+//! layout join this crate with the node firmware.
 #![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+#[cfg(test)]
+extern crate std;
+
+pub mod line;
+mod role;
+
+pub use role::Role;
+
+/// The PAN id of a hoploc testbed unless configured otherwise (`ID`; ASCII "32").
+pub const DEFAULT_PAN_ID: u16 = 0x3332;
+
+/// The XBee `CH` register value of testbed channel `n` (1…16): `CH = 0x0A + n`, so channel 1 is
+/// 802.15.4 channel 11 (0x0B) and 16 is 26 (0x1A). `None` outside 1…16. The S1 Pro only has
+/// testbed channels 2…13 (0x0C…0x17).
+pub const fn xbee_channel(n: u8) -> Option<u8> {
+    if n >= 1 && n <= 16 {
+        Some(0x0A + n)
+    } else {
+        None
+    }
+}
+
+/// The default channel list (testbed channels 1 and 12) and sink channel (3) of SPEC §4.
+pub const DEFAULT_CHANNELS: [u8; 2] = [1, 12];
+/// The default sink channel (testbed channel 3).
+pub const DEFAULT_SINK_CHANNEL: u8 = 3;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn testbed_channels_map_to_the_xbee_range() {
+        assert_eq!(xbee_channel(0), None);
+        assert_eq!(xbee_channel(1), Some(0x0B));
+        assert_eq!(xbee_channel(3), Some(0x0D));
+        assert_eq!(xbee_channel(12), Some(0x16));
+        assert_eq!(xbee_channel(16), Some(0x1A));
+        assert_eq!(xbee_channel(17), None);
+    }
+}

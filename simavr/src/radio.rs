@@ -85,6 +85,67 @@ impl TextLine {
     }
 }
 
+/// A pause in the firmware's output this long ends a text line.
+pub const LINE_GAP_MS: f64 = 100.0;
+
+/// Splits the firmware's bytes outside API frames into [`TextLine`]s. A line ends at `\r`, `\n`
+/// or `\r\n`, or at a pause of [`LINE_GAP_MS`] (command mode's `+++` is framed by silence, not
+/// by a line end). Shared by [`ScriptedRadio`] and the modelled XBee.
+#[derive(Debug, Default)]
+pub(crate) struct LineSplitter {
+    buf: Vec<u8>,
+    /// Cycle of the first byte of `buf`.
+    start: u64,
+    /// Cycle of the last byte seen.
+    last: u64,
+    /// The last byte ended a line with `\r` (so a `\n` right after it is part of that end).
+    after_cr: bool,
+    lines: Vec<TextLine>,
+}
+
+impl LineSplitter {
+    fn flush(&mut self) {
+        if !self.buf.is_empty() {
+            let t = std::mem::take(&mut self.buf);
+            self.lines.push(TextLine {
+                cycle: self.start,
+                text: String::from_utf8_lossy(&t).into_owned(),
+            });
+        }
+    }
+
+    /// One byte of firmware output at `cycle`; `text` is false for bytes of an API frame.
+    pub(crate) fn push(&mut self, cycle: u64, byte: u8, text: bool) {
+        if cycle.saturating_sub(self.last) >= ms_to_cycles(LINE_GAP_MS) {
+            self.flush();
+        }
+        self.last = cycle;
+        if !text {
+            return;
+        }
+        let after_cr = std::mem::take(&mut self.after_cr);
+        match byte {
+            b'\r' => {
+                self.after_cr = true;
+                self.flush();
+            }
+            b'\n' if after_cr => {}
+            b'\n' => self.flush(),
+            _ => {
+                if self.buf.is_empty() {
+                    self.start = cycle;
+                }
+                self.buf.push(byte);
+            }
+        }
+    }
+
+    /// The complete lines so far.
+    pub(crate) fn lines(&self) -> &[TextLine] {
+        &self.lines
+    }
+}
+
 /// What an [`ScriptedRadio::expect`] step accepts.
 pub enum Match {
     /// Exactly this frame data (type byte first).
@@ -237,9 +298,7 @@ pub struct ScriptedRadio {
     frames: Vec<SeenFrame>,
     /// Index in `frames` of the next frame the script has not consumed.
     next_frame: usize,
-    lines: Vec<TextLine>,
-    line_buf: Vec<u8>,
-    line_start: u64,
+    lines: LineSplitter,
     errors: Vec<(u64, DecodeError)>,
     sent: Vec<(u64, Vec<u8>)>,
     failed: Option<ScriptError>,
@@ -260,9 +319,7 @@ impl ScriptedRadio {
             frame_start: 0,
             frames: Vec::new(),
             next_frame: 0,
-            lines: Vec::new(),
-            line_buf: Vec::new(),
-            line_start: 0,
+            lines: LineSplitter::default(),
             errors: Vec::new(),
             sent: Vec::new(),
             failed: None,
@@ -349,12 +406,12 @@ impl ScriptedRadio {
 
     /// Every complete text line the firmware printed so far.
     pub fn lines(&self) -> &[TextLine] {
-        &self.lines
+        self.lines.lines()
     }
 
     /// The texts of [`ScriptedRadio::lines`].
     pub fn texts(&self) -> Vec<&str> {
-        self.lines.iter().map(|l| l.text.as_str()).collect()
+        self.lines().iter().map(|l| l.text.as_str()).collect()
     }
 
     /// Decode errors (bad checksums, truncated frames…) with the cycle they were noticed.
@@ -449,13 +506,14 @@ impl ScriptedRadio {
             Some(s) => s.to_string(),
             None => "end of script".to_string(),
         };
-        let start = self.lines.len().saturating_sub(5);
+        let lines = self.lines.lines();
+        let start = lines.len().saturating_sub(5);
         let e = ScriptError {
             step: self.cursor,
             expected,
             got,
             at_ms: cycles_to_ms(cycle),
-            recent_lines: self.lines[start..]
+            recent_lines: lines[start..]
                 .iter()
                 .map(|l| format!("{:.3} ms: {}", l.ms(), l.text))
                 .collect(),
@@ -541,23 +599,8 @@ impl ScriptedRadio {
     }
 
     fn ingest(&mut self, cycle: u64, byte: u8, cpb: u64) {
-        if !self.decoder.in_frame() && byte != xbee_api::START {
-            if self.line_buf.is_empty() {
-                self.line_start = cycle;
-            }
-            if byte == b'\n' {
-                let mut t = std::mem::take(&mut self.line_buf);
-                if t.last() == Some(&b'\r') {
-                    t.pop();
-                }
-                self.lines.push(TextLine {
-                    cycle: self.line_start,
-                    text: String::from_utf8_lossy(&t).into_owned(),
-                });
-            } else {
-                self.line_buf.push(byte);
-            }
-        }
+        let text = !self.decoder.in_frame() && byte != xbee_api::START;
+        self.lines.push(cycle, byte, text);
         // Cannot fail: the decoder is polled empty after every byte.
         let _ = self.decoder.push(byte);
         while let Some(ev) = self.decoder.poll() {
@@ -595,4 +638,51 @@ fn hex(d: &[u8]) -> String {
 
 fn ms(c: u64) -> f64 {
     (cycles_to_ms(c) * 1000.0).round() / 1000.0
+}
+
+#[cfg(test)]
+mod line_tests {
+    use super::*;
+
+    fn split(bytes: &[(f64, u8, bool)]) -> Vec<(f64, String)> {
+        let mut s = LineSplitter::default();
+        for &(ms, b, text) in bytes {
+            s.push(ms_to_cycles(ms), b, text);
+        }
+        s.lines()
+            .iter()
+            .map(|l| (l.ms(), l.text.clone()))
+            .collect()
+    }
+
+    fn at(ms: f64, text: &str) -> Vec<(f64, u8, bool)> {
+        text.bytes()
+            .enumerate()
+            .map(|(i, b)| (ms + i as f64 * 0.2, b, true))
+            .collect()
+    }
+
+    #[test]
+    fn cr_lf_and_crlf_each_end_one_line() {
+        let mut input = at(0.0, "a\r\nb\rc\nd\r\r\ne");
+        input.extend(at(1.0, "\n"));
+        let texts: Vec<String> = split(&input).into_iter().map(|(_, t)| t).collect();
+        assert_eq!(texts, ["a", "b", "c", "d", "e"]);
+    }
+
+    #[test]
+    fn a_pause_ends_a_line_and_frames_are_skipped() {
+        let mut input = at(0.0, "+++");
+        input.extend(at(1200.0, "ATCN\r"));
+        input.extend([(1300.0, b'x', false), (1300.1, b'y', false)]);
+        input.extend(at(1300.2, "ok\r\n"));
+        let lines = split(&input);
+        assert_eq!(
+            lines.iter().map(|(_, t)| t.as_str()).collect::<Vec<_>>(),
+            ["+++", "ATCN", "ok"]
+        );
+        assert!((lines[1].0 - 1200.0).abs() < 0.01, "a line is timed by its first byte");
+        // An unfinished line stays pending until its end or a pause.
+        assert!(split(&at(0.0, "half")).is_empty());
+    }
 }

@@ -83,7 +83,7 @@ use std::collections::VecDeque;
 use xbee_api::{Decoder, Mode};
 
 use crate::avr::{ms_to_cycles, Avr, State, UartByte};
-use crate::radio::{SeenFrame, TextLine};
+use crate::radio::{LineSplitter, SeenFrame, TextLine};
 
 pub use self::core::{
     byte_cycles, encode_frame, time_on_air_ms, Address, Csma, RxPacket, Transmission, XBeeConfig,
@@ -95,9 +95,7 @@ pub use self::regs::{baud_of_bd, Model, Registers, BAUD_RATES};
 #[derive(Debug)]
 struct Lines {
     decoder: Decoder,
-    buf: Vec<u8>,
-    start: u64,
-    lines: Vec<TextLine>,
+    text: LineSplitter,
 }
 
 impl Lines {
@@ -105,23 +103,8 @@ impl Lines {
         if self.decoder.mode() != mode && !self.decoder.in_frame() {
             self.decoder.set_mode(mode);
         }
-        if !self.decoder.in_frame() && b.byte != xbee_api::START {
-            if self.buf.is_empty() {
-                self.start = b.cycle;
-            }
-            if b.byte == b'\n' {
-                let mut t = std::mem::take(&mut self.buf);
-                if t.last() == Some(&b'\r') {
-                    t.pop();
-                }
-                self.lines.push(TextLine {
-                    cycle: self.start,
-                    text: String::from_utf8_lossy(&t).into_owned(),
-                });
-            } else {
-                self.buf.push(b.byte);
-            }
-        }
+        let text = !self.decoder.in_frame() && b.byte != xbee_api::START;
+        self.text.push(b.cycle, b.byte, text);
         let _ = self.decoder.push(b.byte);
         while self.decoder.poll().is_some() {}
     }
@@ -148,9 +131,7 @@ impl XBee {
             pending: VecDeque::new(),
             lines: Lines {
                 decoder: Decoder::new(Mode::Escaped),
-                buf: Vec::new(),
-                start: 0,
-                lines: Vec::new(),
+                text: LineSplitter::default(),
             },
             sent: Vec::new(),
         }
@@ -244,12 +225,12 @@ impl XBee {
     /// The text lines the firmware wrote outside API frames (its boot lines, etc.; the Uno's
     /// USB serial sees them too), from the raw UART output.
     pub fn text_lines(&self) -> &[TextLine] {
-        &self.lines.lines
+        self.lines.text.lines()
     }
 
     /// The texts of [`XBee::text_lines`].
     pub fn texts(&self) -> Vec<&str> {
-        self.lines.lines.iter().map(|l| l.text.as_str()).collect()
+        self.text_lines().iter().map(|l| l.text.as_str()).collect()
     }
 
     /// Every byte the radio put on the firmware's RX line, with its start cycle.

@@ -4,6 +4,7 @@ mod cell;
 mod eeprom;
 mod led;
 mod power;
+mod radio;
 mod serial;
 mod time;
 mod watchdog;
@@ -11,6 +12,7 @@ mod watchdog;
 pub use eeprom::Eeprom;
 pub use led::Led;
 pub use power::{sleep_idle, sleep_unless};
+pub use radio::{boot_and_listen, bring_up_radio, write_line, NodeRadio};
 pub use serial::{rx_pending, RxStats, Serial};
 pub use time::{delay_ms, now_ms, SysClock};
 pub use watchdog::{reset, ResetCause, Watchdog};
@@ -96,26 +98,4 @@ impl Board {
 #[panic_handler]
 fn panic(_info: &core::panic::PanicInfo) -> ! {
     reset()
-}
-
-/// The placeholder node of the boot firmwares until their node logic lands: announce `banner`
-/// on the UART (it must hold no 0x7E, the radio shares the TX line), blink twice, then idle with
-/// the watchdog running, draining the UART and toggling the LED once a second.
-pub fn boot_and_idle<const N: usize>(banner: &avr_progmem::string::PmString<N>) -> ! {
-    let Some(mut board) = Board::take() else {
-        reset()
-    };
-    board.serial.write_progmem(banner);
-    board.led.blink(2, 100, 100);
-    board.watchdog.start(crate::WdtTimeout::S1);
-    let mut last_blink = now_ms();
-    loop {
-        board.watchdog.feed();
-        while board.serial.try_read().is_some() {}
-        if now_ms().wrapping_sub(last_blink) >= 1000 {
-            last_blink = now_ms();
-            board.led.toggle();
-        }
-        sleep_unless(rx_pending);
-    }
 }

@@ -1,0 +1,343 @@
+//! Text lines a node writes on its UART (the USB serial, which the radio shares).
+//!
+//! Lines are ASCII words separated by single spaces, ending in `\r\n`, and never contain `0x7E`
+//! (the radio would take it for the start of an API frame). Every line starts with `hoploc` and the
+//! node's role:
+//!
+//! | line | meaning |
+//! |---|---|
+//! | `hoploc anchor boot` | the firmware started |
+//! | `hoploc anchor radio ok api` | the radio already answered in API mode at 57600 |
+//! | `hoploc anchor radio ok 9600` | the radio was found in command mode at 9600 baud and configured |
+//! | `hoploc anchor radio error 9 try 2` | bring-up attempt 2 failed with driver error code 9 |
+//!
+//! The error code is `xbee_api::driver::Error::code` (9: no answer at any baud rate, 10: only
+//! garbage), the same number the node blinks on its LED. The firmware writes lines with
+//! [`BootLine::write`] (no `core::fmt`, words read from flash); the host tools read them with
+//! [`BootLine::parse`], which never panics and says what was wrong.
+
+use core::fmt;
+
+use crate::Role;
+
+avr_progmem::progmem! {
+    /// Every word of the lines, space separated; [`Word`] numbers them.
+    static progmem WORDS: [u8; 52] = *b"hoploc anchor agent sink boot radio ok api error try";
+}
+
+/// Indices into [`WORDS`].
+#[derive(Clone, Copy)]
+#[repr(u8)]
+enum Word {
+    Hoploc = 0,
+    // Roles: 1 + Role as u8.
+    Boot = 4,
+    Radio = 5,
+    Ok = 6,
+    Api = 7,
+    Error = 8,
+    Try = 9,
+}
+
+/// How the radio was found at boot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RadioFound {
+    /// Already in the API mode hoploc uses, at 57600 baud.
+    Api,
+    /// In command mode at this baud rate; it has been switched to API mode at 57600 (and saved).
+    Configured {
+        /// The baud rate it answered at.
+        baud: u32,
+    },
+}
+
+/// A line a node writes while it boots.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BootLine {
+    /// `hoploc <role> boot`: the firmware started.
+    Boot {
+        /// The node's role.
+        role: Role,
+    },
+    /// `hoploc <role> radio ok api|<baud>`: the radio is up, `MY`/`ID`/`CH` set and read back.
+    RadioUp {
+        /// The node's role.
+        role: Role,
+        /// How the radio was found.
+        found: RadioFound,
+    },
+    /// `hoploc <role> radio error <code> try <attempt>`: bring-up failed; the node blinks `code`
+    /// and tries again.
+    RadioError {
+        /// The node's role.
+        role: Role,
+        /// `xbee_api::driver::Error::code` of the failure (1…255).
+        code: u8,
+        /// Which attempt failed, from 1 (saturates at 65535).
+        attempt: u16,
+    },
+}
+
+/// Longest line [`BootLine::write`] produces, `\r\n` included
+/// (`hoploc anchor radio error 255 try 65535\r\n`).
+pub const MAX_BOOT_LINE: usize = 41;
+
+/// Why [`BootLine::parse`] rejected a line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum LineError {
+    /// Not a hoploc boot line (another line, or noise): safe to skip.
+    NotBootLine,
+    /// It starts like one (`hoploc <role> boot|radio`) but its fields are wrong or missing.
+    Malformed,
+}
+
+impl fmt::Display for LineError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            LineError::NotBootLine => "not a hoploc boot line",
+            LineError::Malformed => "malformed hoploc boot line",
+        })
+    }
+}
+
+impl core::error::Error for LineError {}
+
+/// Writes word `k` of [`WORDS`].
+fn put_word(k: u8, out: &mut impl FnMut(u8)) {
+    let mut seen = 0;
+    for i in 0..WORDS.len() {
+        let b = WORDS.load_at(i);
+        if b == b' ' {
+            seen += 1;
+            if seen > k {
+                return;
+            }
+        } else if seen == k {
+            out(b);
+        }
+    }
+}
+
+/// Writes `n` in decimal.
+fn put_decimal(n: u32, out: &mut impl FnMut(u8)) {
+    let mut digits = [0u8; 10];
+    let mut i = digits.len();
+    let mut n = n;
+    loop {
+        i -= 1;
+        digits[i] = b'0' + (n % 10) as u8;
+        n /= 10;
+        if n == 0 {
+            break;
+        }
+    }
+    for &d in &digits[i..] {
+        out(d);
+    }
+}
+
+impl BootLine {
+    /// The role of the node that wrote the line.
+    pub const fn role(&self) -> Role {
+        match *self {
+            BootLine::Boot { role }
+            | BootLine::RadioUp { role, .. }
+            | BootLine::RadioError { role, .. } => role,
+        }
+    }
+
+    /// Writes the line, `\r\n` included, one byte at a time (at most [`MAX_BOOT_LINE`] bytes).
+    pub fn write(&self, mut out: impl FnMut(u8)) {
+        let out = &mut out;
+        fn word(w: u8, out: &mut impl FnMut(u8)) {
+            out(b' ');
+            put_word(w, out);
+        }
+        put_word(Word::Hoploc as u8, out);
+        word(1 + self.role() as u8, out);
+        match *self {
+            BootLine::Boot { .. } => word(Word::Boot as u8, out),
+            BootLine::RadioUp { found, .. } => {
+                word(Word::Radio as u8, out);
+                word(Word::Ok as u8, out);
+                match found {
+                    RadioFound::Api => word(Word::Api as u8, out),
+                    RadioFound::Configured { baud } => {
+                        out(b' ');
+                        put_decimal(baud, out);
+                    }
+                }
+            }
+            BootLine::RadioError { code, attempt, .. } => {
+                word(Word::Radio as u8, out);
+                word(Word::Error as u8, out);
+                out(b' ');
+                put_decimal(code.into(), out);
+                word(Word::Try as u8, out);
+                out(b' ');
+                put_decimal(attempt.into(), out);
+            }
+        }
+        out(b'\r');
+        out(b'\n');
+    }
+
+    /// Reads a line (with or without its `\r\n`). Never panics; any other text is
+    /// [`LineError::NotBootLine`].
+    pub fn parse(line: &str) -> Result<BootLine, LineError> {
+        let line = line.strip_suffix('\n').unwrap_or(line);
+        let line = line.strip_suffix('\r').unwrap_or(line);
+        let mut words = line.split(' ');
+        let (Some("hoploc"), Some(role), Some(kind)) = (words.next(), words.next(), words.next())
+        else {
+            return Err(LineError::NotBootLine);
+        };
+        let role = Role::from_name(role).ok_or(LineError::NotBootLine)?;
+        let rest: [Option<&str>; 5] = core::array::from_fn(|_| words.next());
+        let parsed = match (kind, rest) {
+            ("boot", [None, ..]) => BootLine::Boot { role },
+            ("radio", [Some("ok"), Some("api"), None, ..]) => BootLine::RadioUp {
+                role,
+                found: RadioFound::Api,
+            },
+            ("radio", [Some("ok"), Some(baud), None, ..]) => BootLine::RadioUp {
+                role,
+                found: RadioFound::Configured {
+                    baud: number(baud)?,
+                },
+            },
+            ("radio", [Some("error"), Some(code), Some("try"), Some(attempt), None]) => {
+                BootLine::RadioError {
+                    role,
+                    code: number(code)?,
+                    attempt: number(attempt)?,
+                }
+            }
+            ("boot" | "radio", _) => return Err(LineError::Malformed),
+            _ => return Err(LineError::NotBootLine),
+        };
+        Ok(parsed)
+    }
+}
+
+/// A decimal number as [`BootLine::write`] writes it: digits only, no sign, no leading zero.
+fn number<T: TryFrom<u32>>(s: &str) -> Result<T, LineError> {
+    let canonical = !s.is_empty()
+        && s.bytes().all(|b| b.is_ascii_digit())
+        && (s == "0" || !s.starts_with('0'));
+    if !canonical {
+        return Err(LineError::Malformed);
+    }
+    let n: u32 = s.parse().map_err(|_| LineError::Malformed)?;
+    T::try_from(n).map_err(|_| LineError::Malformed)
+}
+
+/// The line without its `\r\n`.
+impl fmt::Display for BootLine {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut buf = [0u8; MAX_BOOT_LINE];
+        let mut n = 0;
+        self.write(|b| {
+            if let Some(slot) = buf.get_mut(n) {
+                *slot = b;
+                n += 1;
+            }
+        });
+        let text = buf.get(..n.saturating_sub(2)).unwrap_or(&[]);
+        f.write_str(core::str::from_utf8(text).map_err(|_| fmt::Error)?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::string::{String, ToString};
+    use std::vec::Vec;
+
+    fn written(l: &BootLine) -> String {
+        let mut v = Vec::new();
+        l.write(|b| v.push(b));
+        String::from_utf8(v).unwrap()
+    }
+
+    #[test]
+    fn documented_examples() {
+        let cases = [
+            (BootLine::Boot { role: Role::Anchor }, "hoploc anchor boot\r\n"),
+            (
+                BootLine::RadioUp {
+                    role: Role::Agent,
+                    found: RadioFound::Api,
+                },
+                "hoploc agent radio ok api\r\n",
+            ),
+            (
+                BootLine::RadioUp {
+                    role: Role::Sink,
+                    found: RadioFound::Configured { baud: 9600 },
+                },
+                "hoploc sink radio ok 9600\r\n",
+            ),
+            (
+                BootLine::RadioError {
+                    role: Role::Anchor,
+                    code: 9,
+                    attempt: 2,
+                },
+                "hoploc anchor radio error 9 try 2\r\n",
+            ),
+        ];
+        for (line, text) in cases {
+            assert_eq!(written(&line), text);
+            assert_eq!(line.to_string(), text.trim_end());
+            assert_eq!(BootLine::parse(text), Ok(line));
+            assert_eq!(BootLine::parse(text.trim_end()), Ok(line));
+        }
+    }
+
+    #[test]
+    fn longest_line_fits() {
+        let l = BootLine::RadioError {
+            role: Role::Anchor,
+            code: 255,
+            attempt: u16::MAX,
+        };
+        assert_eq!(written(&l).len(), MAX_BOOT_LINE);
+    }
+
+    #[test]
+    fn other_text_is_not_a_boot_line() {
+        for text in [
+            "",
+            "hoploc",
+            "hoploc anchor",
+            "hello world",
+            "hoploc robot boot",
+            "hoploc sink estimate 1 2 3",
+            "\u{7e}\u{0}",
+        ] {
+            assert_eq!(BootLine::parse(text), Err(LineError::NotBootLine), "{text:?}");
+        }
+    }
+
+    #[test]
+    fn broken_fields_are_malformed() {
+        for text in [
+            "hoploc anchor boot now",
+            "hoploc anchor radio",
+            "hoploc anchor radio ok",
+            "hoploc anchor radio ok 96OO",
+            "hoploc anchor radio ok -1",
+            "hoploc anchor radio ok 09600",
+            "hoploc anchor radio ok 99999999999",
+            "hoploc anchor radio error 256 try 1",
+            "hoploc anchor radio error 9 try 65536",
+            "hoploc anchor radio error 9 try",
+            "hoploc anchor radio error 9 try 1 more",
+            "hoploc anchor radio error 9 retry 1",
+            "hoploc anchor radio ok api extra",
+        ] {
+            assert_eq!(BootLine::parse(text), Err(LineError::Malformed), "{text:?}");
+        }
+    }
+}
