@@ -1,30 +1,14 @@
-//! Finding (and if needed building) the node firmware ELFs.
+//! Finding (and if needed building) the node firmware ELFs: `cargo fw` puts them in
+//! `target/avr-none/fw/{anchor,agent,sink}-fw.elf`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The three node roles, each one firmware.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Role {
-    Anchor,
-    Agent,
-    Sink,
-}
+pub use loc_proto::Role;
 
-impl Role {
-    pub const ALL: [Role; 3] = [Role::Anchor, Role::Agent, Role::Sink];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Role::Anchor => "anchor",
-            Role::Agent => "agent",
-            Role::Sink => "sink",
-        }
-    }
-
-    pub fn crate_name(self) -> String {
-        format!("{}-fw", self.name())
-    }
+/// The cargo package (and ELF name) of `role`'s firmware: `anchor-fw`, `agent-fw`, `sink-fw`.
+pub fn crate_name(role: Role) -> String {
+    format!("{}-fw", role.name())
 }
 
 /// The workspace root this binary was built from.
@@ -44,7 +28,7 @@ pub fn default_dir() -> PathBuf {
 
 /// The ELF of `role` in `dir`.
 pub fn elf(dir: &Path, role: Role) -> PathBuf {
-    dir.join(format!("{}.elf", role.crate_name()))
+    dir.join(format!("{}.elf", crate_name(role)))
 }
 
 /// Builds the firmware with `cargo fw` when an ELF is missing from the default location.

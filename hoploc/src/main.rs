@@ -1,7 +1,6 @@
 //! The hoploc command line.
 
-mod demo;
-mod firmware;
+use hoploc::{demo, firmware};
 
 use std::path::PathBuf;
 use std::process::ExitCode;

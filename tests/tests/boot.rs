@@ -1,0 +1,214 @@
+//! Each node firmware boots in simavr against a scripted XBee (`simavr::ScriptedRadio`), and
+//! these tests assert the exact frames it writes and what it says on the UART and the LED:
+//!
+//! * a radio already in API mode 2: `AP` query, then `MY`, `ID`, `CH` each set and read back, the
+//!   `radio ok api` line, then a quiet, listening node (no watchdog reset);
+//! * a radio that never answers: two `AP` queries, `+++` at each of the five baud rates, the
+//!   `radio error 9 try 1` line, error code 9 on the LED, then the next attempt;
+//! * a radio that answers garbage (a bad-checksum answer, noise, never `OK`): `radio error 10`,
+//!   code 10 on the LED, next attempt.
+
+use hoploc_tests::{boot, led_on};
+use loc_proto::line::{BootLine, RadioFound};
+use loc_proto::{xbee_channel, Role, DEFAULT_CHANNELS, DEFAULT_PAN_ID, DEFAULT_SINK_CHANNEL};
+use simavr::{cycles_to_ms, ms_to_cycles, Avr, Match, ScriptedRadio};
+use xbee_api::Mode;
+
+/// The settings each boot firmware gives its radio: node 1 of its role on the default PAN;
+/// anchors and agents on the first channel of the default list, the sink on the sink channel.
+fn settings(role: Role) -> (u16, u8) {
+    let ch = match role {
+        Role::Sink => DEFAULT_SINK_CHANNEL,
+        _ => DEFAULT_CHANNELS[0],
+    };
+    (role.address(1), xbee_channel(ch).unwrap())
+}
+
+fn at(id: u8, cmd: &[u8; 2], param: &[u8]) -> Vec<u8> {
+    let mut v = vec![0x08, id, cmd[0], cmd[1]];
+    v.extend_from_slice(param);
+    v
+}
+
+fn at_ok(id: u8, cmd: &[u8; 2], value: &[u8]) -> Vec<u8> {
+    let mut v = vec![0x88, id, cmd[0], cmd[1], 0x00];
+    v.extend_from_slice(value);
+    v
+}
+
+fn parsed_lines(radio: &ScriptedRadio) -> Vec<(f64, String)> {
+    radio
+        .lines()
+        .iter()
+        .map(|l| (l.ms(), l.text.clone()))
+        .collect()
+}
+
+/// The script of a radio that is already in API mode 2 at 57600 and takes every setting.
+fn api_radio(role: Role) -> ScriptedRadio {
+    let (my, ch) = settings(role);
+    let regs: [([u8; 2], Vec<u8>); 3] = [
+        (*b"MY", my.to_be_bytes().to_vec()),
+        (*b"ID", DEFAULT_PAN_ID.to_be_bytes().to_vec()),
+        (*b"CH", vec![ch]),
+    ];
+    let mut s = ScriptedRadio::new(Mode::Escaped)
+        // The first frame comes right after the boot line.
+        .expect(Match::data(&at(1, b"AP", &[])), 20.0)
+        .reply(&at_ok(1, b"AP", &[0x02]), 1.0);
+    let mut id = 2;
+    for (cmd, value) in &regs {
+        s = s
+            .expect(Match::data(&at(id, cmd, value)), 10.0)
+            .reply(&at_ok(id, cmd, &[]), 1.0)
+            .expect(Match::data(&at(id + 1, cmd, &[])), 10.0)
+            .reply(&at_ok(id + 1, cmd, value), 1.0);
+        id += 2;
+    }
+    // Then it listens: no frame for 3 s (three watchdog periods).
+    s.expect_silence(3000.0)
+}
+
+fn boots_against_a_radio_in_api_mode(role: Role) {
+    let mut avr = boot(role);
+    let mut radio = api_radio(role);
+    radio.run_to_end(&mut avr, 5000.0).unwrap();
+    // The AP query, byte for byte on the wire (AP=2 escaping; nothing to escape here).
+    let first = &radio.frames()[0];
+    let wire: Vec<u8> = avr
+        .uart_output()
+        .iter()
+        .filter(|b| b.cycle >= first.cycle && b.cycle < first.end_cycle)
+        .map(|b| b.byte)
+        .collect();
+    assert_eq!(wire, [0x7E, 0x00, 0x04, 0x08, 0x01, 0x41, 0x50, 0x65]);
+    assert_eq!(radio.frames().len(), 7, "AP?, then MY, ID, CH set + read back");
+    let lines = parsed_lines(&radio);
+    let texts: Vec<&str> = lines.iter().map(|(_, t)| t.as_str()).collect();
+    assert_eq!(
+        texts,
+        [
+            BootLine::Boot { role }.to_string(),
+            BootLine::RadioUp {
+                role,
+                found: RadioFound::Api
+            }
+            .to_string()
+        ],
+        "one boot (no watchdog reset), one radio line"
+    );
+    // The radio line follows the last read-back's answer.
+    assert!(lines[1].0 > radio.frames()[6].end_ms());
+    assert!(radio.decode_errors().is_empty());
+    // Whole bring-up in well under 100 ms against a radio that answers within 1 ms.
+    assert!(lines[1].0 < 100.0, "{lines:?}");
+}
+
+/// Runs `radio` on `avr` until the script is done, sampling the LED every 5 ms; returns
+/// (start ms, length ms) of every time it was on.
+fn run_watching_led(avr: &mut Avr, radio: &mut ScriptedRadio, timeout_ms: f64) -> Vec<(f64, f64)> {
+    let end = avr.cycle() + ms_to_cycles(timeout_ms);
+    let mut pulses = Vec::new();
+    let mut on_since: Option<f64> = None;
+    while !radio.is_done() {
+        assert!(avr.cycle() < end, "script not done after {timeout_ms} ms");
+        let next = avr.cycle() + ms_to_cycles(5.0);
+        radio.run_until(avr, next).unwrap();
+        let now = cycles_to_ms(avr.cycle());
+        match (led_on(avr), on_since) {
+            (true, None) => on_since = Some(now),
+            (false, Some(t)) => {
+                pulses.push((t, now - t));
+                on_since = None;
+            }
+            _ => {}
+        }
+    }
+    pulses
+}
+
+/// Checks a failed first attempt: `+++` at the five baud rates, each after the guard time of
+/// silence; the error line with `code`; `code` blinks of 200 ms between it and the retry.
+fn failed_attempt(role: Role, mut radio: ScriptedRadio, code: u8) {
+    let mut avr = boot(role);
+    let pulses = run_watching_led(&mut avr, &mut radio, 30_000.0);
+    let lines = parsed_lines(&radio);
+    let plus: Vec<f64> = lines
+        .iter()
+        .filter(|(_, t)| t == "+++")
+        .map(|&(ms, _)| ms)
+        .collect();
+    assert_eq!(plus.len(), 5, "one +++ per baud rate: {lines:?}");
+    for pair in plus.windows(2) {
+        // Guard (1100 ms) before, guard + timeout (1600 ms) waiting for OK after.
+        let gap = pair[1] - pair[0];
+        assert!((2695.0..2710.0).contains(&gap), "{gap} ms between +++: {lines:?}");
+    }
+    let error = BootLine::RadioError {
+        role,
+        code,
+        attempt: 1,
+    };
+    let texts: Vec<&str> = lines.iter().map(|(_, t)| t.as_str()).collect();
+    let mut expected = vec![BootLine::Boot { role }.to_string()];
+    expected.extend(std::iter::repeat_n("+++".to_string(), 5));
+    expected.push(error.to_string());
+    assert_eq!(texts, expected);
+    assert_eq!(BootLine::parse(texts[6]), Ok(error));
+    let error_ms = lines[6].0;
+    // The retry's AP query is the last frame the script expected.
+    let retry = radio.frames().last().unwrap().ms();
+    let blinks: Vec<_> = pulses
+        .iter()
+        .filter(|&&(t, _)| t > error_ms && t < retry)
+        .collect();
+    assert_eq!(blinks.len(), code as usize, "LED pulses {blinks:?}");
+    for &&(_, len) in &blinks {
+        assert!((195.0..=210.0).contains(&len), "blink of {len} ms");
+    }
+    // The LED was on for the whole first attempt (about 14.5 s).
+    assert!(
+        pulses.iter().any(|&(t, len)| t < 10.0 && len > 14_000.0),
+        "{pulses:?}"
+    );
+}
+
+fn silent_radio_gives_error_9_and_retries(role: Role) {
+    let radio = ScriptedRadio::new(Mode::Escaped)
+        .expect(Match::data(&at(1, b"AP", &[])), 20.0)
+        // Asked twice (a radio still powering up may miss the first), 500 ms apart.
+        .expect(Match::data(&at(2, b"AP", &[])), 520.0)
+        // Nothing until the second attempt: 5 × (1100 + 1600) ms of command mode, the line, and
+        // 9 blinks (9 × 500 + 1500 ms).
+        .expect(Match::data(&at(3, b"AP", &[])), 21_000.0);
+    failed_attempt(role, radio, 9);
+}
+
+fn garbage_radio_gives_error_10_and_retries(role: Role) {
+    // An AT response with a bad checksum, then noise, never a valid frame nor `OK\r`.
+    let bad_checksum = [0x7E, 0x00, 0x06, 0x88, 0x01, b'A', b'P', 0x00, 0x02, 0x00];
+    let mut radio = ScriptedRadio::new(Mode::Escaped)
+        .expect(Match::data(&at(1, b"AP", &[])), 20.0)
+        .reply_raw(&bad_checksum, 1.0)
+        .expect(Match::data(&at(2, b"AP", &[])), 520.0)
+        .reply_raw(b"\x55\xAA\x00garbage\r\n", 1.0);
+    // Noise throughout the command-mode search (every 400 ms, so inside each wait for `OK`).
+    for i in 0..35 {
+        radio = radio.send_raw_at(1100.0 + 400.0 * i as f64, b"\xF0?\x0FERR\r");
+    }
+    let radio = radio.expect(Match::data(&at(3, b"AP", &[])), 21_000.0);
+    failed_attempt(role, radio, 10);
+}
+
+macro_rules! per_role {
+    ($scenario:ident: $($name:ident => $role:expr),+) => {
+        mod $scenario {
+            use super::*;
+            $(#[test] fn $name() { super::$scenario($role) })+
+        }
+    };
+}
+
+per_role!(boots_against_a_radio_in_api_mode: anchor => Role::Anchor, agent => Role::Agent, sink => Role::Sink);
+per_role!(silent_radio_gives_error_9_and_retries: anchor => Role::Anchor, agent => Role::Agent, sink => Role::Sink);
+per_role!(garbage_radio_gives_error_10_and_retries: anchor => Role::Anchor, agent => Role::Agent, sink => Role::Sink);
