@@ -1,13 +1,16 @@
 //! `hoploc demo`: every node's real firmware in simavr, each on a modelled factory-fresh XBee.
 //!
 //! Until the emulated testbed lands this shows what exists end to end: the three firmwares boot,
-//! find their radio (transparent mode at 9600 baud, as Digi ships it), switch it to API mode 2 at
-//! 57600 through command mode, and set MY/ID/CH through API frames.
+//! look for their radio in API mode at 57600, find it instead in transparent mode at 9600 baud (as
+//! Digi ships it), switch it to API mode 2 at 57600 through command mode (`+++`, `ATAP2`, `ATBD6`,
+//! `ATWR`, `ATCN`), then set MY/ID/CH through API frames and read each back.
 
 use std::path::Path;
 
+use loc_proto::line::{BootLine, RadioFound};
 use simavr::xbee::{XBee, XBeeConfig};
 use simavr::{ms_to_cycles, Avr};
+use xbee_api::driver::Error as RadioError;
 use xbee_api::Frame;
 
 use crate::firmware::{self, Role};
@@ -38,6 +41,29 @@ pub fn describe(data: &[u8]) -> String {
         Ok(Frame::Tx16 { dest, data, .. }) => format!("TX16 to {dest:04X}, {} bytes", data.len()),
         Ok(f) => format!("frame {:#04x}", f.frame_type()),
         Err(e) => format!("malformed frame: {e}"),
+    }
+}
+
+/// A text line the firmware wrote, in a few words: its boot lines explained, anything else
+/// (the command-mode lines `+++`, `ATAP2`… it sends the radio) quoted.
+pub fn describe_line(text: &str) -> String {
+    match BootLine::parse(text) {
+        Ok(BootLine::Boot { .. }) => "boot".to_string(),
+        Ok(BootLine::RadioUp {
+            found: RadioFound::Api,
+            ..
+        }) => "radio up: it was already in API mode 2 at 57600".to_string(),
+        Ok(BootLine::RadioUp {
+            found: RadioFound::Configured { baud },
+            ..
+        }) => format!(
+            "radio up: found in command mode at {baud} baud, now API mode 2 at 57600 (saved)"
+        ),
+        Ok(BootLine::RadioError { code, attempt, .. }) => format!(
+            "radio error {code} on try {attempt} ({}); the LED blinks {code} times, then it retries",
+            RadioError::describe_code(code).unwrap_or("unknown error")
+        ),
+        Err(_) => format!("sends \"{text}\""),
     }
 }
 
@@ -74,7 +100,7 @@ pub fn run(firmware_dir: &Path, seconds: f64) -> Result<(), String> {
             n.radio.run_until(&mut n.avr, t);
             let mut events: Vec<(f64, String)> = Vec::new();
             for line in &n.radio.text_lines()[n.lines_seen..] {
-                events.push((line.ms(), format!("uart \"{}\"", line.text.trim_end())));
+                events.push((line.ms(), describe_line(&line.text)));
             }
             for f in &n.radio.frames_from_firmware()[n.frames_seen..] {
                 events.push((f.ms(), describe(&f.data)));

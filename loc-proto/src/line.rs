@@ -222,9 +222,8 @@ impl BootLine {
 
 /// A decimal number as [`BootLine::write`] writes it: digits only, no sign, no leading zero.
 fn number<T: TryFrom<u32>>(s: &str) -> Result<T, LineError> {
-    let canonical = !s.is_empty()
-        && s.bytes().all(|b| b.is_ascii_digit())
-        && (s == "0" || !s.starts_with('0'));
+    let canonical =
+        !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit()) && (s == "0" || !s.starts_with('0'));
     if !canonical {
         return Err(LineError::Malformed);
     }
@@ -263,7 +262,10 @@ mod tests {
     #[test]
     fn documented_examples() {
         let cases = [
-            (BootLine::Boot { role: Role::Anchor }, "hoploc anchor boot\r\n"),
+            (
+                BootLine::Boot { role: Role::Anchor },
+                "hoploc anchor boot\r\n",
+            ),
             (
                 BootLine::RadioUp {
                     role: Role::Agent,
@@ -316,7 +318,11 @@ mod tests {
             "hoploc sink estimate 1 2 3",
             "\u{7e}\u{0}",
         ] {
-            assert_eq!(BootLine::parse(text), Err(LineError::NotBootLine), "{text:?}");
+            assert_eq!(
+                BootLine::parse(text),
+                Err(LineError::NotBootLine),
+                "{text:?}"
+            );
         }
     }
 

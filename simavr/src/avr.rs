@@ -728,6 +728,15 @@ impl Avr {
         Some(region.len() - first)
     }
 
+    /// Bytes of flash the program occupies (`.text` + the `.data` initialisers that follow it):
+    /// the `__data_load_end` symbol avr-gcc's linker script defines, else `_etext`.
+    pub fn flash_size(&self) -> Option<usize> {
+        ["__data_load_end", "_etext"]
+            .iter()
+            .find_map(|n| self.symbol(n))
+            .map(|v| v as usize)
+    }
+
     /// Bytes of static data (`static_data_end() - 0x100`, the start of SRAM).
     pub fn static_data_size(&self) -> Option<usize> {
         self.static_data_end().map(|e| e.saturating_sub(0x100))

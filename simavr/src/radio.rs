@@ -649,10 +649,7 @@ mod line_tests {
         for &(ms, b, text) in bytes {
             s.push(ms_to_cycles(ms), b, text);
         }
-        s.lines()
-            .iter()
-            .map(|l| (l.ms(), l.text.clone()))
-            .collect()
+        s.lines().iter().map(|l| (l.ms(), l.text.clone())).collect()
     }
 
     fn at(ms: f64, text: &str) -> Vec<(f64, u8, bool)> {
@@ -681,7 +678,10 @@ mod line_tests {
             lines.iter().map(|(_, t)| t.as_str()).collect::<Vec<_>>(),
             ["+++", "ATCN", "ok"]
         );
-        assert!((lines[1].0 - 1200.0).abs() < 0.01, "a line is timed by its first byte");
+        assert!(
+            (lines[1].0 - 1200.0).abs() < 0.01,
+            "a line is timed by its first byte"
+        );
         // An unfinished line stays pending until its end or a pause.
         assert!(split(&at(0.0, "half")).is_empty());
     }

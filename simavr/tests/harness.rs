@@ -267,3 +267,27 @@ fn simulation_speed_busy_loop() {
     );
     assert_eq!(avr.state(), State::Running);
 }
+
+#[test]
+fn flash_size_is_text_plus_data_as_avr_size_counts_it() {
+    let elf = common::fixture("stack");
+    let out = std::process::Command::new("avr-size")
+        .arg("-A")
+        .arg(&elf)
+        .output()
+        .expect("run avr-size (binutils-avr)");
+    let table = String::from_utf8_lossy(&out.stdout);
+    let section = |name: &str| -> usize {
+        table
+            .lines()
+            .find_map(|l| {
+                let mut w = l.split_whitespace();
+                (w.next() == Some(name)).then(|| w.next().unwrap().parse().unwrap())
+            })
+            .unwrap_or(0)
+    };
+    let text = section(".text");
+    assert!(text > 0, "{table}");
+    let avr = Avr::load(&elf).unwrap();
+    assert_eq!(avr.flash_size(), Some(text + section(".data")), "{table}");
+}

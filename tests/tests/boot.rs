@@ -82,7 +82,11 @@ fn boots_against_a_radio_in_api_mode(role: Role) {
         .map(|b| b.byte)
         .collect();
     assert_eq!(wire, [0x7E, 0x00, 0x04, 0x08, 0x01, 0x41, 0x50, 0x65]);
-    assert_eq!(radio.frames().len(), 7, "AP?, then MY, ID, CH set + read back");
+    assert_eq!(
+        radio.frames().len(),
+        7,
+        "AP?, then MY, ID, CH set + read back"
+    );
     let lines = parsed_lines(&radio);
     let texts: Vec<&str> = lines.iter().map(|(_, t)| t.as_str()).collect();
     assert_eq!(
@@ -142,7 +146,10 @@ fn failed_attempt(role: Role, mut radio: ScriptedRadio, code: u8) {
     for pair in plus.windows(2) {
         // Guard (1100 ms) before, guard + timeout (1600 ms) waiting for OK after.
         let gap = pair[1] - pair[0];
-        assert!((2695.0..2710.0).contains(&gap), "{gap} ms between +++: {lines:?}");
+        assert!(
+            (2695.0..2710.0).contains(&gap),
+            "{gap} ms between +++: {lines:?}"
+        );
     }
     let error = BootLine::RadioError {
         role,

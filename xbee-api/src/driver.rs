@@ -208,6 +208,28 @@ impl Error {
     }
 }
 
+impl Error {
+    /// What an [`Error::code`] means, in a few words (for a person reading a node's boot line or
+    /// counting LED blinks); `None` for a number no error has.
+    pub const fn describe_code(code: u8) -> Option<&'static str> {
+        Some(match code {
+            1 => "serial port error",
+            2 => "serial port did not take a byte in time",
+            3 => "stream error",
+            4 => "frame too long",
+            5 => "no response to an AT command",
+            6 => "TX status still outstanding",
+            7 => "AT command answered with an error status",
+            8 => "unexpected answer to an AT command",
+            9 => "no response from the radio at any baud rate",
+            10 => "no valid answer from the radio at any baud rate",
+            11 => "radio rejected a command-mode command",
+            12 => "radio configured but silent in API mode",
+            _ => return None,
+        })
+    }
+}
+
 /// Shows a two-letter command.
 struct Cmd([u8; 2]);
 

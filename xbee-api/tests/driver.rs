@@ -714,7 +714,14 @@ fn error_codes_are_distinct() {
     assert_eq!(codes.len(), all.len());
     for e in all {
         assert!(!e.to_string().is_empty());
+        // Every code has a description, and those without payload read like their Display.
+        let words = Error::describe_code(e.code()).unwrap();
+        if matches!(e, Error::NoResponse | Error::Garbage | Error::NotConfirmed) {
+            assert_eq!(words, e.to_string());
+        }
     }
+    assert_eq!(Error::describe_code(0), None);
+    assert_eq!(Error::describe_code(13), None);
 }
 
 #[test]

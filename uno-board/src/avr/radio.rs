@@ -69,9 +69,7 @@ pub fn bring_up_radio(
 /// the radio up ([`bring_up_radio`]), then listen with the watchdog running (1 s), draining
 /// received frames and toggling the LED once a second.
 pub fn boot_and_listen(role: Role, config: &BringUpConfig) -> ! {
-    let Some(board) = Board::take() else {
-        reset()
-    };
+    let Some(board) = Board::take() else { reset() };
     let Board {
         mut serial,
         mut led,
