@@ -13,6 +13,8 @@
 //! * [`Eeprom`] (1 KB, byte and slice access), [`Led`] on D13 with an error-code blinker,
 //!   [`sleep_unless`]/[`sleep_idle`] (idle mode, interrupts keep running), [`Watchdog`], and
 //!   [`ResetCause`].
+//! * Radio bring-up at boot ([`bring_up_radio`], [`boot_and_listen`]): the xbee-api driver on
+//!   [`Serial`], the `loc_proto::line::BootLine` lines, the LED error code and the retry.
 //! * With the default `panic-reset` feature, the `#[panic_handler]`: reset through the watchdog,
 //!   no formatting.
 //!

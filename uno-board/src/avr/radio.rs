@@ -18,20 +18,14 @@ pub fn write_line(serial: &mut Serial, line: &BootLine) {
     line.write(|b| serial.write_byte(b));
 }
 
-/// Brings the radio up (API mode 2 at 57600, `MY`/`ID`/`CH` from `config`), trying until it
+/// Brings `radio` up (API mode 2 at 57600, `MY`/`ID`/`CH` from `config`), trying until it
 /// works. Each failed attempt writes `hoploc <role> radio error <code> try <n>`, blinks `code`
 /// on the LED once (5 to 8 s), then tries again; success writes `hoploc <role> radio ok …`.
 ///
 /// The watchdog must be off (it is after `Board::take`): one attempt at a radio that never
 /// answers takes about 14 s, longer than the watchdog's longest timeout, and every wait in it is
 /// bounded by the tick.
-pub fn bring_up_radio(
-    serial: Serial,
-    led: &mut Led,
-    role: Role,
-    config: &BringUpConfig,
-) -> NodeRadio {
-    let mut radio = Radio::new(serial, SysClock, Mode::Escaped);
+pub fn bring_up_radio(radio: &mut NodeRadio, led: &mut Led, role: Role, config: &BringUpConfig) {
     let mut attempt: u16 = 0;
     loop {
         attempt = attempt.saturating_add(1);
@@ -47,7 +41,7 @@ pub fn bring_up_radio(
                     BringUp::Configured { baud } => RadioFound::Configured { baud },
                 };
                 write_line(radio.serial_mut(), &BootLine::RadioUp { role, found });
-                return radio;
+                return;
             }
             Err(e) => {
                 let code = e.code();
@@ -77,7 +71,9 @@ pub fn boot_and_listen(role: Role, config: &BringUpConfig) -> ! {
         ..
     } = board;
     write_line(&mut serial, &BootLine::Boot { role });
-    let mut radio = bring_up_radio(serial, &mut led, role, config);
+    // Built here and lent out: the driver (with its 130-byte decoder) lives once, on this stack.
+    let mut radio = Radio::new(serial, SysClock, Mode::Escaped);
+    bring_up_radio(&mut radio, &mut led, role, config);
     watchdog.start(WdtTimeout::S1);
     let mut last_blink = now_ms();
     loop {
