@@ -6,7 +6,7 @@ set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 
 packages=(gcc-avr avr-libc binutils-avr avrdude simavr libsimavr-dev libelf-dev libclang-dev
-  libzstd-dev zlib1g-dev pkg-config libudev-dev python3 python3-venv python3-pip)
+  libzstd-dev zlib1g-dev pkg-config libudev-dev python3 python3-venv python3-pip python3-numpy)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
