@@ -41,9 +41,10 @@ impl Area {
         Area { width, height }
     }
 
-    /// `p` moved to the nearest point of the area.
+    /// `p` moved to the nearest point of the area. Never panics (`f64::clamp` would on a
+    /// negative or NaN side); with such a side the result is still finite for finite `p`.
     pub fn clip(self, p: Point) -> Point {
-        Point::new(p.x.clamp(0.0, self.width), p.y.clamp(0.0, self.height))
+        Point::new(p.x.min(self.width).max(0.0), p.y.min(self.height).max(0.0))
     }
 
     /// Whether `p` lies in the area (edges included).
@@ -160,5 +161,9 @@ mod tests {
         assert_eq!(a.clip(Point::new(-1.0, 7.0)), Point::new(0.0, 5.0));
         assert!(a.contains(Point::new(10.0, 0.0)));
         assert!(!a.contains(Point::new(10.01, 0.0)));
+        // A bad area never panics.
+        let bad = Area::new(-1.0, f64::NAN);
+        let c = bad.clip(Point::new(3.0, 4.0));
+        assert!(c.x.is_finite() && c.y.is_finite());
     }
 }
