@@ -105,10 +105,14 @@ fn side(s: f64) -> f64 {
 }
 
 /// Fine lattice point `(i, j)` of `area`.
+///
+/// Computed as `side · (i / 50)`: the fraction is at most 1 and rounding is monotone, so the point
+/// never leaves the area (`side · i / 50` can exceed the side by an ulp).
 pub fn lattice_point(area: Area, i: usize, j: usize) -> Point {
+    let n = FINE_DIVS as f64;
     Point::new(
-        side(area.width) * i as f64 / FINE_DIVS as f64,
-        side(area.height) * j as f64 / FINE_DIVS as f64,
+        side(area.width) * (i as f64 / n),
+        side(area.height) * (j as f64 / n),
     )
 }
 
@@ -480,6 +484,23 @@ pub fn locate(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lattice_stays_in_the_area() {
+        // 5.381717578189269 · 50 / 50 rounds up by an ulp.
+        let area = Area::new(7.592107003864331, 5.381717578189269);
+        for k in 0..=FINE_DIVS {
+            assert!(area.contains(lattice_point(area, k, k)));
+        }
+        assert_eq!(
+            lattice_point(area, 50, 50),
+            Point::new(area.width, area.height)
+        );
+        assert_eq!(
+            lattice_point(Area::new(-1.0, f64::NAN), 50, 7),
+            Point::new(0.0, 0.0)
+        );
+    }
 
     #[test]
     fn posterior_acc_matches_direct_sum() {
