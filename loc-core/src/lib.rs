@@ -9,6 +9,7 @@
 //! * [`grid`]: coarse-to-fine grid MLE and the posterior-mean (MMSE) estimate, σ estimate.
 //! * [`baselines`]: trilateration, quadlateration, MDS-MAP (host reference algorithms).
 //! * [`bounds`]: the Cramér–Rao lower bound and the MMSE floor.
+//! * [`fixed`]: the integer-only path of the sink MCU (same algorithms, tables in flash on AVR).
 //!
 //! This is the f64 reference the host study uses. The crate is `no_std` (math from `libm`).
 #![no_std]
@@ -19,6 +20,7 @@
 extern crate std;
 
 pub mod baselines;
+pub mod fixed;
 pub mod bounds;
 pub mod grid;
 pub mod model;
