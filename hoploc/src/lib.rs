@@ -1,6 +1,9 @@
 //! The hoploc host tools behind the `hoploc` command line, as a library so the workspace's tests
-//! (the `tests` crate) use the same firmware lookup and runs as the command.
+//! (the `tests` crate) use the same firmware lookup and runs as the command, and benchmarks drive
+//! the simulation study ([`study`]) directly.
 
 pub mod demo;
 pub mod firmware;
 pub mod footprint;
+pub mod simulate;
+pub mod study;
