@@ -1,0 +1,774 @@
+//! Grid MLE and MMSE in fixed point ([`crate::grid`]'s searches on the same lattice).
+//!
+//! Costs are `C' = C/K²` in Q.20 log2² units, `u32`, saturating at [`COST_MAX`]; see the module
+//! docs of [`crate::fixed`]. The searches mirror [`crate::grid::search_lattice`] step by step
+//! (same scan order, same strict `<`, same multi-start ranking, descent and budget), so they make
+//! the same decisions whenever the costs order the same way. Two exact shortcuts:
+//!
+//! * a cost evaluation stops as soon as its partial sum reaches the value it must beat (the terms
+//!   are non-negative, so the comparison's outcome is already known);
+//! * the thesis' fine window skips the coarse points inside it: they cost at least as much as the
+//!   coarse winner the window starts from, so under a strict `<` they can never win.
+
+use super::math::{clamp_i64, exp2_neg_q26, log2_fast, sq16, sq_q18, sq_shr, square_shift};
+use super::refine::observations;
+use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
+use crate::grid::{Search, COARSE_DIVS, FINE_DIVS};
+use crate::{LocError, MAX_ANCHORS};
+
+const RATIO: usize = FINE_DIVS / COARSE_DIVS;
+/// Rows a search window holds: ± one coarse step.
+const ROWS: usize = 2 * RATIO + 1;
+/// Coarse starting points of [`Search::MultiStart`].
+const STARTS: usize = 4;
+/// Most cost evaluations [`Search::MultiStart`] may spend: the thesis search's worst case.
+const BUDGET: usize = (COARSE_DIVS + 1) * (COARSE_DIVS + 1) + ROWS * ROWS;
+/// "No cost yet" (every real cost is below it).
+const INF: u32 = u32::MAX;
+/// Largest real cost.
+const COST_MAX: u32 = u32::MAX - 1;
+/// `|u|` saturation, Q.20: 32 log2 units (`|z − p| ≥ 32·K` dB).
+const U_SAT: u32 = 32 << 20;
+/// `32²` in Q.20, less one: four of them still fit a `u32`.
+const SQ_SAT: u32 = (1 << 30) - 1;
+
+/// `log2(1 m²)` in lattice units `(1/50 cm)²`: `log2(5000²)`, Q.20.
+const LOG2_M2: i64 = 25769201;
+/// `log2((1 cm)²)` in lattice units: `log2(50²)`, Q.20 (the model's [`crate::model::MIN_DISTANCE`]).
+const LOG2_CLAMP: i32 = 11836024;
+/// `5·log10(2)`, Q.30.
+const FIVE_LOG10_2_Q30: i64 = 1_616_142_483;
+/// `log2(e)`, Q.30.
+const LOG2_E_Q30: i64 = 1_549_082_005;
+
+/// Which estimator produced a fixed-point fix.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Estimator {
+    /// Maximum likelihood with this search.
+    Mle(Search),
+    /// Posterior mean with this shadowing σ, Q.8 dB (0: the σ → 0 limit, the mean of the lattice
+    /// minimisers).
+    Mmse {
+        /// σ, Q.8 dB.
+        sigma: u16,
+    },
+}
+
+/// A fixed-point position estimate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Estimate {
+    /// The position, mm (inside the area).
+    pub pos: PointMm,
+    /// Fine-lattice indices `(i, j)` of the MLE fix (for MMSE: of the smallest cost seen).
+    pub lattice: (u8, u8),
+    /// Smallest cost found including the observations' constant part, Q.8 dB², saturating.
+    pub min_cost: u32,
+    /// The estimator that produced it.
+    pub estimator: Estimator,
+    /// Anchors used.
+    pub anchors: u8,
+    /// Scalar measurements behind the cost (sum of the observation weights).
+    pub total_weight: u8,
+    /// Cost evaluations spent (an evaluation that stopped early counts).
+    pub evaluations: u16,
+}
+
+/// The position-independent part of the cost, set up once per estimate.
+struct Cost {
+    n: usize,
+    /// Anchor positions in lattice units (1/50 cm).
+    ax: [i32; MAX_ANCHORS],
+    ay: [i32; MAX_ANCHORS],
+    w: [u8; MAX_ANCHORS],
+    /// `(z − P0)/K − log2(1 m²)`, Q.20, clamped to ±2^30 (±1024 log2 units).
+    rho: [i32; MAX_ANCHORS],
+    /// α = 0: the cost does not depend on the position.
+    flat: bool,
+    /// Lattice steps in lattice units: `W`, `H` (cm).
+    width: i32,
+    height: i32,
+    /// `K` in Q.16 (`|K| ≤ 48.2`).
+    k_q16: i64,
+}
+
+impl Cost {
+    fn new(obs: &Observations, model: PathLoss, area: AreaCm) -> Cost {
+        let model = model.sane();
+        // K = 5·log10(2)·α, Q.24.
+        let k_q24 = (model.alpha as i64 * FIVE_LOG10_2_Q30) >> 30;
+        let mut c = Cost {
+            n: obs.len(),
+            ax: [0; MAX_ANCHORS],
+            ay: [0; MAX_ANCHORS],
+            w: [0; MAX_ANCHORS],
+            rho: [0; MAX_ANCHORS],
+            flat: k_q24 == 0,
+            width: area.width as i32,
+            height: area.height as i32,
+            k_q16: (k_q24 + 128) >> 8,
+        };
+        // 1/K in Q.32, |1/K| ≤ 2^4 (|α| ≥ 0.042; smaller α only makes the cost flatter).
+        let inv_k = if c.flat {
+            0
+        } else {
+            clamp_i64((1i64 << 56) / k_q24, -(1 << 36), 1 << 36)
+        };
+        for (a, o) in obs.as_slice().iter().enumerate() {
+            c.ax[a] = 50 * o.pos.x as i32;
+            c.ay[a] = 50 * o.pos.y as i32;
+            c.w[a] = o.weight;
+            // (z − P0) Q.16 (|·| < 2^26) × 1/K Q.32 → Q.48 → Q.20.
+            let r = ((o.z as i64 - model.p0 as i64) * inv_k) >> 28;
+            c.rho[a] = clamp_i64(r - LOG2_M2, -(1 << 30), 1 << 30) as i32;
+        }
+        c
+    }
+
+    /// `C = K²·C'` in Q.8 dB² (saturating) of a cost `c` (Q.20).
+    fn report(&self, c: u32) -> u32 {
+        if self.flat {
+            return 0;
+        }
+        // K² Q.32 >> 16 = Q.16 (< 2^28) × c Q.20 (< 2^32) → Q.36 → Q.8.
+        let k2 = ((self.k_q16 * self.k_q16) >> 16) as u64;
+        ((k2 * c as u64) >> 28).min(u32::MAX as u64) as u32
+    }
+
+    /// `(z − P0)²` summed with the weights, Q.8 dB² (the cost when α = 0).
+    fn flat_cost(obs: &Observations, model: PathLoss) -> u32 {
+        let mut s: u64 = 0;
+        for o in obs.as_slice() {
+            let r = (o.z as i64 - model.sane().p0 as i64).unsigned_abs() >> 4; // Q.12, < 2^23
+            s += ((r * r) >> 16) * o.weight as u64;
+        }
+        s.min(u32::MAX as u64) as u32
+    }
+}
+
+/// A rectangle of fine indices (inclusive), with a row/column step.
+#[derive(Clone, Copy, Debug)]
+struct Window {
+    i0: usize,
+    i1: usize,
+    j0: usize,
+    j1: usize,
+    step: usize,
+}
+
+impl Window {
+    /// `± half` fine steps around `(i, j)`, clipped to the lattice.
+    fn around(i: usize, j: usize, half: usize) -> Window {
+        Window {
+            i0: i.saturating_sub(half),
+            i1: (i + half).min(FINE_DIVS),
+            j0: j.saturating_sub(half),
+            j1: (j + half).min(FINE_DIVS),
+            step: 1,
+        }
+    }
+
+    /// The coarse grid.
+    const COARSE: Window = Window {
+        i0: 0,
+        i1: FINE_DIVS,
+        j0: 0,
+        j1: FINE_DIVS,
+        step: RATIO,
+    };
+
+    /// Every column, rows `j0 …` (at most [`ROWS`] of them).
+    fn band(j0: usize) -> Window {
+        Window {
+            i0: 0,
+            i1: FINE_DIVS,
+            j0,
+            j1: (j0 + ROWS - 1).min(FINE_DIVS),
+            step: 1,
+        }
+    }
+
+    /// Rows in the window (≤ [`ROWS`]).
+    fn rows(&self) -> usize {
+        (self.j1 - self.j0) / self.step + 1
+    }
+}
+
+/// A search window's per-anchor constants. Costs are computed a column at a time, anchor by
+/// anchor: the row squares come from exact forward differences (wrapping `u32` arithmetic is exact
+/// because every square fits), so a window needs no table of squares.
+struct Stage {
+    /// `ρ` plus the shift, Q.20.
+    rho: [i32; MAX_ANCHORS],
+    /// `log2` of the 1 cm clamp in shifted units, Q.20.
+    lclamp: [i32; MAX_ANCHORS],
+    /// Right shift of the squares (0 up to 13 m from the anchor).
+    shift: [u8; MAX_ANCHORS],
+    /// First row's square `(H·j0 − ay)²` (shifted).
+    row0: [u32; MAX_ANCHORS],
+    /// Its first forward difference (used when the shift is 0).
+    inc0: [u32; MAX_ANCHORS],
+    /// Second difference `2·(H·step)²` (wrapping).
+    dd: u32,
+    w: Window,
+}
+
+impl Stage {
+    const fn new() -> Stage {
+        Stage {
+            rho: [0; MAX_ANCHORS],
+            lclamp: [0; MAX_ANCHORS],
+            shift: [0; MAX_ANCHORS],
+            row0: [0; MAX_ANCHORS],
+            inc0: [0; MAX_ANCHORS],
+            dd: 0,
+            w: Window::COARSE,
+        }
+    }
+
+    /// Sets the stage up for window `w`; `shifts`: given (reused) or chosen for the window.
+    #[inline(never)]
+    fn init(&mut self, cost: &Cost, w: Window, shifts: Option<&[u8; MAX_ANCHORS]>) {
+        self.w = w;
+        let d = cost.height * w.step as i32;
+        // Forward differences in wrapping u32 arithmetic: exact whenever the squares fit.
+        let du = d as u32;
+        self.dd = du.wrapping_mul(du) << 1;
+        for a in 0..cost.n {
+            let dy0 = cost.height * w.j0 as i32 - cost.ay[a];
+            let s = match shifts {
+                Some(s) => s[a],
+                None => {
+                    let far = |lo: usize, hi: usize, side: i32, p: i32| {
+                        let d0 = (side * lo as i32 - p).unsigned_abs();
+                        d0.max((side * hi as i32 - p).unsigned_abs())
+                    };
+                    let dx = far(w.i0, w.i1, cost.width, cost.ax[a]);
+                    square_shift(dx.max(far(w.j0, w.j1, cost.height, cost.ay[a])))
+                }
+            };
+            self.shift[a] = s;
+            let sh = (s as i32) << 20;
+            self.rho[a] = cost.rho[a] + sh;
+            self.lclamp[a] = LOG2_CLAMP - sh;
+            self.row0[a] = sq_shr(dy0, s);
+            // (dy0 + d)² − dy0² = d·(2·dy0 + d).
+            self.inc0[a] = du.wrapping_mul((2 * dy0 + d) as u32);
+        }
+    }
+
+    /// The costs of column `i`'s rows into `sums` (rows whose bit is set in `skip` are not
+    /// evaluated and get [`INF`]). A row's sum stops growing once it reaches `bound` (it is then
+    /// `≥ bound`, which is all a comparison with `bound` needs to know).
+    #[inline(never)]
+    fn column(&self, cost: &Cost, i: usize, bound: u32, skip: u16, sums: &mut [u32; ROWS]) {
+        let rows = self.w.rows();
+        for (r, v) in sums.iter_mut().enumerate().take(rows) {
+            *v = if skip & (1 << r) != 0 { INF } else { 0 };
+        }
+        if cost.flat {
+            return;
+        }
+        let dy_step = cost.height * self.w.step as i32;
+        for a in 0..cost.n {
+            let s = self.shift[a];
+            let dx = cost.width * i as i32 - cost.ax[a];
+            let dx2 = if s == 0 { sq16(dx) } else { sq_shr(dx, s) };
+            let (rho, lclamp, w) = (self.rho[a], self.lclamp[a], cost.w[a] as u32);
+            let (mut dy2, mut inc) = (self.row0[a], self.inc0[a]);
+            let mut dy = cost.height * self.w.j0 as i32 - cost.ay[a];
+            for sum in sums.iter_mut().take(rows) {
+                if *sum < bound {
+                    let (lo, carry) = dx2.overflowing_add(dy2);
+                    let l = log2_fast(lo, carry).max(lclamp);
+                    let u = (rho + l).unsigned_abs();
+                    // u² in Q.20 from |u| in Q.18 (< 2^23): below 2^30 − 1.
+                    let sq = if u >= U_SAT { SQ_SAT } else { sq_q18(u >> 2) };
+                    let term = match w {
+                        1 => sq,
+                        2 => sq << 1,
+                        3 => sq + (sq << 1),
+                        _ => sq << 2,
+                    };
+                    *sum = sum.saturating_add(term);
+                }
+                if s == 0 {
+                    dy2 = dy2.wrapping_add(inc);
+                    inc = inc.wrapping_add(self.dd);
+                } else {
+                    dy += dy_step;
+                    dy2 = sq_shr(dy, s);
+                }
+            }
+        }
+        for (r, v) in sums.iter_mut().enumerate().take(rows) {
+            if skip & (1 << r) == 0 {
+                *v = (*v).min(COST_MAX);
+            }
+        }
+    }
+}
+
+/// A lattice point and its cost.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct LatticeMin {
+    i: usize,
+    j: usize,
+    cost: u32,
+}
+
+impl LatticeMin {
+    const NONE: LatticeMin = LatticeMin {
+        i: 0,
+        j: 0,
+        cost: INF,
+    };
+
+    /// Takes `(i, j)` if `c` is strictly smaller (ties keep the earlier point).
+    #[inline]
+    fn offer(&mut self, i: usize, j: usize, c: u32) {
+        if c < self.cost {
+            *self = LatticeMin { i, j, cost: c };
+        }
+    }
+}
+
+/// The searches: one stage and one column of sums, reused by every phase (≈ 0.2 KB).
+struct Searcher<'a> {
+    cost: &'a Cost,
+    st: Stage,
+    sums: [u32; ROWS],
+    evals: usize,
+}
+
+impl<'a> Searcher<'a> {
+    fn new(cost: &'a Cost) -> Searcher<'a> {
+        Searcher {
+            cost,
+            st: Stage::new(),
+            sums: [0; ROWS],
+            evals: 0,
+        }
+    }
+
+    fn run(&mut self, search: Search) -> LatticeMin {
+        match search {
+            Search::Thesis => self.thesis(),
+            Search::MultiStart => self.multi_start(),
+            Search::Exhaustive => self.exhaustive(),
+        }
+    }
+
+    /// Costs of column `i` of the current stage.
+    fn column(&mut self, i: usize, bound: u32, skip: u16) {
+        self.st.column(self.cost, i, bound, skip, &mut self.sums);
+    }
+
+    #[inline(never)]
+    fn thesis(&mut self) -> LatticeMin {
+        self.st.init(self.cost, Window::COARSE, None);
+        let mut best = LatticeMin::NONE;
+        for i in (0..=FINE_DIVS).step_by(RATIO) {
+            self.column(i, best.cost, 0);
+            for r in 0..=COARSE_DIVS {
+                self.evals += 1;
+                best.offer(i, r * RATIO, self.sums[r]);
+            }
+        }
+        let coarse_shift = self.st.shift;
+        let w = Window::around(best.i, best.j, RATIO);
+        self.st.init(self.cost, w, None);
+        let rows = w.rows();
+        let all = (1u16 << rows) - 1;
+        let mut fine = best;
+        if self.st.shift != coarse_shift {
+            // Re-evaluate the start with this window's (finer) shifts so that the window compares
+            // like with like.
+            let rb = best.j - w.j0;
+            self.column(best.i, INF, all & !(1 << rb));
+            self.evals += 1;
+            fine.cost = self.sums[rb];
+        }
+        // The coarse rows of the window (j a multiple of RATIO).
+        let mut coarse_rows = 0u16;
+        for r in 0..rows {
+            if (w.j0 + r).is_multiple_of(RATIO) {
+                coarse_rows |= 1 << r;
+            }
+        }
+        for i in w.i0..=w.i1 {
+            // Coarse points cannot beat the coarse winner the window starts from.
+            let skip = if i % RATIO == 0 { coarse_rows } else { 0 };
+            self.column(i, fine.cost, skip);
+            for r in 0..rows {
+                if skip & (1 << r) == 0 {
+                    self.evals += 1;
+                    fine.offer(i, w.j0 + r, self.sums[r]);
+                }
+            }
+        }
+        fine
+    }
+
+    #[inline(never)]
+    fn multi_start(&mut self) -> LatticeMin {
+        self.st.init(self.cost, Window::COARSE, None);
+        let mut top = [LatticeMin::NONE; STARTS];
+        for i in (0..=FINE_DIVS).step_by(RATIO) {
+            self.column(i, top[STARTS - 1].cost, 0);
+            for r in 0..=COARSE_DIVS {
+                self.evals += 1;
+                let c = self.sums[r];
+                if let Some(k) = top.iter().position(|t| c < t.cost) {
+                    top.copy_within(k..STARTS - 1, k + 1);
+                    top[k] = LatticeMin {
+                        i,
+                        j: r * RATIO,
+                        cost: c,
+                    };
+                }
+            }
+        }
+        let shifts = self.st.shift;
+        let mut best = top[0];
+        let mut spent = (COARSE_DIVS + 1) * (COARSE_DIVS + 1);
+        for start in top.iter().filter(|t| t.cost < INF) {
+            let end = self.descend(*start, &mut spent, &shifts);
+            best.offer(end.i, end.j, end.cost);
+        }
+        best
+    }
+
+    /// Steepest descent over the 8 fine neighbours, exactly as [`crate::grid`]'s `descend`
+    /// (same scan order, same skipped points, same budget check before every evaluation).
+    fn descend(
+        &mut self,
+        from: LatticeMin,
+        spent: &mut usize,
+        shifts: &[u8; MAX_ANCHORS],
+    ) -> LatticeMin {
+        let mut cur = from;
+        let mut prev: Option<(usize, usize)> = None;
+        loop {
+            let mut next = cur;
+            let w = Window::around(cur.i, cur.j, 1);
+            self.st.init(self.cost, w, Some(shifts));
+            let rows = w.rows();
+            for i in w.i0..=w.i1 {
+                let (mut skip, mut candidates, mut over) = (0u16, 0, false);
+                for r in 0..rows {
+                    let j = w.j0 + r;
+                    let known = (i, j) == (cur.i, cur.j)
+                        || prev.is_some_and(|(pi, pj)| pi.abs_diff(i) <= 1 && pj.abs_diff(j) <= 1);
+                    if known {
+                        skip |= 1 << r;
+                    } else if *spent + candidates >= BUDGET {
+                        // The reference returns at this candidate, before evaluating it.
+                        skip |= 1 << r;
+                        over = true;
+                    } else {
+                        candidates += 1;
+                    }
+                }
+                if candidates > 0 {
+                    self.column(i, next.cost, skip);
+                    for r in 0..rows {
+                        if skip & (1 << r) == 0 {
+                            *spent += 1;
+                            self.evals += 1;
+                            next.offer(i, w.j0 + r, self.sums[r]);
+                        }
+                    }
+                }
+                if over {
+                    return next;
+                }
+            }
+            if next.cost < cur.cost {
+                prev = Some((cur.i, cur.j));
+                cur = next;
+            } else {
+                return cur;
+            }
+        }
+    }
+
+    /// Every lattice point, in bands of [`ROWS`] rows; ties go to the first point in x-major
+    /// order, as in the reference's single scan.
+    #[inline(never)]
+    fn exhaustive(&mut self) -> LatticeMin {
+        self.st.init(self.cost, Window::COARSE, None);
+        let shifts = self.st.shift;
+        let mut best = LatticeMin::NONE;
+        for j0 in (0..=FINE_DIVS).step_by(ROWS) {
+            let w = Window::band(j0);
+            self.st.init(self.cost, w, Some(&shifts));
+            for i in 0..=FINE_DIVS {
+                self.column(i, best.cost.saturating_add(1), 0);
+                for r in 0..w.rows() {
+                    self.evals += 1;
+                    let (j, c) = (j0 + r, self.sums[r]);
+                    if c < best.cost || (c == best.cost && (i, j) < (best.i, best.j)) {
+                        best = LatticeMin { i, j, cost: c };
+                    }
+                }
+            }
+        }
+        best
+    }
+}
+
+fn check(obs: &Observations) -> Result<(), LocError> {
+    if obs.len() < 3 {
+        Err(LocError::TooFewAnchors { usable: obs.len() })
+    } else {
+        Ok(())
+    }
+}
+
+fn lattice_u8(m: &LatticeMin) -> (u8, u8) {
+    (m.i as u8, m.j as u8)
+}
+
+/// Maximum-likelihood position of `obs` under `model` within `area`, by `search`.
+pub fn mle(
+    obs: &Observations,
+    model: PathLoss,
+    area: AreaCm,
+    search: Search,
+) -> Result<Estimate, LocError> {
+    check(obs)?;
+    let cost = Cost::new(obs, model, area);
+    let mut s = Searcher::new(&cost);
+    let m = s.run(search);
+    let min_cost = if cost.flat {
+        Cost::flat_cost(obs, model)
+    } else {
+        cost.report(m.cost)
+    };
+    Ok(Estimate {
+        pos: area.lattice_mm(m.i, m.j),
+        lattice: lattice_u8(&m),
+        min_cost: min_cost.saturating_add(obs.const_cost),
+        estimator: Estimator::Mle(search),
+        anchors: obs.len() as u8,
+        total_weight: obs.total_weight(),
+        evaluations: s.evals as u16,
+    })
+}
+
+/// Posterior weights `2^(−y)`, `y = (C' − C'ref)·β`, in Q.26, relative to a reference cost that
+/// only ever decreases (the sums are rescaled when a lower cost appears).
+///
+/// With ΔC' in Q.20 and y in Q.16, `y = ΔC'·K²·log2(e)/(32σ²) = ΔC'·B/2^32` where
+/// `B = K_q16²·log2(e)·2^11/σ_q8²`. A weight is 0 from `y ≥ 27` (`< 2^−26`), i.e. from
+/// `ΔC' ≥ span = 27·2^48/B`; below it `ΔC'` is scaled into 16 bits (`a`) and `y = (a·b) >> 11`
+/// with one 32-bit multiply (`a·b < 2^32`; y within `27·2^−16` of exact).
+struct Weights {
+    /// `C'` excess (Q.20) at or above which a weight is 0.
+    span: u32,
+    /// σ = 0: only the minimisers count.
+    hard: bool,
+    /// `a = (ΔC' << left) >> right`, `a < 2^16`.
+    left: u8,
+    right: u8,
+    b: u32,
+}
+
+impl Weights {
+    /// For `K` (Q.16) and σ (Q.8 dB).
+    fn new(k_q16: i64, sigma_q8: u16) -> Weights {
+        let mut w = Weights {
+            span: 1,
+            hard: sigma_q8 == 0,
+            left: 0,
+            right: 0,
+            b: 0,
+        };
+        if w.hard {
+            return w;
+        }
+        // K_q16² (< 2^44) · log2(e) (Q.30), in two parts that stay below 2^59:
+        // (K_q16² >> 14)·(log2e_q30 >> 2) = K_q16²·log2e·2^14, so B = that / (8·σ_q8²).
+        let k2 = (k_q16 * k_q16) as u64;
+        let kl = (k2 >> 14) * (LOG2_E_Q30 as u64 >> 2);
+        let big_b = kl / (8 * sigma_q8 as u64 * sigma_q8 as u64);
+        if big_b == 0 {
+            // σ so large (or K so small) that every weight is 1.
+            w.span = INF;
+            return w;
+        }
+        w.span = ((27u64 << 48) / big_b).clamp(1, COST_MAX as u64) as u32;
+        // Bring span into [2^15, 2^16): a < 2^16.
+        let bits = 32 - w.span.leading_zeros() as i32; // 1..=32
+        let sh = bits - 16; // a = ΔC' · 2^−sh
+        if sh >= 0 {
+            w.right = sh as u8;
+        } else {
+            w.left = (-sh) as u8;
+        }
+        // b = B·2^(sh − 21): ((ΔC'·2^−sh)·b) >> 11 = ΔC'·B/2^32.
+        let b = if sh >= 21 {
+            big_b << (sh - 21)
+        } else {
+            big_b >> (21 - sh)
+        };
+        w.b = b.min(u32::MAX as u64) as u32;
+        w
+    }
+
+    /// Weight (Q.26) of a cost excess `excess < span` over the reference.
+    #[inline]
+    fn weight(&self, excess: u32) -> u32 {
+        if self.hard {
+            return if excess == 0 { 1 << 26 } else { 0 };
+        }
+        let a = (excess << self.left) >> self.right; // < 2^16
+        exp2_neg_q26(a.wrapping_mul(self.b) >> 11)
+    }
+
+    /// The factor `2^(−y)` (Q.26) that rescales the sums when the reference drops by `drop`.
+    fn rescale(&self, drop: u32) -> u32 {
+        if self.hard || drop >= self.span {
+            0
+        } else {
+            self.weight(drop)
+        }
+    }
+}
+
+/// `x · f / 2^26` for `x < 2^52`, `f ≤ 2^26`.
+fn scale(x: u64, f: u32) -> u64 {
+    (x >> 26) * f as u64 + (((x & ((1 << 26) - 1)) * f as u64) >> 26)
+}
+
+/// Posterior-mean position of `obs` under `model` within `area` with shadowing σ (Q.8 dB).
+///
+/// The posterior mean over all 51 × 51 lattice points, weights `exp(−C/(2σ²))` relative to the
+/// smallest cost (computed as `2^(−y)`: integer part a shift, fraction from the flash table; a
+/// weight below `2^−26` of the largest is dropped, and the cost evaluation stops there). The thesis
+/// search runs first to give a good reference cost. Within 1 cm of [`crate::grid::mmse`].
+pub fn mmse(
+    obs: &Observations,
+    model: PathLoss,
+    area: AreaCm,
+    sigma: u16,
+) -> Result<Estimate, LocError> {
+    check(obs)?;
+    let cost = Cost::new(obs, model, area);
+    let mut srch = Searcher::new(&cost);
+    let first = srch.thesis();
+    let wts = if cost.flat {
+        Weights::new(0, 1)
+    } else {
+        Weights::new(cost.k_q16, sigma)
+    };
+    let mut cref = first.cost;
+    let mut best = first;
+    srch.st.init(&cost, Window::COARSE, None);
+    let shifts = srch.st.shift;
+    // Σw (< 2^38), Σw·i and Σw·j (< 2^44).
+    let (mut s, mut sx, mut sy) = (0u64, 0u64, 0u64);
+    for j0 in (0..=FINE_DIVS).step_by(ROWS) {
+        let w = Window::band(j0);
+        srch.st.init(&cost, w, Some(&shifts));
+        for i in 0..=FINE_DIVS {
+            srch.column(i, cref.saturating_add(wts.span), 0);
+            // This column's Σw and Σw·j (< 2^30, < 2^36).
+            let (mut cs, mut csj) = (0u64, 0u64);
+            for r in 0..w.rows() {
+                srch.evals += 1;
+                let (j, c) = (j0 + r, srch.sums[r]);
+                if c >= cref.saturating_add(wts.span) {
+                    continue;
+                }
+                if c < cref {
+                    let f = wts.rescale(cref - c);
+                    s = scale(s, f);
+                    sx = scale(sx, f);
+                    sy = scale(sy, f);
+                    cs = scale(cs, f);
+                    csj = scale(csj, f);
+                    cref = c;
+                }
+                if c < best.cost {
+                    best = LatticeMin { i, j, cost: c };
+                }
+                let wt = wts.weight(c - cref);
+                cs += wt as u64;
+                csj += (wt * j as u32) as u64; // < 2^26 · 51 < 2^32
+            }
+            s += cs;
+            sx += cs * i as u64;
+            sy += csj;
+        }
+    }
+    let (w, h) = (area.width as u64, area.height as u64);
+    let pos = if s == 0 {
+        area.lattice_mm(best.i, best.j)
+    } else {
+        // mm = 10·side·(Σw·i/Σw)/50 = side·Σw·i / (5·Σw), rounded; side·Σw·i < 2^60.
+        let d = 5 * s;
+        PointMm {
+            x: (((w * sx + d / 2) / d).min(10 * w)) as u32,
+            y: (((h * sy + d / 2) / d).min(10 * h)) as u32,
+        }
+    };
+    let min_cost = if cost.flat {
+        Cost::flat_cost(obs, model)
+    } else {
+        cost.report(best.cost)
+    };
+    Ok(Estimate {
+        pos,
+        lattice: lattice_u8(&best),
+        min_cost: min_cost.saturating_add(obs.const_cost),
+        estimator: Estimator::Mmse { sigma },
+        anchors: obs.len() as u8,
+        total_weight: obs.total_weight(),
+        evaluations: srch.evals as u16,
+    })
+}
+
+/// `obs` located by `estimator`.
+pub fn estimate(
+    obs: &Observations,
+    model: PathLoss,
+    area: AreaCm,
+    estimator: Estimator,
+) -> Result<Estimate, LocError> {
+    match estimator {
+        Estimator::Mle(search) => mle(obs, model, area, search),
+        Estimator::Mmse { sigma } => mmse(obs, model, area, sigma),
+    }
+}
+
+/// The agent of `m` located: channels combined by `refinement`, then `estimator`.
+pub fn locate(
+    m: &Measurements,
+    refinement: Refinement,
+    model: PathLoss,
+    area: AreaCm,
+    estimator: Estimator,
+) -> Result<Estimate, LocError> {
+    estimate(&observations(m, refinement), model, area, estimator)
+}
+
+/// One whole sink step: P0/α from `m`'s anchor-to-anchor bytes ([`OnlineParams::update`]: fit,
+/// then AR(1); a round without calibration samples keeps the current model), then the agent
+/// located with the smoothed model. For an MMSE with the fitted σ pass
+/// `Estimator::Mmse { sigma: params.sigma().unwrap_or(fallback) }` after the update, or call
+/// this with an MLE first.
+pub fn sink_fix(
+    m: &Measurements,
+    area: AreaCm,
+    params: &mut OnlineParams,
+    refinement: Refinement,
+    estimator: Estimator,
+) -> Result<Estimate, LocError> {
+    let stats = super::CalStats::from_measurements(m, None);
+    match params.update(&stats) {
+        Ok(_) | Err(LocError::NoCalibrationData) => {}
+        Err(e) => return Err(e),
+    }
+    locate(m, refinement, params.current(), area, estimator)
+}

@@ -1,0 +1,218 @@
+//! The integer-only path of the sink MCU (SPEC §5): the reference algorithms of [`crate::refine`],
+//! [`crate::params`] and [`crate::grid`] on the MCU's own inputs, with no `f32`/`f64` anywhere and
+//! the constant tables in flash on AVR.
+//!
+//! # Inputs and number formats
+//!
+//! | quantity | type | format |
+//! |---|---|---|
+//! | RSSI | `Option<u8>` | the XBee byte: the level's magnitude in −dBm (`None`: not heard) |
+//! | anchor position | [`PointCm`] | `i16` centimetres (anchors may lie outside the area) |
+//! | area | [`AreaCm`] | `u16` centimetres: `[0, width] × [0, height]` |
+//! | position estimate | [`PointMm`] | `u32` millimetres (rounded to the nearest) |
+//! | dB values (refined `z`, P0, bounds) | `i32` | Q.16 dB: `1 dB =` [`DB`] |
+//! | path-loss exponent α | `i32` | Q.24: `α = 1 is` [`ALPHA`] |
+//! | σ (MMSE, fitted σ) | `u16` | Q.8 dB |
+//! | costs ([`Estimate::min_cost`], `const_cost`) | `u32` | Q.8 dB², saturating |
+//! | fit residual [`ParamFit::sse`] | `u64` | Q.16 dB² |
+//!
+//! # How the cost is computed
+//!
+//! The lattice is the reference's ([`crate::grid::lattice_point`]): `(W·i/50, H·j/50)`, which in
+//! units of 1/50 cm is the integer `(W·i, H·j)`, so every squared anchor distance `d²` is an exact
+//! integer (≤ 46 bits). With `K = 5·α·log10 2` the reference cost is
+//! `C = Σ wᵢ (zᵢ − P0 + K·log2(dᵢ² / 1 m²))² = K² · Σ wᵢ (ρᵢ + log2 dᵢ²)²`,
+//! `ρᵢ = (zᵢ − P0)/K − log2(1 m²)` (one division per estimate, none per lattice point): the
+//! position search compares `C' = C/K²`, in log2 units, which has the same minimisers and the
+//! same posterior (the weights' exponent is rescaled by `K²` once).
+//!
+//! Per window of the search (the coarse grid, the fine window, a descent step's 3 × 3 block) each
+//! anchor's exact column and row squares are shifted right by the fewest bits that make each fit
+//! a `u32` (0 bits for areas up to 13 m), so `d²` is one 32-bit add with carry. Then per (anchor,
+//! lattice point): `log2` from a 32-segment quadratic table (error < 2.2·10⁻⁶; six 8 × 8 multiplies), a
+//! clamp at the model's 1 cm ([`crate::model::MIN_DISTANCE`]), `u = ρ + log2 d²` (Q.20), `u²` in
+//! Q.20 from five 8 × 8 multiplies (`|u|` saturates at 32, i.e. `|z − p| ≥ 32·K` dB, where no
+//! estimate lives), times the weight, and a saturating 32-bit sum that stops as soon as it cannot
+//! beat the point it is compared with (exact: the terms are non-negative). The cost is within
+//! about 10⁻⁵ dB per observation of the reference's, so a lattice decision differs from the f64
+//! one only on a near-tie (see the agreement figures in `tests/fixed.rs`).
+//!
+//! # Map
+//!
+//! * Refinements ([`observations`], [`refine_anchor`]): Single, Max, LinearAvg (`10^(−k/10)` from
+//!   two 10-entry tables, log via the log2 table), Extended (dB mean, weight = channel count, and
+//!   `const_cost`).
+//! * Path-loss fit ([`CalStats`], [`fit`], [`Ar1`], [`OnlineParams`]): both methods of
+//!   [`crate::params::fit`]: the exact box-constrained least squares ([`FitMethod::LeastSquares`],
+//!   the one to use on the MCU: one solve) and the thesis' grid ([`FitMethod::Grid`]), with the
+//!   same modes, bounds handling, identifiability rule and σ; AR(1) smoothing in Q.16.
+//! * Position ([`mle`] with [`Search::Thesis`], [`Search::MultiStart`] or [`Search::Exhaustive`];
+//!   [`mmse`] over the full lattice, weights `2^(−y)` from a 32-entry table; [`estimate`],
+//!   [`locate`]); [`sink_fix`] runs the whole sink step (fit, smoothing, refinement, estimate).
+//!
+//! Errors are [`LocError`]: fewer than three usable anchors is
+//! [`LocError::TooFewAnchors`]; a fit without samples [`LocError::NoCalibrationData`]. Nothing
+//! panics or overflows on any input (checked by the debug-build property tests).
+//!
+//! Stack: an MLE holds one search window (`≈ 0.5 KB` with [`MAX_ANCHORS`] = 8 slots).
+
+mod grid;
+mod math;
+mod params;
+mod refine;
+mod tables;
+
+pub use grid::{estimate, locate, mle, mmse, sink_fix, Estimate, Estimator};
+pub use params::{
+    distance_x, fit, fit_grid, fit_least_squares, Ar1, Bounds, CalStats, OnlineParams, ParamFit,
+    MAX_SAMPLES,
+};
+pub use refine::{
+    db_mean, linear_avg, max_rssi, observations, observations_of, refine_anchor, Obs, Observations,
+};
+
+pub use crate::grid::Search;
+pub use crate::params::{FitMethod, ParamMode};
+pub use crate::refine::Refinement;
+pub use crate::LocError;
+use crate::{MAX_ANCHORS, MAX_CHANNELS};
+
+/// One dB in the Q.16 dB format.
+pub const DB: i32 = 1 << 16;
+/// α = 1 in the Q.24 format.
+pub const ALPHA: i32 = 1 << 24;
+/// Largest |P0| (and P0 bound) the fixed path accepts, Q.16 dB: 512 dB. Larger values are
+/// clamped (they keep every intermediate inside its integer type).
+pub const P0_LIMIT: i32 = 512 * DB;
+/// Largest |α| (and α bound) the fixed path accepts, Q.24: 32. Larger values are clamped.
+pub const ALPHA_LIMIT: i32 = 32 * ALPHA;
+
+/// A point in centimetres (anchor positions).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct PointCm {
+    /// x, cm.
+    pub x: i16,
+    /// y, cm.
+    pub y: i16,
+}
+
+impl PointCm {
+    /// `(x, y)` cm.
+    pub const fn new(x: i16, y: i16) -> PointCm {
+        PointCm { x, y }
+    }
+}
+
+/// A position estimate in millimetres.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct PointMm {
+    /// x, mm.
+    pub x: u32,
+    /// y, mm.
+    pub y: u32,
+}
+
+/// The localization area `[0, width] × [0, height]` cm.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct AreaCm {
+    /// Extent in x, cm.
+    pub width: u16,
+    /// Extent in y, cm.
+    pub height: u16,
+}
+
+impl AreaCm {
+    /// A `width` × `height` cm area.
+    pub const fn new(width: u16, height: u16) -> AreaCm {
+        AreaCm { width, height }
+    }
+
+    /// Fine lattice point `(i, j)` (`i, j ≤ 50`) in mm, rounded: `(10·W·i/50, 10·H·j/50)`.
+    pub fn lattice_mm(self, i: usize, j: usize) -> PointMm {
+        let f = |side: u16, k: usize| (side as u32 * k.min(50) as u32 + 2) / 5;
+        PointMm {
+            x: f(self.width, i),
+            y: f(self.height, j),
+        }
+    }
+}
+
+/// The log-normal path-loss model in fixed point: `p(d) = P0 − 10·α·log10(d / 1 m)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct PathLoss {
+    /// Received power at 1 m, Q.16 dBm.
+    pub p0: i32,
+    /// Path-loss exponent α, Q.24.
+    pub alpha: i32,
+}
+
+impl PathLoss {
+    /// The thesis' defaults: P0 = −40 dBm, α = 3.
+    pub const THESIS: PathLoss = PathLoss {
+        p0: -40 * DB,
+        alpha: 3 * ALPHA,
+    };
+
+    /// From P0 in hundredths of a dB and α in hundredths (`from_centi(-4050, 275)`: −40.5 dBm,
+    /// α = 2.75).
+    pub const fn from_centi(p0_centi_db: i32, alpha_centi: i32) -> PathLoss {
+        PathLoss {
+            p0: ((p0_centi_db as i64 * DB as i64) / 100) as i32,
+            alpha: ((alpha_centi as i64 * ALPHA as i64) / 100) as i32,
+        }
+    }
+
+    /// The model with P0 and α clamped to [`P0_LIMIT`] and [`ALPHA_LIMIT`].
+    pub fn sane(self) -> PathLoss {
+        PathLoss {
+            p0: math::clamp_i32(self.p0, -P0_LIMIT, P0_LIMIT),
+            alpha: math::clamp_i32(self.alpha, -ALPHA_LIMIT, ALPHA_LIMIT),
+        }
+    }
+}
+
+/// The agent's RSSI bytes from one anchor, per channel.
+pub type ChannelBytes = [Option<u8>; MAX_CHANNELS];
+
+/// What one fixed-point estimate works from (the MCU twin of [`crate::Measurements`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Measurements {
+    /// Number of anchors in use (≤ [`MAX_ANCHORS`]).
+    pub n_anchors: usize,
+    /// Number of channels in use (≤ [`MAX_CHANNELS`]).
+    pub n_channels: usize,
+    /// Anchor positions (first `n_anchors` used).
+    pub anchors: [PointCm; MAX_ANCHORS],
+    /// The agent's RSSI bytes per anchor and channel.
+    pub rssi: [ChannelBytes; MAX_ANCHORS],
+    /// Anchor-to-anchor RSSI bytes: `a2a[i][j][c]`, anchor `i` heard from anchor `j`.
+    pub a2a: [[ChannelBytes; MAX_ANCHORS]; MAX_ANCHORS],
+}
+
+impl Measurements {
+    /// Anchors at `positions` (at most [`MAX_ANCHORS`], extra ignored), `n_channels` channels,
+    /// nothing heard yet.
+    pub fn new(positions: &[PointCm], n_channels: usize) -> Measurements {
+        let mut anchors = [PointCm::default(); MAX_ANCHORS];
+        for (a, &p) in anchors.iter_mut().zip(positions) {
+            *a = p;
+        }
+        Measurements {
+            n_anchors: positions.len().min(MAX_ANCHORS),
+            n_channels: n_channels.min(MAX_CHANNELS),
+            anchors,
+            rssi: [[None; MAX_CHANNELS]; MAX_ANCHORS],
+            a2a: [[[None; MAX_CHANNELS]; MAX_ANCHORS]; MAX_ANCHORS],
+        }
+    }
+
+    /// The anchor positions in use.
+    pub fn anchors(&self) -> &[PointCm] {
+        &self.anchors[..self.n_anchors.min(MAX_ANCHORS)]
+    }
+
+    /// Channels in use (at most [`MAX_CHANNELS`]).
+    pub fn channels(&self) -> usize {
+        self.n_channels.min(MAX_CHANNELS)
+    }
+}

@@ -1,0 +1,615 @@
+//! P0/α estimation from anchor-to-anchor RSSI bytes ([`crate::params`] in fixed point).
+//!
+//! A calibration sample is `(x, z)` with `x = −10·log10(d / 1 m)` (Q.18, from the exact integer
+//! `d²` in cm² and the log2 table: within 4·10⁻⁶ dB; near-equidistant anchors make α sensitive
+//! to x, hence the extra bits) and `z` the integer dBm of the byte.
+//! [`CalStats`] keeps exact integer sums (`n`, `Σx`, `Σz`, `Σx²`, `Σxz`, `Σz²`), so both fits
+//! are exact rational functions of the samples: the least-squares α is one long division
+//! (`(n·Σxz − Σx·Σz) / (n·Σx² − (Σx)²)`, 42 fraction bits), P0 another, and the box-constrained
+//! optimum follows the reference's four-edge rule. Results: P0 Q.16 dB, α Q.24, residual sum
+//! Q.16 dB², σ Q.8 dB. At most [`MAX_SAMPLES`] samples (8 anchors × 7 × 4 channels = 224 fit),
+//! which keeps every product inside `i64`.
+
+use super::math::{clamp_i32, clamp_i64, isqrt_u32, log2_u33, square};
+use super::{Measurements, PathLoss, PointCm, ALPHA, ALPHA_LIMIT, DB, P0_LIMIT};
+use crate::params::{FitMethod, ParamMode};
+use crate::{LocError, MAX_CHANNELS};
+
+/// Most samples a [`CalStats`] takes.
+pub const MAX_SAMPLES: u16 = 256;
+
+/// `5·log10(2)`, Q.30.
+const FIVE_LOG10_2_Q30: i64 = 1_616_142_483;
+/// `log2(10⁴ cm²) = log2(1 m²)`, Q.20.
+const LOG2_M2_IN_CM2: i64 = 13933176;
+
+/// `x = −10·log10(d / 1 m)` of the distance between `a` and `b`, Q.18; `None` for coincident
+/// anchors (the reference skips distances below 1 cm, and positions are whole cm).
+pub fn distance_x(a: PointCm, b: PointCm) -> Option<i32> {
+    // Each square < 2^32 (|Δ| ≤ 65535): their sum is a 33-bit value.
+    let dx2 = square(a.x as i32 - b.x as i32) as u32;
+    let (lo, carry) = dx2.overflowing_add(square(a.y as i32 - b.y as i32) as u32);
+    if lo == 0 && !carry {
+        return None;
+    }
+    // −5·log10(d²/1 m²) = −5·log10(2)·(log2 d² − log2 1 m²): Q.30 × Q.20 → Q.18.
+    let l = log2_u33(lo, carry) as i64 - LOG2_M2_IN_CM2;
+    Some(-super::math::mul_shr(FIVE_LOG10_2_Q30, l, 32) as i32)
+}
+
+/// Allowed parameter range (inclusive), fixed point. Reversed bounds are used as if sorted; values
+/// beyond [`P0_LIMIT`] / [`ALPHA_LIMIT`] are clamped to them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Bounds {
+    /// Smallest α, Q.24.
+    pub alpha_min: i32,
+    /// Largest α, Q.24.
+    pub alpha_max: i32,
+    /// Smallest P0, Q.16 dBm.
+    pub p0_min: i32,
+    /// Largest P0, Q.16 dBm.
+    pub p0_max: i32,
+}
+
+impl Bounds {
+    /// The thesis' ranges: α ∈ [2, 5], P0 ∈ [−60, −20] dBm.
+    pub const THESIS: Bounds = Bounds {
+        alpha_min: 2 * ALPHA,
+        alpha_max: 5 * ALPHA,
+        p0_min: -60 * DB,
+        p0_max: -20 * DB,
+    };
+
+    fn alpha(&self) -> (i32, i32) {
+        sorted(self.alpha_min, self.alpha_max, ALPHA_LIMIT)
+    }
+
+    fn p0(&self) -> (i32, i32) {
+        sorted(self.p0_min, self.p0_max, P0_LIMIT)
+    }
+}
+
+impl Default for Bounds {
+    fn default() -> Self {
+        Bounds::THESIS
+    }
+}
+
+fn sorted(a: i32, b: i32, limit: i32) -> (i32, i32) {
+    let (a, b) = (clamp_i32(a, -limit, limit), clamp_i32(b, -limit, limit));
+    (a.min(b), a.max(b))
+}
+
+/// Sufficient statistics of calibration samples, as exact integer sums.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct CalStats {
+    n: u16,
+    /// Σx, Q.18.
+    sx: i64,
+    /// Σz, dB.
+    sz: i64,
+    /// Σx², Q.36.
+    sxx: i64,
+    /// Σxz, Q.18.
+    sxz: i64,
+    /// Σz², dB².
+    szz: i64,
+}
+
+impl CalStats {
+    /// No samples.
+    pub const fn new() -> CalStats {
+        CalStats {
+            n: 0,
+            sx: 0,
+            sz: 0,
+            sxx: 0,
+            sxz: 0,
+            szz: 0,
+        }
+    }
+
+    /// Adds the samples `bytes` (RSSI bytes, `None` skipped) taken at `x` (Q.18, from
+    /// [`distance_x`]; clamped to ±32 dB, i.e. 1.6 mm … 1.6 km). Returns how many were added (none
+    /// beyond [`MAX_SAMPLES`]).
+    #[inline(never)]
+    pub fn push_at(&mut self, x: i32, bytes: &[Option<u8>]) -> usize {
+        let x = clamp_i32(x, -(32 << 18), 32 << 18) as i64;
+        let (mut k, mut s, mut s2) = (0i64, 0i64, 0i64);
+        for &b in bytes.iter().flatten() {
+            if self.n as i64 + k >= MAX_SAMPLES as i64 {
+                break;
+            }
+            let z = -(b as i64);
+            k += 1;
+            s += z;
+            s2 += z * z;
+        }
+        self.n += k as u16;
+        self.sx += k * x;
+        self.sz += s;
+        self.sxx += k * (x * x);
+        self.sxz += x * s;
+        self.szz += s2;
+        k as usize
+    }
+
+    /// Adds the samples `bytes` of the anchor pair `a`, `b` (skipped, returning 0, when the
+    /// anchors coincide).
+    pub fn push_pair(&mut self, a: PointCm, b: PointCm, bytes: &[Option<u8>]) -> usize {
+        match distance_x(a, b) {
+            Some(x) => self.push_at(x, bytes),
+            None => 0,
+        }
+    }
+
+    /// All anchor-to-anchor samples of `m` (`i ≠ j`, channels in use), or only channel `channel`:
+    /// one log per anchor pair.
+    pub fn from_measurements(m: &Measurements, channel: Option<usize>) -> CalStats {
+        let mut s = CalStats::new();
+        let n_ch = m.channels();
+        let anchors = m.anchors();
+        for i in 0..anchors.len() {
+            for j in i + 1..anchors.len() {
+                let Some(x) = distance_x(anchors[i], anchors[j]) else {
+                    continue;
+                };
+                for (p, q) in [(i, j), (j, i)] {
+                    let mut bytes = [None; MAX_CHANNELS];
+                    for (c, v) in m.a2a[p][q][..n_ch].iter().enumerate() {
+                        if channel.is_none_or(|k| k == c) {
+                            bytes[c] = *v;
+                        }
+                    }
+                    s.push_at(x, &bytes);
+                }
+            }
+        }
+        s
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.n as usize
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// Sum of squared residuals `Σ (z − P0 − α·x)²` under `model`, Q.16 dB².
+    pub fn sse(&self, model: PathLoss) -> u64 {
+        let m = model.sane();
+        self.sse_at(m.p0, m.alpha)
+    }
+
+    /// The residual sum at `(p0 Q.16, alpha Q.24)` (both within the limits), Q.16 dB².
+    ///
+    /// `Σz² − 2·P0·Σz − 2α·Σxz + n·P0² + 2·P0·α·Σx + α²·Σx²`, each term in Q.32 (α rounded to
+    /// Q.16 here: only candidates are compared with it); every term stays below 2^61.
+    #[inline(never)]
+    fn sse_at(&self, p0: i32, alpha: i32) -> u64 {
+        let (p, a) = (p0 as i64, (alpha as i64 + 128) >> 8);
+        let n = self.n as i64;
+        let p_sx = (p * self.sx) >> 18; // Q.16
+        let a_sxx = (a * (self.sxx >> 20)) >> 16; // Q.16
+        let q32 = (self.szz << 32) - ((p * self.sz) << 17) - ((a * self.sxz) >> 1)
+            + n * p * p
+            + 2 * p_sx * a
+            + a_sxx * a;
+        (q32.max(0) >> 16) as u64
+    }
+
+    /// `n·Σx² − (Σx)²`, Q.36: `n²` times the variance of x.
+    fn dxx(&self) -> i64 {
+        self.n as i64 * self.sxx - self.sx * self.sx
+    }
+
+    /// Whether the samples span enough distinct distances to determine α: the reference's
+    /// `Σ(x − x̄)² > 10⁻⁹·n`.
+    fn alpha_identifiable(&self) -> bool {
+        let n = self.n as i64;
+        self.dxx() > ((n * n) << 36) / 1_000_000_000
+    }
+
+    /// Best P0 (Q.16) for α (Q.24), unconstrained: `(Σz − α·Σx)/n`, rounded.
+    #[inline(never)]
+    fn p0_for(&self, alpha: i32) -> i64 {
+        let num = (self.sz << 16) - ((alpha as i64 * self.sx + (1 << 25)) >> 26);
+        div_q(num, (self.n as i64).max(1), 0)
+    }
+
+    /// Best α (Q.24) for P0 (Q.16), unconstrained: `(Σxz − P0·Σx)/Σx²`; `None` if `Σx² = 0`.
+    fn alpha_for(&self, p0: i32) -> Option<i64> {
+        let num = self.sxz - ((p0 as i64 * self.sx) >> 16); // Q.18
+        (self.sxx > 0).then(|| div_q(num, self.sxx, 42))
+    }
+}
+
+/// `num·2^q/den` rounded, for `den > 0`, saturating at `±2^40` (far beyond any bound).
+///
+/// Restoring long division over the numerator's significant bits and `q + 1` fraction bits,
+/// with constant shifts only (small on AVR; as fast as a library 64-bit division).
+#[inline(never)]
+fn div_q(num: i64, den: i64, q: u32) -> i64 {
+    const SAT: u64 = 1 << 41;
+    let (mut n, d) = (num.unsigned_abs(), den.max(1) as u64);
+    let mut steps = 64 + q + 1;
+    while steps > q + 1 && n >> 63 == 0 {
+        n <<= 1;
+        steps -= 1;
+    }
+    let (mut quo, mut rem) = (0u64, 0u64);
+    while steps > 0 && quo < SAT {
+        // rem < d < 2^63: 2·rem + 1 fits.
+        rem = rem << 1 | n >> 63;
+        n <<= 1;
+        quo <<= 1;
+        if rem >= d {
+            rem -= d;
+            quo |= 1;
+        }
+        steps -= 1;
+    }
+    // One extra bit was computed: round it away (a saturated quotient stays saturated).
+    let v = if quo >= SAT { SAT >> 1 } else { (quo + 1) >> 1 } as i64;
+    if num < 0 {
+        -v
+    } else {
+        v
+    }
+}
+
+/// Result of a fixed-point parameter fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ParamFit {
+    /// The fitted (or fixed) model.
+    pub model: PathLoss,
+    /// Sum of squared residuals of the samples under `model`, Q.16 dB².
+    pub sse: u64,
+    /// Number of samples.
+    pub n: u16,
+    /// Parameters fitted (0, 1 or 2).
+    pub fitted: u8,
+    /// Shadowing σ, Q.8 dB (saturating at 255.99 dB): `sqrt(sse / (n − fitted))`, `None` when
+    /// `n ≤ fitted`.
+    pub sigma: Option<u16>,
+}
+
+impl ParamFit {
+    #[inline(never)]
+    fn new(stats: &CalStats, model: PathLoss, fitted: u8) -> ParamFit {
+        let sse = stats.sse(model);
+        let dof = stats.n.saturating_sub(fitted as u16) as u32;
+        // σ² Q.16 = sse/dof; σ ≥ 256 dB saturates.
+        let sigma = (dof > 0).then(|| {
+            let hi = (sse >> 32) as u32;
+            if hi >= dof {
+                u16::MAX
+            } else if hi == 0 {
+                isqrt_u32(sse as u32 / dof).min(u16::MAX as u32) as u16
+            } else {
+                isqrt_u32(div_q(sse as i64, dof as i64, 0).min(u32::MAX as i64) as u32)
+                    .min(u16::MAX as u32) as u16
+            }
+        });
+        ParamFit {
+            model,
+            sse,
+            n: stats.n,
+            fitted,
+            sigma,
+        }
+    }
+}
+
+/// Fits the model to `stats` in `mode` with `method` within `bounds`: the same rules as
+/// [`crate::params::fit`] (see there), in fixed point. A firmware that only needs one method
+/// calls [`fit_least_squares`] or [`fit_grid`] directly (the other is then not linked).
+pub fn fit(
+    stats: &CalStats,
+    mode: ParamMode,
+    method: FitMethod,
+    prior: PathLoss,
+    bounds: &Bounds,
+) -> Result<ParamFit, LocError> {
+    match method {
+        FitMethod::LeastSquares => fit_least_squares(stats, mode, prior, bounds),
+        FitMethod::Grid => fit_grid(stats, mode, prior, bounds),
+    }
+}
+
+/// [`fit`] with [`FitMethod::LeastSquares`]: the exact least-squares optimum on the bounds box
+/// (the MCU's method: one long division for α, one for P0).
+#[inline(never)]
+pub fn fit_least_squares(
+    stats: &CalStats,
+    mode: ParamMode,
+    prior: PathLoss,
+    bounds: &Bounds,
+) -> Result<ParamFit, LocError> {
+    if let Some(r) = fit_one_or_none(stats, mode, FitMethod::LeastSquares, prior, bounds) {
+        return r;
+    }
+    let model = box_least_squares(stats, bounds.alpha(), bounds.p0());
+    Ok(ParamFit::new(stats, model, 2))
+}
+
+/// [`fit`] with [`FitMethod::Grid`]: the thesis' grid (α step 0.1, P0 step 0.5 dB), the
+/// brute-force argmin (ties: smallest α, then smallest P0).
+#[inline(never)]
+pub fn fit_grid(
+    stats: &CalStats,
+    mode: ParamMode,
+    prior: PathLoss,
+    bounds: &Bounds,
+) -> Result<ParamFit, LocError> {
+    if let Some(r) = fit_one_or_none(stats, mode, FitMethod::Grid, prior, bounds) {
+        return r;
+    }
+    let ((a_lo, a_hi), (p_lo, p_hi)) = (bounds.alpha(), bounds.p0());
+    let mut best = (u64::MAX, PathLoss { p0: 0, alpha: 0 });
+    for k in 0..=alpha_steps(a_lo, a_hi) {
+        let alpha = alpha_grid(a_lo, a_hi, k);
+        let p0 = grid_p0(stats.p0_for(alpha), p_lo, p_hi);
+        let e = stats.sse_at(p0, alpha);
+        if e < best.0 || k == 0 {
+            best = (e, PathLoss { p0, alpha });
+        }
+    }
+    Ok(ParamFit::new(stats, best.1, 2))
+}
+
+/// The cases both methods share: nothing fitted ([`ParamMode::Fixed`]), no samples, or P0 alone
+/// ([`ParamMode::P0Only`], or α not identifiable). `None`: fit both.
+fn fit_one_or_none(
+    stats: &CalStats,
+    mode: ParamMode,
+    method: FitMethod,
+    prior: PathLoss,
+    bounds: &Bounds,
+) -> Option<Result<ParamFit, LocError>> {
+    let prior = prior.sane();
+    if mode == ParamMode::Fixed {
+        return Some(Ok(ParamFit::new(stats, prior, 0)));
+    }
+    if stats.is_empty() {
+        return Some(Err(LocError::NoCalibrationData));
+    }
+    if mode == ParamMode::P0AndAlpha && stats.alpha_identifiable() {
+        return None;
+    }
+    let ((a_lo, a_hi), (p_lo, p_hi)) = (bounds.alpha(), bounds.p0());
+    let grid = method == FitMethod::Grid;
+    let alpha = match mode {
+        // α is the user's fixed value: not subject to the bounds.
+        ParamMode::P0Only => prior.alpha,
+        _ if grid => grid_alpha(prior.alpha, a_lo, a_hi),
+        _ => clamp_i32(prior.alpha, a_lo, a_hi),
+    };
+    let p0 = stats.p0_for(alpha);
+    let p0 = if grid {
+        grid_p0(p0, p_lo, p_hi)
+    } else {
+        clamp_i64(p0, p_lo as i64, p_hi as i64) as i32
+    };
+    Some(Ok(ParamFit::new(stats, PathLoss { p0, alpha }, 1)))
+}
+
+/// Whole 0.1 steps of α from `lo` to `hi`. The tolerance (10 units of `10·(hi − lo)` in Q.24)
+/// absorbs decimal bounds rounded to Q.24, as the reference's `10⁻⁹` absorbs binary rounding.
+fn alpha_steps(lo: i32, hi: i32) -> u32 {
+    (((hi as i64 - lo as i64) * 10 + 10) >> 24) as u32
+}
+
+/// `lo + k·0.1`, Q.24, each step rounded on its own (no drift: `0.1 = 1 677 721.6 / 2^24`), never
+/// above `hi`.
+fn alpha_grid(lo: i32, hi: i32, k: u32) -> i32 {
+    let k = k.min(1000) as i64;
+    (lo as i64 + k * 1_677_721 + (k * 6 + 5) / 10).min(hi as i64) as i32
+}
+
+/// The α grid value nearest to `alpha` (clamped to the grid).
+fn grid_alpha(alpha: i32, lo: i32, hi: i32) -> i32 {
+    let k = ((alpha as i64 - lo as i64) * 10 + (1 << 23)) >> 24;
+    alpha_grid(lo, hi, clamp_i64(k, 0, alpha_steps(lo, hi) as i64) as u32)
+}
+
+/// The P0 grid value (0.5 dB steps from `lo`) nearest to `p0` (clamped to the grid).
+fn grid_p0(p0: i64, lo: i32, hi: i32) -> i32 {
+    let steps = (hi as i64 - lo as i64) >> 15;
+    let k = clamp_i64((p0 - lo as i64 + (1 << 14)) >> 15, 0, steps);
+    (lo as i64 + (k << 15)) as i32
+}
+
+/// The exact least-squares minimiser on the bounds box (as [`crate::params`]'s).
+#[inline(never)]
+fn box_least_squares(
+    stats: &CalStats,
+    (a_lo, a_hi): (i32, i32),
+    (p_lo, p_hi): (i32, i32),
+) -> PathLoss {
+    let n = stats.n as i64;
+    // α = (n·Σxz − Σx·Σz) / (n·Σx² − (Σx)²): Q.18 / Q.36 → Q.24 takes 2^42.
+    let num = n * stats.sxz - stats.sx * stats.sz;
+    let alpha = div_q(num, stats.dxx(), 42);
+    let alpha = clamp_i64(alpha, -(ALPHA_LIMIT as i64), ALPHA_LIMIT as i64) as i32;
+    let p0 = stats.p0_for(alpha);
+    if (a_lo..=a_hi).contains(&alpha) && (p_lo as i64..=p_hi as i64).contains(&p0) {
+        return PathLoss {
+            p0: p0 as i32,
+            alpha,
+        };
+    }
+    let on_alpha_edge = |alpha: i32| PathLoss {
+        p0: clamp_i64(stats.p0_for(alpha), p_lo as i64, p_hi as i64) as i32,
+        alpha,
+    };
+    let on_p0_edge = |p0: i32| PathLoss {
+        p0,
+        alpha: clamp_i64(
+            stats.alpha_for(p0).unwrap_or(a_lo as i64),
+            a_lo as i64,
+            a_hi as i64,
+        ) as i32,
+    };
+    let candidates = [
+        on_alpha_edge(a_lo),
+        on_alpha_edge(a_hi),
+        on_p0_edge(p_lo),
+        on_p0_edge(p_hi),
+    ];
+    let mut best = candidates[0];
+    let mut best_sse = stats.sse_at(best.p0, best.alpha);
+    for c in &candidates[1..] {
+        let e = stats.sse_at(c.p0, c.alpha);
+        if e < best_sse {
+            (best, best_sse) = (*c, e);
+        }
+    }
+    best
+}
+
+/// First-order autoregressive smoother `y[n] = a·y[n−1] + b·x[n]`, `y[0] = x[0]`, with Q.16
+/// coefficients, on any fixed-point value (P0 Q.16 or α Q.24).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Ar1 {
+    /// Weight of the previous output, Q.16.
+    pub a: i32,
+    /// Weight of the new input, Q.16.
+    pub b: i32,
+    y: Option<i32>,
+}
+
+impl Default for Ar1 {
+    /// The thesis' `a = 0.8, b = 0.2`.
+    fn default() -> Self {
+        Ar1::new(52_429, 13_107)
+    }
+}
+
+impl Ar1 {
+    /// A smoother with Q.16 coefficients `a`, `b` (each clamped to `[−4, 4]`) and no state.
+    pub const fn new(a: i32, b: i32) -> Ar1 {
+        const L: i32 = 4 << 16;
+        let a = if a > L {
+            L
+        } else if a < -L {
+            -L
+        } else {
+            a
+        };
+        let b = if b > L {
+            L
+        } else if b < -L {
+            -L
+        } else {
+            b
+        };
+        Ar1 { a, b, y: None }
+    }
+
+    /// Feeds `x`, returns the new output (rounded; saturating at the `i32` range).
+    pub fn update(&mut self, x: i32) -> i32 {
+        let y = match self.y {
+            Some(prev) => {
+                let v = (self.a as i64 * prev as i64 + self.b as i64 * x as i64 + (1 << 15)) >> 16;
+                clamp_i64(v, i32::MIN as i64, i32::MAX as i64) as i32
+            }
+            None => x,
+        };
+        self.y = Some(y);
+        y
+    }
+
+    /// Current output, `None` before the first input.
+    pub fn value(&self) -> Option<i32> {
+        self.y
+    }
+
+    /// Forgets the state.
+    pub fn reset(&mut self) {
+        self.y = None;
+    }
+}
+
+/// Online parameter estimation: a fit per round, smoothed per parameter by [`Ar1`] (as
+/// [`crate::params::OnlineParams`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct OnlineParams {
+    /// What is estimated.
+    pub mode: ParamMode,
+    /// How it is fitted.
+    pub method: FitMethod,
+    /// Parameter range.
+    pub bounds: Bounds,
+    prior: PathLoss,
+    p0: Ar1,
+    alpha: Ar1,
+    sigma: Option<u16>,
+}
+
+impl OnlineParams {
+    /// Starts from `prior` with the default smoothers.
+    pub fn new(mode: ParamMode, method: FitMethod, bounds: Bounds, prior: PathLoss) -> Self {
+        Self::with_smoothers(mode, method, bounds, prior, Ar1::default(), Ar1::default())
+    }
+
+    /// Starts from `prior` with the given smoothers for P0 and α.
+    pub fn with_smoothers(
+        mode: ParamMode,
+        method: FitMethod,
+        bounds: Bounds,
+        prior: PathLoss,
+        p0: Ar1,
+        alpha: Ar1,
+    ) -> Self {
+        OnlineParams {
+            mode,
+            method,
+            bounds,
+            prior: prior.sane(),
+            p0,
+            alpha,
+            sigma: None,
+        }
+    }
+
+    /// The smoothed model (the prior for parameters not yet estimated).
+    pub fn current(&self) -> PathLoss {
+        PathLoss {
+            p0: self.p0.value().unwrap_or(self.prior.p0),
+            alpha: self.alpha.value().unwrap_or(self.prior.alpha),
+        }
+        .sane()
+    }
+
+    /// σ of the last successful fit (Q.8 dB), for an MMSE with estimated σ.
+    pub fn sigma(&self) -> Option<u16> {
+        self.sigma
+    }
+
+    /// Fits `stats` and feeds the smoothers; returns the raw fit. On error the state is unchanged.
+    pub fn update(&mut self, stats: &CalStats) -> Result<ParamFit, LocError> {
+        let f = fit(stats, self.mode, self.method, self.current(), &self.bounds)?;
+        self.feed(&f);
+        Ok(f)
+    }
+
+    /// Feeds the smoothers with a fit made elsewhere (e.g. [`fit_least_squares`] with
+    /// [`OnlineParams::current`] as the prior, so that only that method is linked).
+    pub fn feed(&mut self, f: &ParamFit) {
+        match self.mode {
+            ParamMode::Fixed => {}
+            ParamMode::P0Only => {
+                self.p0.update(f.model.p0);
+            }
+            ParamMode::P0AndAlpha => {
+                self.p0.update(f.model.p0);
+                self.alpha.update(f.model.alpha);
+            }
+        }
+        self.sigma = f.sigma.or(self.sigma);
+    }
+}
