@@ -20,8 +20,8 @@
 extern crate std;
 
 pub mod baselines;
-pub mod fixed;
 pub mod bounds;
+pub mod fixed;
 pub mod grid;
 pub mod model;
 pub mod params;
