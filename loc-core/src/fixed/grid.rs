@@ -210,6 +210,8 @@ struct Stage {
     /// Second difference `2·(H·step)²` (wrapping).
     dd: u32,
     w: Window,
+    /// Rows in the window.
+    rows: usize,
 }
 
 impl Stage {
@@ -222,6 +224,7 @@ impl Stage {
             inc0: [0; MAX_ANCHORS],
             dd: 0,
             w: Window::COARSE,
+            rows: 0,
         }
     }
 
@@ -229,6 +232,7 @@ impl Stage {
     #[inline(never)]
     fn init(&mut self, cost: &Cost, w: Window, shifts: Option<&[u8; MAX_ANCHORS]>) {
         self.w = w;
+        self.rows = w.rows();
         let d = cost.height * w.step as i32;
         // Forward differences in wrapping u32 arithmetic: exact whenever the squares fit.
         let du = d as u32;
@@ -261,7 +265,7 @@ impl Stage {
     /// `≥ bound`, which is all a comparison with `bound` needs to know).
     #[inline(never)]
     fn column(&self, cost: &Cost, i: usize, bound: u32, skip: u16, sums: &mut [u32; ROWS]) {
-        let rows = self.w.rows();
+        let rows = self.rows;
         for (r, v) in sums.iter_mut().enumerate().take(rows) {
             *v = if skip & (1 << r) != 0 { INF } else { 0 };
         }
@@ -269,13 +273,14 @@ impl Stage {
             return;
         }
         let dy_step = cost.height * self.w.step as i32;
+        let (x, y0) = (cost.width * i as i32, cost.height * self.w.j0 as i32);
         for a in 0..cost.n {
             let s = self.shift[a];
-            let dx = cost.width * i as i32 - cost.ax[a];
+            let dx = x - cost.ax[a];
             let dx2 = if s == 0 { sq16(dx) } else { sq_shr(dx, s) };
-            let (rho, lclamp, w) = (self.rho[a], self.lclamp[a], cost.w[a] as u32);
+            let (rho, lclamp, w) = (self.rho[a], self.lclamp[a], cost.w[a]);
             let (mut dy2, mut inc) = (self.row0[a], self.inc0[a]);
-            let mut dy = cost.height * self.w.j0 as i32 - cost.ay[a];
+            let mut dy = y0 - cost.ay[a];
             for sum in sums.iter_mut().take(rows) {
                 if *sum < bound {
                     let (lo, carry) = dx2.overflowing_add(dy2);
@@ -283,14 +288,15 @@ impl Stage {
                     let u = (rho + l).unsigned_abs();
                     // u² in Q.20 from |u| in Q.18 (< 2^23): below 2^30 − 1.
                     let sq = if u >= U_SAT { SQ_SAT } else { sq_q18(u >> 2) };
-                    let term = match w {
+                    let t = match w {
                         1 => sq,
                         2 => sq << 1,
                         3 => sq + (sq << 1),
                         _ => sq << 2,
                     };
-                    *sum = sum.saturating_add(term);
+                    *sum = sum.saturating_add(t);
                 }
+                // The next row's square: exact forward differences, or directly when shifted.
                 if s == 0 {
                     dy2 = dy2.wrapping_add(inc);
                     inc = inc.wrapping_add(self.dd);

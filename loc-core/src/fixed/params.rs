@@ -114,23 +114,27 @@ impl CalStats {
     /// beyond [`MAX_SAMPLES`]).
     #[inline(never)]
     pub fn push_at(&mut self, x: i32, bytes: &[Option<u8>]) -> usize {
-        let x = clamp_i32(x, -(32 << 18), 32 << 18) as i64;
-        let (mut k, mut s, mut s2) = (0i64, 0i64, 0i64);
+        let x = clamp_i32(x, -(32 << 18), 32 << 18);
+        let (mut k, mut s, mut s2) = (0u16, 0i32, 0i32);
         for &b in bytes.iter().flatten() {
-            if self.n as i64 + k >= MAX_SAMPLES as i64 {
+            if self.n + k >= MAX_SAMPLES {
                 break;
             }
-            let z = -(b as i64);
+            let z = -(b as i32);
             k += 1;
             s += z;
             s2 += z * z;
         }
-        self.n += k as u16;
-        self.sx += k * x;
-        self.sz += s;
-        self.sxx += k * (x * x);
-        self.sxz += x * s;
-        self.szz += s2;
+        self.n += k;
+        // Σx² gains k·x²: x² once (< 2^46), then k additions (k is the channel count here).
+        let x2 = square(x) as i64;
+        for _ in 0..k {
+            self.sx += x as i64;
+            self.sxx += x2;
+        }
+        self.sz += s as i64;
+        self.sxz += x as i64 * s as i64;
+        self.szz += s2 as i64;
         k as usize
     }
 
@@ -154,15 +158,16 @@ impl CalStats {
                 let Some(x) = distance_x(anchors[i], anchors[j]) else {
                     continue;
                 };
-                for (p, q) in [(i, j), (j, i)] {
-                    let mut bytes = [None; MAX_CHANNELS];
+                // Both directions in one push: one x², one x·Σz per pair.
+                let mut bytes = [None; 2 * MAX_CHANNELS];
+                for (k, (p, q)) in [(i, j), (j, i)].into_iter().enumerate() {
                     for (c, v) in m.a2a[p][q][..n_ch].iter().enumerate() {
-                        if channel.is_none_or(|k| k == c) {
-                            bytes[c] = *v;
+                        if channel.is_none_or(|want| want == c) {
+                            bytes[k * MAX_CHANNELS + c] = *v;
                         }
                     }
-                    s.push_at(x, &bytes);
                 }
+                s.push_at(x, &bytes);
             }
         }
         s
@@ -221,6 +226,7 @@ impl CalStats {
     }
 
     /// Best α (Q.24) for P0 (Q.16), unconstrained: `(Σxz − P0·Σx)/Σx²`; `None` if `Σx² = 0`.
+    #[inline(never)]
     fn alpha_for(&self, p0: i32) -> Option<i64> {
         let num = self.sxz - ((p0 as i64 * self.sx) >> 16); // Q.18
         (self.sxx > 0).then(|| div_q(num, self.sxx, 42))
@@ -229,31 +235,19 @@ impl CalStats {
 
 /// `num·2^q/den` rounded, for `den > 0`, saturating at `±2^40` (far beyond any bound).
 ///
-/// Restoring long division over the numerator's significant bits and `q + 1` fraction bits,
-/// with constant shifts only (small on AVR; as fast as a library 64-bit division).
+/// One library 64-bit division: the numerator is shifted left as far as it can go and the
+/// divisor right by the rest of `q` (the divisor keeps at least 20 significant bits in every use
+/// here).
 #[inline(never)]
 fn div_q(num: i64, den: i64, q: u32) -> i64 {
-    const SAT: u64 = 1 << 41;
-    let (mut n, d) = (num.unsigned_abs(), den.max(1) as u64);
-    let mut steps = 64 + q + 1;
-    while steps > q + 1 && n >> 63 == 0 {
-        n <<= 1;
-        steps -= 1;
+    const SAT: u64 = 1 << 40;
+    let (n, d) = (num.unsigned_abs(), den.max(1) as u64);
+    let a = q.min(n.leading_zeros().saturating_sub(2));
+    let d = d >> (q - a);
+    if d == 0 {
+        return if num < 0 { -(SAT as i64) } else { SAT as i64 };
     }
-    let (mut quo, mut rem) = (0u64, 0u64);
-    while steps > 0 && quo < SAT {
-        // rem < d < 2^63: 2·rem + 1 fits.
-        rem = rem << 1 | n >> 63;
-        n <<= 1;
-        quo <<= 1;
-        if rem >= d {
-            rem -= d;
-            quo |= 1;
-        }
-        steps -= 1;
-    }
-    // One extra bit was computed: round it away (a saturated quotient stays saturated).
-    let v = if quo >= SAT { SAT >> 1 } else { (quo + 1) >> 1 } as i64;
+    let v = (((n << a) + d / 2) / d).min(SAT) as i64;
     if num < 0 {
         -v
     } else {
@@ -284,14 +278,11 @@ impl ParamFit {
         let dof = stats.n.saturating_sub(fitted as u16) as u32;
         // σ² Q.16 = sse/dof; σ ≥ 256 dB saturates.
         let sigma = (dof > 0).then(|| {
-            let hi = (sse >> 32) as u32;
-            if hi >= dof {
+            let v = sse / dof as u64;
+            if v > u32::MAX as u64 {
                 u16::MAX
-            } else if hi == 0 {
-                isqrt_u32(sse as u32 / dof).min(u16::MAX as u32) as u16
             } else {
-                isqrt_u32(div_q(sse as i64, dof as i64, 0).min(u32::MAX as i64) as u32)
-                    .min(u16::MAX as u32) as u16
+                isqrt_u32(v as u32).min(u16::MAX as u32) as u16
             }
         });
         ParamFit {
@@ -442,30 +433,28 @@ fn box_least_squares(
             alpha,
         };
     }
-    let on_alpha_edge = |alpha: i32| PathLoss {
-        p0: clamp_i64(stats.p0_for(alpha), p_lo as i64, p_hi as i64) as i32,
-        alpha,
-    };
-    let on_p0_edge = |p0: i32| PathLoss {
-        p0,
-        alpha: clamp_i64(
-            stats.alpha_for(p0).unwrap_or(a_lo as i64),
-            a_lo as i64,
-            a_hi as i64,
-        ) as i32,
-    };
-    let candidates = [
-        on_alpha_edge(a_lo),
-        on_alpha_edge(a_hi),
-        on_p0_edge(p_lo),
-        on_p0_edge(p_hi),
-    ];
-    let mut best = candidates[0];
-    let mut best_sse = stats.sse_at(best.p0, best.alpha);
-    for c in &candidates[1..] {
+    let mut best = PathLoss { p0: 0, alpha: 0 };
+    let mut best_sse = u64::MAX;
+    for edge in 0..4 {
+        let c = match edge {
+            // α on an edge, the best P0 for it clamped; then P0 on an edge, the best α clamped.
+            0 | 1 => {
+                let alpha = if edge == 0 { a_lo } else { a_hi };
+                let p0 = clamp_i64(stats.p0_for(alpha), p_lo as i64, p_hi as i64) as i32;
+                PathLoss { p0, alpha }
+            }
+            _ => {
+                let p0 = if edge == 2 { p_lo } else { p_hi };
+                let a = stats.alpha_for(p0).unwrap_or(a_lo as i64);
+                PathLoss {
+                    p0,
+                    alpha: clamp_i64(a, a_lo as i64, a_hi as i64) as i32,
+                }
+            }
+        };
         let e = stats.sse_at(c.p0, c.alpha);
         if e < best_sse {
-            (best, best_sse) = (*c, e);
+            (best, best_sse) = (c, e);
         }
     }
     best

@@ -108,6 +108,10 @@ pub fn db_mean(rssi: &[Option<u8>]) -> Option<(i32, u8)> {
     if n == 0 {
         return None;
     }
+    if sum < 1 << 15 {
+        // The usual case (up to 128 channels): one rounding division, none for 1, 2 or 4.
+        return Some((-(div_count(sum << 16, n) as i32), n.min(255) as u8));
+    }
     // Whole dB and the remainder's fraction: no product beyond 2^32 for any slice length.
     let (q, rem) = (sum / n, sum % n);
     let frac = if n < 1 << 15 {

@@ -1,4 +1,4 @@
-//! Constant tables of the fixed-point path (544 bytes in all) and their accessors.
+//! Constant tables of the fixed-point path (592 bytes in all) and their accessors.
 //!
 //! On AVR the tables live in flash (`avr-progmem`: read with `lpm`, never copied to SRAM); on
 //! every other target they are plain statics. The accessors are the only way the rest of
