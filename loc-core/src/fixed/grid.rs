@@ -265,9 +265,11 @@ impl Stage {
     /// `≥ bound`, which is all a comparison with `bound` needs to know).
     #[inline(never)]
     fn column(&self, cost: &Cost, i: usize, bound: u32, skip: u16, sums: &mut [u32; ROWS]) {
-        let rows = self.rows;
-        for (r, v) in sums.iter_mut().enumerate().take(rows) {
-            *v = if skip & (1 << r) != 0 { INF } else { 0 };
+        let rows = &mut sums[..self.rows];
+        let mut bit = 1u16;
+        for v in rows.iter_mut() {
+            *v = if skip & bit != 0 { INF } else { 0 };
+            bit <<= 1;
         }
         if cost.flat {
             return;
@@ -277,41 +279,55 @@ impl Stage {
         for a in 0..cost.n {
             let s = self.shift[a];
             let dx = x - cost.ax[a];
-            let dx2 = if s == 0 { sq16(dx) } else { sq_shr(dx, s) };
             let (rho, lclamp, w) = (self.rho[a], self.lclamp[a], cost.w[a]);
-            let (mut dy2, mut inc) = (self.row0[a], self.inc0[a]);
-            let mut dy = y0 - cost.ay[a];
-            for sum in sums.iter_mut().take(rows) {
-                if *sum < bound {
-                    let (lo, carry) = dx2.overflowing_add(dy2);
-                    let l = log2_fast(lo, carry).max(lclamp);
-                    let u = (rho + l).unsigned_abs();
-                    // u² in Q.20 from |u| in Q.18 (< 2^23): below 2^30 − 1.
-                    let sq = if u >= U_SAT { SQ_SAT } else { sq_q18(u >> 2) };
-                    let t = match w {
-                        1 => sq,
-                        2 => sq << 1,
-                        3 => sq + (sq << 1),
-                        _ => sq << 2,
-                    };
-                    *sum = sum.saturating_add(t);
-                }
-                // The next row's square: exact forward differences, or directly when shifted.
-                if s == 0 {
+            if s == 0 {
+                // Exact forward differences of the row squares (wrapping: every square fits).
+                let dx2 = sq16(dx);
+                let (mut dy2, mut inc, dd) = (self.row0[a], self.inc0[a], self.dd);
+                for sum in rows.iter_mut() {
+                    if *sum < bound {
+                        *sum = add_term(*sum, dx2, dy2, rho, lclamp, w);
+                    }
                     dy2 = dy2.wrapping_add(inc);
-                    inc = inc.wrapping_add(self.dd);
-                } else {
+                    inc = inc.wrapping_add(dd);
+                }
+            } else {
+                let dx2 = sq_shr(dx, s);
+                let mut dy = y0 - cost.ay[a];
+                for sum in rows.iter_mut() {
+                    if *sum < bound {
+                        *sum = add_term(*sum, dx2, sq_shr(dy, s), rho, lclamp, w);
+                    }
                     dy += dy_step;
-                    dy2 = sq_shr(dy, s);
                 }
             }
         }
-        for (r, v) in sums.iter_mut().enumerate().take(rows) {
-            if skip & (1 << r) == 0 {
+        let mut bit = 1u16;
+        for v in rows.iter_mut() {
+            if skip & bit == 0 {
                 *v = (*v).min(COST_MAX);
             }
+            bit <<= 1;
         }
     }
+}
+
+/// `sum` plus one anchor's weighted term `w·(ρ + max(log2 d², clamp))²` (Q.20, saturating) for
+/// `d² = dx2 + dy2` (33 bits): the log, the 1 cm clamp, `u` and its square.
+#[inline(always)]
+fn add_term(sum: u32, dx2: u32, dy2: u32, rho: i32, lclamp: i32, w: u8) -> u32 {
+    let (lo, carry) = dx2.overflowing_add(dy2);
+    let l = log2_fast(lo, carry).max(lclamp);
+    let u = (rho + l).unsigned_abs();
+    // u² in Q.20 from |u| in Q.18 (< 2^23): below 2^30 − 1.
+    let sq = if u >= U_SAT { SQ_SAT } else { sq_q18(u >> 2) };
+    let t = match w {
+        1 => sq,
+        2 => sq << 1,
+        3 => sq + (sq << 1),
+        _ => sq << 2,
+    };
+    sum.saturating_add(t)
 }
 
 /// A lattice point and its cost.

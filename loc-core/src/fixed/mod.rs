@@ -62,10 +62,10 @@
 //! Measured in simavr at 16 MHz (`opt-level = "s"`, LTO, libgcc linked as the firmwares do), one
 //! sink step with 4 anchors × 2 channels in a 10 m room, called as the lean sequence below (no
 //! [`Measurements`] copy): calibration statistics of the 6 anchor pairs ≈ 25 k cycles, the
-//! least-squares fit and AR(1) ≈ 14 k, the Extended refinement ≈ 8 k, the thesis MLE ≈ 460 k
-//! (≈ 380 anchor terms after the early exits, ≈ 1 200 cycles each with the column overheads),
-//! multi-start ≈ 730 k, the MMSE ≈ 11 M (all 2 601 points). Code ≈ 19 KB (flash) for fit,
-//! refinement and the thesis MLE; stack peak ≈ 0.9 KB.
+//! least-squares fit and AR(1) ≈ 14 k, the Extended refinement ≈ 6 k, the thesis MLE ≈ 405 k
+//! (≈ 380 anchor terms after the early exits at ≈ 650 cycles, plus ≈ 5 k per evaluated column),
+//! so ≈ 460 k (29 ms) in all; multi-start instead ≈ 670 k, the MMSE ≈ 10.8 M (all 2 601 points).
+//! Code ≈ 20 KB of flash for statistics, fit, refinement and the thesis MLE; stack peak ≈ 1 KB.
 //!
 //! The per-term cost is bounded by code generation, not by the arithmetic: LLVM's AVR backend
 //! spends ≈ 25 cycles per 8 × 8 product it composes into 16/32-bit values (the `mul` itself is 2)
