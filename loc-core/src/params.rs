@@ -325,7 +325,7 @@ fn grid_steps(lo: f64, hi: f64, step: f64) -> usize {
     let k = libm::floor((hi - lo) / step + 1e-9);
     if k.is_finite() && k > 0.0 {
         // Bounded for sane ranges; an absurd range is cut rather than looping for ages.
-        (k as usize).min(1_000_000)
+        k.min(1_000_000.0) as usize
     } else {
         0
     }
