@@ -29,6 +29,16 @@ impl Role {
         Role::ALL.into_iter().find(|r| r.name() == name)
     }
 
+    /// The testbed channel the role's radio starts on: anchors and agents on the first channel
+    /// of the default list (where the first beacons go), the sink on the sink channel (where
+    /// reports come).
+    pub const fn boot_channel(self) -> u8 {
+        match self {
+            Role::Sink => crate::DEFAULT_SINK_CHANNEL,
+            Role::Anchor | Role::Agent => crate::DEFAULT_CHANNELS[0],
+        }
+    }
+
     /// The radio's 16-bit address (`MY`) of node `id` of this role: anchors `id`, agents
     /// `0x0100 + id`, sinks `0x0200 + id`, so the three never overlap and none is the broadcast
     /// address 0xFFFF.
@@ -53,6 +63,13 @@ mod tests {
         }
         assert_eq!(Role::from_name("Anchor"), None);
         assert_eq!(Role::from_name(""), None);
+    }
+
+    #[test]
+    fn boot_channels() {
+        assert_eq!(Role::Anchor.boot_channel(), 1);
+        assert_eq!(Role::Agent.boot_channel(), 1);
+        assert_eq!(Role::Sink.boot_channel(), 3);
     }
 
     #[test]

@@ -10,18 +10,14 @@
 
 use hoploc_tests::{boot, led_on};
 use loc_proto::line::{BootLine, RadioFound};
-use loc_proto::{xbee_channel, Role, DEFAULT_CHANNELS, DEFAULT_PAN_ID, DEFAULT_SINK_CHANNEL};
+use loc_proto::{xbee_channel, Role, DEFAULT_PAN_ID};
 use simavr::{cycles_to_ms, ms_to_cycles, Avr, Match, ScriptedRadio};
 use xbee_api::Mode;
 
-/// The settings each boot firmware gives its radio: node 1 of its role on the default PAN;
-/// anchors and agents on the first channel of the default list, the sink on the sink channel.
+/// The settings each boot firmware gives its radio (`uno_board::boot_radio_config`): node 1 of
+/// its role on the default PAN, on the role's boot channel.
 fn settings(role: Role) -> (u16, u8) {
-    let ch = match role {
-        Role::Sink => DEFAULT_SINK_CHANNEL,
-        _ => DEFAULT_CHANNELS[0],
-    };
-    (role.address(1), xbee_channel(ch).unwrap())
+    (role.address(1), xbee_channel(role.boot_channel()).unwrap())
 }
 
 fn at(id: u8, cmd: &[u8; 2], param: &[u8]) -> Vec<u8> {

@@ -12,7 +12,7 @@ mod watchdog;
 pub use eeprom::Eeprom;
 pub use led::Led;
 pub use power::{sleep_idle, sleep_unless};
-pub use radio::{boot_and_listen, bring_up_radio, write_line, NodeRadio};
+pub use radio::{boot_and_listen, boot_radio_config, bring_up_radio, write_line, NodeRadio};
 pub use serial::{rx_pending, RxStats, Serial};
 pub use time::{delay_ms, now_ms, SysClock};
 pub use watchdog::{reset, ResetCause, Watchdog};
