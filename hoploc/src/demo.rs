@@ -8,7 +8,7 @@
 use std::path::Path;
 
 use loc_proto::line::{BootLine, RadioFound};
-use simavr::xbee::{XBee, XBeeConfig};
+use simavr::xbee::{baud_of_bd, XBee, XBeeConfig};
 use simavr::{ms_to_cycles, Avr};
 use xbee_api::driver::Error as RadioError;
 use xbee_api::Frame;
@@ -120,17 +120,8 @@ pub fn run(firmware_dir: &Path, seconds: f64) -> Result<(), String> {
     );
     for n in &nodes {
         let r = n.radio.registers();
-        let baud = match r.bd() {
-            0 => 1200,
-            1 => 2400,
-            2 => 4800,
-            3 => 9600,
-            4 => 19200,
-            5 => 38400,
-            6 => 57600,
-            7 => 115200,
-            other => other,
-        };
+        // BD beyond the table (a non-standard rate) shows as its raw value.
+        let baud = baud_of_bd(r.bd()).unwrap_or(r.bd());
         let stack = n
             .avr
             .stack_peak()
