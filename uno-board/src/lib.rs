@@ -15,6 +15,8 @@
 //!   [`ResetCause`].
 //! * Radio bring-up at boot ([`bring_up_radio`], [`boot_and_listen`]): the xbee-api driver on
 //!   [`Serial`], the `loc_proto::line::BootLine` lines, the LED error code and the retry.
+//! * [`libm`]: safe wrappers of avr-libc's `f32` `log10`/`exp`/`sqrt` (for the f32 benchmark in
+//!   `mcu-bench`; the node firmware uses integer arithmetic only).
 //! * With the default `panic-reset` feature, the `#[panic_handler]`: reset through the watchdog,
 //!   no formatting.
 //!
@@ -23,8 +25,9 @@
 //! workspace builds and tests there.
 //!
 //! `unsafe` in hoploc lives only here, and only for: the shared-state cell used inside critical
-//! sections, register access from interrupt handlers, and the timed write sequences (watchdog,
-//! EEPROM) in inline assembly. Each use carries a `SAFETY` comment.
+//! sections, register access from interrupt handlers, the timed write sequences (watchdog,
+//! EEPROM) in inline assembly, and the calls into avr-libc's float math ([`libm`]). Each use
+//! carries a `SAFETY` comment.
 //!
 //! [`avr-device`]: https://docs.rs/avr-device
 #![no_std]

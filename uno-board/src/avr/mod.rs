@@ -3,6 +3,7 @@
 mod cell;
 mod eeprom;
 mod led;
+pub mod libm;
 mod power;
 mod radio;
 mod serial;
