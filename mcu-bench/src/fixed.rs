@@ -1,0 +1,127 @@
+//! The fixed-point pipeline: loc-core's lean sink sequence ([`loc_core::fixed`] module docs).
+
+use crate::{Inputs, Pipeline, Report, N_ANCHORS, N_CHANNELS, SIGMA_DB};
+use loc_core::fixed::{
+    estimate, fit_least_squares, mle, observations_of, AreaCm, Bounds, CalStats, ChannelBytes,
+    Estimator, FitMethod, Observations, OnlineParams, ParamMode, PathLoss, PointCm, Refinement,
+    Search,
+};
+
+/// The MMSE variant the fixed path runs.
+///
+/// TODO(issue 4b): the windowed posterior mean (`Estimator::MmseWindow`, being added to
+/// `loc_core::fixed`); until it lands this is the full-lattice MMSE, which evaluates all 2 601
+/// points and so is far slower than the windowed one and not the same estimator as
+/// [`crate::float`]'s.
+pub const MMSE: Estimator = Estimator::Mmse {
+    sigma: (SIGMA_DB as u16) << 8,
+};
+
+/// Whether [`MMSE`] is the windowed estimator of [`crate::float`] (the harness says so).
+pub const MMSE_IS_WINDOWED: bool = false;
+
+/// [`loc_core::fixed`] with P0 and α estimated by least squares within the thesis' bounds, AR(1)
+/// smoothed from the thesis' prior.
+///
+/// Its [`Report`]: position in mm, P0 Q.16 dBm and α Q.24 (as `i32` bits); all `u32::MAX` if
+/// the estimate failed.
+#[derive(Clone, Copy, Debug)]
+pub struct Fixed {
+    /// The online parameter state.
+    pub params: OnlineParams,
+}
+
+impl Default for Fixed {
+    fn default() -> Self {
+        Fixed::new()
+    }
+}
+
+impl Fixed {
+    /// Fresh state: the thesis' prior, no fit yet.
+    pub fn new() -> Fixed {
+        Fixed {
+            params: OnlineParams::new(
+                ParamMode::P0AndAlpha,
+                FitMethod::LeastSquares,
+                Bounds::THESIS,
+                PathLoss::THESIS,
+            ),
+        }
+    }
+
+    fn report(&self, e: Result<loc_core::fixed::Estimate, loc_core::LocError>) -> Report {
+        let m = self.params.current();
+        match e {
+            Ok(e) => Report {
+                x: e.pos.x,
+                y: e.pos.y,
+                p0: m.p0 as u32,
+                alpha: m.alpha as u32,
+            },
+            Err(_) => Report {
+                x: u32::MAX,
+                y: u32::MAX,
+                p0: u32::MAX,
+                alpha: u32::MAX,
+            },
+        }
+    }
+}
+
+fn anchors(inp: &Inputs) -> [PointCm; N_ANCHORS] {
+    inp.anchors.map(|[x, y]| PointCm::new(x, y))
+}
+
+fn area(inp: &Inputs) -> AreaCm {
+    AreaCm::new(inp.area[0], inp.area[1])
+}
+
+impl Pipeline for Fixed {
+    type Stats = CalStats;
+    type Obs = Observations;
+
+    fn calibrate(&mut self, inp: &Inputs) -> CalStats {
+        let a = anchors(inp);
+        let mut stats = CalStats::new();
+        for i in 0..N_ANCHORS {
+            for j in i + 1..N_ANCHORS {
+                // Both directions' bytes: one distance (one log) per pair.
+                let mut bytes = [None; 2 * N_CHANNELS];
+                for c in 0..N_CHANNELS {
+                    bytes[c] = Some(inp.a2a_byte(i, j, c));
+                    bytes[N_CHANNELS + c] = Some(inp.a2a_byte(j, i, c));
+                }
+                stats.push_pair(a[i], a[j], &bytes);
+            }
+        }
+        stats
+    }
+
+    fn fit(&mut self, stats: &CalStats) {
+        let p = &mut self.params;
+        if let Ok(f) = fit_least_squares(stats, p.mode, p.current(), &p.bounds) {
+            p.feed(&f);
+        }
+    }
+
+    fn refine(&mut self, inp: &Inputs) -> Observations {
+        let mut rssi: [ChannelBytes; N_ANCHORS] = Default::default();
+        for (r, bytes) in rssi.iter_mut().zip(&inp.agent) {
+            for (slot, &b) in r.iter_mut().zip(bytes) {
+                *slot = Some(b);
+            }
+        }
+        observations_of(&anchors(inp), &rssi, N_CHANNELS, Refinement::Extended)
+    }
+
+    fn mle(&mut self, obs: &Observations, inp: &Inputs) -> Report {
+        let e = mle(obs, self.params.current(), area(inp), Search::Thesis);
+        self.report(e)
+    }
+
+    fn mmse(&mut self, obs: &Observations, inp: &Inputs) -> Report {
+        let e = estimate(obs, self.params.current(), area(inp), MMSE);
+        self.report(e)
+    }
+}

@@ -1,0 +1,314 @@
+//! The host side: building the bench firmwares, running them in simavr, reading their markers and
+//! results, and the host's own answers for the same inputs (used by
+//! `hoploc/benches/mcu_estimate.rs` and `tests/tests/mcu_bench.rs`).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use simavr::{Avr, State};
+
+use crate::{float, run, Inputs, Report, MARKS, N_ANCHORS, N_CHANNELS, SIGMA_DB};
+
+/// The firmwares, baseline first.
+pub const BINS: [&str; 3] = ["est-none", "est-fixed", "est-f32"];
+
+/// Simulated time after which a run that has not stopped counts as hung.
+const RUN_LIMIT_MS: f64 = 20_000.0;
+
+/// The workspace root (this crate's parent directory).
+pub fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."))
+}
+
+/// Where the ELFs are: `HOPLOC_FIRMWARE_DIR`, else where `cargo fw-bench` puts them.
+pub fn elf_dir() -> PathBuf {
+    std::env::var_os("HOPLOC_FIRMWARE_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace_root().join("target/avr-none/fw"))
+}
+
+/// The ELF of firmware `bin` (one of [`BINS`]).
+pub fn elf(bin: &str) -> PathBuf {
+    elf_dir().join(format!("{bin}.elf"))
+}
+
+/// Makes sure the ELFs are there and current: runs `cargo fw-bench` (a quick no-op when nothing
+/// changed) unless `HOPLOC_FIRMWARE_DIR` points elsewhere, where they must already exist.
+pub fn build() -> Result<(), String> {
+    if std::env::var_os("HOPLOC_FIRMWARE_DIR").is_some() {
+        return match BINS.iter().map(|b| elf(b)).find(|p| !p.exists()) {
+            Some(p) => Err(format!("{} is missing", p.display())),
+            None => Ok(()),
+        };
+    }
+    let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+        .arg("fw-bench")
+        .current_dir(workspace_root())
+        .status()
+        .map_err(|e| format!("could not run cargo fw-bench: {e}"))?;
+    if !status.success() {
+        return Err("cargo fw-bench failed".into());
+    }
+    Ok(())
+}
+
+/// What one firmware run gave.
+#[derive(Clone, Debug)]
+pub struct Run {
+    /// The firmware.
+    pub elf: PathBuf,
+    /// Cycle of each marker of [`MARKS`] (the cycle it was written to `UDR0`).
+    pub marks: Vec<u64>,
+    /// The MLE and MMSE results.
+    pub reports: [Report; 2],
+    /// Flash bytes (`.text` + `.data` initialisers).
+    pub flash: usize,
+    /// Static data bytes (`.data` + `.bss`).
+    pub static_sram: usize,
+    /// Stack peak, bytes.
+    pub stack_peak: usize,
+}
+
+impl Run {
+    /// Cycles of each phase of [`PHASES`] (between consecutive markers, overhead included).
+    pub fn phases(&self) -> Vec<u64> {
+        self.marks.windows(2).map(|w| w[1] - w[0]).collect()
+    }
+}
+
+/// Runs `elf` in simavr until it stops and parses what it wrote.
+pub fn run_elf(elf: &Path) -> Result<Run, String> {
+    let err = |e: simavr::Error| format!("{}: {e}", elf.display());
+    let mut avr = Avr::load(elf).map_err(err)?;
+    let mut state = State::Running;
+    while state.is_alive() && avr.time_ms() < RUN_LIMIT_MS {
+        state = avr.run_for_ms(50.0);
+    }
+    if state != State::Done {
+        return Err(format!(
+            "{}: did not stop ({state:?} at {:.0} ms); output: {:?}",
+            elf.display(),
+            avr.time_ms(),
+            avr.uart_output_string()
+        ));
+    }
+    let out = avr.uart_output();
+    let nl = out
+        .iter()
+        .position(|b| b.byte == b'\n')
+        .ok_or_else(|| format!("{}: no results: {out:?}", elf.display()))?;
+    let got: Vec<u8> = out[..nl].iter().map(|b| b.byte).collect();
+    if got != MARKS {
+        return Err(format!(
+            "{}: markers {:?}, expected {:?}",
+            elf.display(),
+            String::from_utf8_lossy(&got),
+            String::from_utf8_lossy(&MARKS)
+        ));
+    }
+    let text: String = out[nl + 1..].iter().map(|b| b.byte as char).collect();
+    let reports = parse_reports(&text).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let need = |v: Option<usize>, what: &str| {
+        v.ok_or_else(|| format!("{}: no {what} (symbols missing)", elf.display()))
+    };
+    Ok(Run {
+        elf: elf.to_path_buf(),
+        marks: out[..nl].iter().map(|b| b.cycle).collect(),
+        reports,
+        flash: need(avr.flash_size(), "flash size")?,
+        static_sram: need(avr.static_data_size(), "static data size")?,
+        stack_peak: need(avr.stack_peak(), "stack peak")?,
+    })
+}
+
+/// Parses `mle x y p0 alpha\nmmse x y p0 alpha\nend\n`.
+pub fn parse_reports(text: &str) -> Result<[Report; 2], String> {
+    let mut lines = text.lines();
+    let mut one = |tag: &str| -> Result<Report, String> {
+        let line = lines.next().unwrap_or("");
+        let mut words = line.split(' ');
+        if words.next() != Some(tag) {
+            return Err(format!("expected a {tag:?} line, got {line:?}"));
+        }
+        let v: Vec<u32> = words
+            .map(|w| {
+                w.parse()
+                    .map_err(|_| format!("bad number {w:?} in {line:?}"))
+            })
+            .collect::<Result<_, _>>()?;
+        match v[..] {
+            [x, y, p0, alpha] => Ok(Report { x, y, p0, alpha }),
+            _ => Err(format!("expected 4 numbers in {line:?}")),
+        }
+    };
+    let r = [one("mle")?, one("mmse")?];
+    match lines.next() {
+        Some("end") => Ok(r),
+        other => Err(format!("expected \"end\", got {other:?}")),
+    }
+}
+
+/// A result in common units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fix {
+    /// Position, mm.
+    pub x_mm: f64,
+    /// Position, mm.
+    pub y_mm: f64,
+    /// P0 the estimate used, dBm.
+    pub p0: f64,
+    /// α the estimate used.
+    pub alpha: f64,
+}
+
+impl Fix {
+    /// From a [`crate::fixed::Fixed`] report.
+    pub fn of_fixed(r: &Report) -> Fix {
+        Fix {
+            x_mm: r.x as f64,
+            y_mm: r.y as f64,
+            p0: r.p0 as i32 as f64 / 65536.0,
+            alpha: r.alpha as i32 as f64 / 16_777_216.0,
+        }
+    }
+
+    /// From a [`float::F32`] report.
+    pub fn of_f32(r: &Report) -> Fix {
+        let f = |w: u32| f32::from_bits(w) as f64;
+        Fix {
+            x_mm: f(r.x) * 1000.0,
+            y_mm: f(r.y) * 1000.0,
+            p0: f(r.p0),
+            alpha: f(r.alpha),
+        }
+    }
+
+    /// Distance to `o`'s position, mm.
+    pub fn dist_mm(&self, o: &Fix) -> f64 {
+        (self.x_mm - o.x_mm).hypot(self.y_mm - o.y_mm)
+    }
+}
+
+/// The fixed path's answers on the host, computed independently of [`crate::fixed`]'s lean
+/// sequence: a [`loc_core::fixed::Measurements`], an earlier round's
+/// [`OnlineParams::update`](loc_core::fixed::OnlineParams::update), then
+/// [`loc_core::fixed::sink_fix`] with the MLE and with [`crate::fixed::MMSE`].
+pub fn host_fixed(inp: &Inputs) -> [Report; 2] {
+    use loc_core::fixed::{
+        sink_fix, AreaCm, CalStats, Estimator, Measurements, PointCm, Refinement, Search,
+    };
+    let anchors = inp.anchors.map(|[x, y]| PointCm::new(x, y));
+    let mut m = Measurements::new(&anchors, N_CHANNELS);
+    for a in 0..N_ANCHORS {
+        for c in 0..N_CHANNELS {
+            m.rssi[a][c] = Some(inp.agent[a][c]);
+            for b in (0..N_ANCHORS).filter(|&b| b != a) {
+                m.a2a[a][b][c] = Some(inp.a2a_byte(a, b, c));
+            }
+        }
+    }
+    let area = AreaCm::new(inp.area[0], inp.area[1]);
+    let mut fx = crate::fixed::Fixed::new();
+    let _ = fx.params.update(&CalStats::from_measurements(&m, None));
+    let mut one = |est: Estimator| {
+        let e = sink_fix(&m, area, &mut fx.params, Refinement::Extended, est);
+        let pl = fx.params.current();
+        match e {
+            Ok(e) => Report {
+                x: e.pos.x,
+                y: e.pos.y,
+                p0: pl.p0 as u32,
+                alpha: pl.alpha as u32,
+            },
+            Err(_) => Report {
+                x: u32::MAX,
+                y: u32::MAX,
+                p0: u32::MAX,
+                alpha: u32::MAX,
+            },
+        }
+    };
+    [one(Estimator::Mle(Search::Thesis)), one(crate::fixed::MMSE)]
+}
+
+/// The f32 pipeline run on the host (std's `log10`/`exp` instead of avr-libc's).
+pub fn host_f32(inp: &Inputs) -> [Report; 2] {
+    run(&mut float::F32::new(), inp, |_| {})
+}
+
+/// loc-core's f64 reference for the same sequence (an earlier round, then two estimates with
+/// the AR(1)-smoothed least-squares model): the thesis MLE, and the windowed MMSE (written here
+/// from [`loc_core::grid::cost`], as loc-core has no windowed MMSE).
+pub fn host_f64(inp: &Inputs) -> [Fix; 2] {
+    use loc_core::grid::{self, Search};
+    use loc_core::params::{Bounds, FitMethod, OnlineParams, ParamMode};
+    use loc_core::refine::{observations, Refinement};
+    use loc_core::{Area, Measurements, PathLoss, Point};
+    let pos: Vec<Point> = inp
+        .anchors
+        .iter()
+        .map(|&[x, y]| Point::new(x as f64 / 100.0, y as f64 / 100.0))
+        .collect();
+    let mut m = Measurements::new(&pos, N_CHANNELS);
+    for a in 0..N_ANCHORS {
+        for c in 0..N_CHANNELS {
+            m.anchors[a].rssi[c] = Some(-(inp.agent[a][c] as f64));
+            for b in (0..N_ANCHORS).filter(|&b| b != a) {
+                m.a2a[a][b][c] = Some(-(inp.a2a_byte(a, b, c) as f64));
+            }
+        }
+    }
+    let area = Area::new(inp.area[0] as f64 / 100.0, inp.area[1] as f64 / 100.0);
+    let mut params = OnlineParams::new(
+        ParamMode::P0AndAlpha,
+        FitMethod::LeastSquares,
+        Bounds::THESIS,
+        PathLoss::THESIS,
+    );
+    let _ = params.update(&m);
+    let obs = observations(&m, Refinement::Extended);
+    let fix = |p: Point, model: PathLoss| Fix {
+        x_mm: p.x * 1000.0,
+        y_mm: p.y * 1000.0,
+        p0: model.p0,
+        alpha: model.alpha,
+    };
+    let _ = params.update(&m);
+    let model = params.current();
+    let mle = grid::mle(&obs, model, area, Search::Thesis)
+        .map_or(Point::new(f64::NAN, f64::NAN), |e| e.pos);
+    let mle = fix(mle, model);
+    let _ = params.update(&m);
+    let model = params.current();
+    let cost = |i: usize, j: usize| grid::cost(&obs, model, grid::lattice_point(area, i, j));
+    // Coarse winner (strict <, i outer), then the posterior mean over its ± 5 window.
+    let mut best = (0, 0, f64::INFINITY);
+    for i in (0..=50).step_by(5) {
+        for j in (0..=50).step_by(5) {
+            let c = cost(i, j);
+            if c < best.2 {
+                best = (i, j, c);
+            }
+        }
+    }
+    let win = |c: usize| c.saturating_sub(5)..=(c + 5).min(50);
+    let costs: Vec<(usize, usize, f64)> = win(best.0)
+        .flat_map(|i| win(best.1).map(move |j| (i, j)))
+        .map(|(i, j)| (i, j, cost(i, j)))
+        .collect();
+    let cmin = costs.iter().map(|c| c.2).fold(f64::INFINITY, f64::min);
+    let inv = 1.0 / (2.0 * SIGMA_DB as f64 * SIGMA_DB as f64);
+    let (mut s, mut sx, mut sy) = (0.0, 0.0, 0.0);
+    for &(i, j, c) in &costs {
+        let w = (-(c - cmin) * inv).exp();
+        let p = grid::lattice_point(area, i, j);
+        s += w;
+        sx += w * p.x;
+        sy += w * p.y;
+    }
+    let mmse = fix(Point::new(sx / s, sy / s), model);
+    [mle, mmse]
+}
