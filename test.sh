@@ -4,6 +4,8 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")"
 bash scripts/setup.sh
-# The firmware must build for the Uno; simavr-based tests run the ELFs.
+# The firmware must build for the Uno; simavr-based tests run the ELFs (the node firmwares, and
+# the MCU estimate benchmark's for tests/tests/mcu_bench.rs).
 cargo fw
+cargo fw-bench
 cargo test --workspace "$@"
