@@ -742,6 +742,40 @@ impl Avr {
         self.static_data_end().map(|e| e.saturating_sub(0x100))
     }
 
+    /// The program counter (byte address in flash).
+    pub fn pc(&self) -> u32 {
+        // SAFETY: reading a field of the live core.
+        unsafe { (*self.raw()).pc }
+    }
+
+    /// Like [`Avr::run_until`], one instruction at a time, charging each instruction's cycles to
+    /// the function it belongs to (the nearest text symbol at or below the PC): where the time of
+    /// a stretch of firmware goes. About ten times slower than `run_until`; a dev tool.
+    pub fn profile_until(&mut self, target: u64) -> Profile {
+        let mut by_pc: HashMap<u32, u64> = HashMap::new();
+        while self.cycle() < target && self.state().is_alive() {
+            let (pc, c) = (self.pc(), self.cycle());
+            self.run_until(c + 1);
+            *by_pc.entry(pc).or_default() += self.cycle() - c;
+        }
+        let mut text: Vec<(u32, &str)> = self
+            .symbols
+            .iter()
+            .filter(|(_, &a)| a < 0x80_0000)
+            .map(|(n, &a)| (a, n.as_str()))
+            .collect();
+        text.sort();
+        let mut by_fn: HashMap<String, u64> = HashMap::new();
+        for (pc, c) in by_pc {
+            let i = text.partition_point(|&(a, _)| a <= pc);
+            let name = if i == 0 { "?" } else { text[i - 1].1 };
+            *by_fn.entry(name.to_string()).or_default() += c;
+        }
+        let mut functions: Vec<(String, u64)> = by_fn.into_iter().collect();
+        functions.sort_by(|a, b| b.1.cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+        Profile { functions }
+    }
+
     /// Sets simavr's log level for this core (0 none, 1 output, 2 errors — the default —, 3
     /// warnings, 4 trace, 5 debug).
     pub fn set_log_level(&mut self, level: u8) {
@@ -759,6 +793,20 @@ impl Drop for Avr {
             free(self.raw().cast());
             drop(Box::from_raw(self.shared.as_ptr()));
         }
+    }
+}
+
+/// Cycles per function from [`Avr::profile_until`], most expensive first.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Profile {
+    /// `(symbol, cycles)`.
+    pub functions: Vec<(String, u64)>,
+}
+
+impl Profile {
+    /// Cycles in all functions.
+    pub fn total(&self) -> u64 {
+        self.functions.iter().map(|f| f.1).sum()
     }
 }
 

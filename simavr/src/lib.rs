@@ -8,6 +8,8 @@ pub mod avr;
 pub mod radio;
 pub mod xbee;
 
-pub use avr::{cycles_to_ms, ms_to_cycles, Avr, Error, State, UartByte, F_CPU, STACK_PAINT};
+pub use avr::{
+    cycles_to_ms, ms_to_cycles, Avr, Error, Profile, State, UartByte, F_CPU, STACK_PAINT,
+};
 pub use radio::{frame_data, Match, ScriptError, ScriptedRadio, SeenFrame, TextLine, LINE_GAP_MS};
 pub use xbee::{RxPacket, Transmission, XBee, XBeeConfig, XBeeCore};

@@ -291,3 +291,33 @@ fn flash_size_is_text_plus_data_as_avr_size_counts_it() {
     let avr = Avr::load(&elf).unwrap();
     assert_eq!(avr.flash_size(), Some(text + section(".data")), "{table}");
 }
+
+/// The profiler charges every cycle it runs to a function, and the recursion's cost to
+/// `recurse`: 20 levels cost about twice 10 levels there, and the profile runs the same program
+/// as `run_until` (same output, same end cycle).
+#[test]
+fn profile_charges_cycles_to_their_functions() {
+    let profile = |depth: u8| {
+        let mut avr = load("stack");
+        avr.eeprom_write(0, &[depth]).unwrap();
+        let start = avr.cycle();
+        let target = simavr::ms_to_cycles(5.0);
+        let p = avr.profile_until(target);
+        assert_eq!(p.total(), avr.cycle() - start);
+        let mut plain = load("stack");
+        plain.eeprom_write(0, &[depth]).unwrap();
+        plain.run_until(target);
+        assert_eq!(plain.uart_output_string(), avr.uart_output_string());
+        assert_eq!(plain.cycle(), avr.cycle());
+        let of = |name: &str| p.functions.iter().find(|f| f.0 == name).map_or(0, |f| f.1);
+        (of("recurse"), of("main"))
+    };
+    let (r10, main10) = profile(10);
+    let (r20, _) = profile(20);
+    assert!(r10 > 0 && main10 > 0, "{r10} {main10}");
+    let ratio = r20 as f64 / r10 as f64;
+    assert!(
+        (1.7..2.1).contains(&ratio),
+        "recurse: {r10} vs {r20} cycles"
+    );
+}

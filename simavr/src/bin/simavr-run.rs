@@ -1,6 +1,7 @@
 //! `simavr-run FIRMWARE.elf [MS] [--eeprom FILE]`: runs an ATmega328P firmware in simavr for MS
 //! milliseconds of simulated time (default 1000) and prints its UART0 output line by line with
-//! timestamps, then the final state, stack peak and simulation speed.
+//! timestamps, then the final state, stack peak and simulation speed. With `--profile`, it runs
+//! instruction by instruction and ends with the cycles spent per function (top 30).
 
 use std::process::ExitCode;
 use std::time::Instant;
@@ -12,11 +13,13 @@ fn main() -> ExitCode {
     let mut elf = None;
     let mut ms = 1000.0;
     let mut eeprom = None;
+    let mut profile = false;
     while let Some(a) = args.next() {
         match a.as_str() {
             "--eeprom" => eeprom = args.next(),
+            "--profile" => profile = true,
             "-h" | "--help" => {
-                eprintln!("usage: simavr-run FIRMWARE.elf [MS] [--eeprom FILE]");
+                eprintln!("usage: simavr-run FIRMWARE.elf [MS] [--eeprom FILE] [--profile]");
                 return ExitCode::SUCCESS;
             }
             _ if elf.is_none() => elf = Some(a),
@@ -30,7 +33,7 @@ fn main() -> ExitCode {
         }
     }
     let Some(elf) = elf else {
-        eprintln!("usage: simavr-run FIRMWARE.elf [MS] [--eeprom FILE]");
+        eprintln!("usage: simavr-run FIRMWARE.elf [MS] [--eeprom FILE] [--profile]");
         return ExitCode::FAILURE;
     };
     let mut avr = match Avr::load(&elf) {
@@ -58,9 +61,21 @@ fn main() -> ExitCode {
     let mut line: Vec<u8> = Vec::new();
     let mut line_start = 0;
     let mut state = avr.state();
+    let mut prof = simavr::Profile::default();
     while avr.cycle() < target && state.is_alive() {
         let next = target.min(avr.cycle() + simavr::ms_to_cycles(10.0));
-        state = avr.run_until(next);
+        if profile {
+            let p = avr.profile_until(next);
+            for (f, c) in p.functions {
+                match prof.functions.iter_mut().find(|e| e.0 == f) {
+                    Some(e) => e.1 += c,
+                    None => prof.functions.push((f, c)),
+                }
+            }
+            state = avr.state();
+        } else {
+            state = avr.run_until(next);
+        }
         for b in avr.take_uart_output() {
             if line.is_empty() {
                 line_start = b.cycle;
@@ -85,6 +100,14 @@ fn main() -> ExitCode {
         avr.static_data_size().map_or("?".into(), |p| p.to_string()),
         avr.cycle() as f64 / wall.max(1e-9) / 1e6
     );
+    if profile {
+        prof.functions.sort_by_key(|f| std::cmp::Reverse(f.1));
+        let total = prof.total().max(1);
+        eprintln!("-- cycles per function ({total} in all):");
+        for (f, c) in prof.functions.iter().take(30) {
+            eprintln!("{c:>12} {:5.1} %  {f}", 100.0 * *c as f64 / total as f64);
+        }
+    }
     ExitCode::SUCCESS
 }
 
