@@ -10,11 +10,13 @@
 //! * the thesis' fine window skips the coarse points inside it: they cost at least as much as the
 //!   coarse winner the window starts from, so under a strict `<` they can never win.
 
-use super::math::{clamp_i64, exp2_neg_q26, log2_fast, sq16, sq_q18, sq_shr, square_shift};
+use super::kernel::{Portable, TermKernel};
+use super::math::{clamp_i64, exp2_neg_q26, sq16, sq_shr, square_shift};
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
 use crate::grid::{Search, COARSE_DIVS, FINE_DIVS};
 use crate::{LocError, MAX_ANCHORS};
+use core::marker::PhantomData;
 
 const RATIO: usize = FINE_DIVS / COARSE_DIVS;
 /// Rows a search window holds: ± one coarse step.
@@ -27,10 +29,6 @@ const BUDGET: usize = (COARSE_DIVS + 1) * (COARSE_DIVS + 1) + ROWS * ROWS;
 const INF: u32 = u32::MAX;
 /// Largest real cost.
 const COST_MAX: u32 = u32::MAX - 1;
-/// `|u|` saturation, Q.20: 32 log2 units (`|z − p| ≥ 32·K` dB).
-const U_SAT: u32 = 32 << 20;
-/// `32²` in Q.20, less one: four of them still fit a `u32`.
-const SQ_SAT: u32 = (1 << 30) - 1;
 
 /// `log2(1 m²)` in lattice units `(1/50 cm)²`: `log2(5000²)`, Q.20.
 const LOG2_M2: i64 = 25769201;
@@ -264,7 +262,14 @@ impl Stage {
     /// evaluated and get [`INF`]). A row's sum stops growing once it reaches `bound` (it is then
     /// `≥ bound`, which is all a comparison with `bound` needs to know).
     #[inline(never)]
-    fn column(&self, cost: &Cost, i: usize, bound: u32, skip: u16, sums: &mut [u32; ROWS]) {
+    fn column<K: TermKernel>(
+        &self,
+        cost: &Cost,
+        i: usize,
+        bound: u32,
+        skip: u16,
+        sums: &mut [u32; ROWS],
+    ) {
         let rows = &mut sums[..self.rows];
         let mut bit = 1u16;
         for v in rows.iter_mut() {
@@ -286,7 +291,7 @@ impl Stage {
                 let (mut dy2, mut inc, dd) = (self.row0[a], self.inc0[a], self.dd);
                 for sum in rows.iter_mut() {
                     if *sum < bound {
-                        *sum = add_term(*sum, dx2, dy2, rho, lclamp, w);
+                        *sum = add_term::<K>(*sum, dx2, dy2, rho, lclamp, w);
                     }
                     dy2 = dy2.wrapping_add(inc);
                     inc = inc.wrapping_add(dd);
@@ -296,7 +301,7 @@ impl Stage {
                 let mut dy = y0 - cost.ay[a];
                 for sum in rows.iter_mut() {
                     if *sum < bound {
-                        *sum = add_term(*sum, dx2, sq_shr(dy, s), rho, lclamp, w);
+                        *sum = add_term::<K>(*sum, dx2, sq_shr(dy, s), rho, lclamp, w);
                     }
                     dy += dy_step;
                 }
@@ -313,14 +318,12 @@ impl Stage {
 }
 
 /// `sum` plus one anchor's weighted term `w·(ρ + max(log2 d², clamp))²` (Q.20, saturating) for
-/// `d² = dx2 + dy2` (33 bits): the log, the 1 cm clamp, `u` and its square.
+/// `d² = dx2 + dy2` (33 bits): the log, the 1 cm clamp, `u` and its square ([`TermKernel`]).
 #[inline(always)]
-fn add_term(sum: u32, dx2: u32, dy2: u32, rho: i32, lclamp: i32, w: u8) -> u32 {
+fn add_term<K: TermKernel>(sum: u32, dx2: u32, dy2: u32, rho: i32, lclamp: i32, w: u8) -> u32 {
     let (lo, carry) = dx2.overflowing_add(dy2);
-    let l = log2_fast(lo, carry).max(lclamp);
-    let u = (rho + l).unsigned_abs();
-    // u² in Q.20 from |u| in Q.18 (< 2^23): below 2^30 − 1.
-    let sq = if u >= U_SAT { SQ_SAT } else { sq_q18(u >> 2) };
+    // Below 2^30 − 1.
+    let sq = K::term(lo, carry, rho, lclamp);
     let t = match w {
         1 => sq,
         2 => sq << 1,
@@ -355,20 +358,22 @@ impl LatticeMin {
 }
 
 /// The searches: one stage and one column of sums, reused by every phase (≈ 0.2 KB).
-struct Searcher<'a> {
+struct Searcher<'a, K> {
     cost: &'a Cost,
     st: Stage,
     sums: [u32; ROWS],
     evals: usize,
+    kernel: PhantomData<K>,
 }
 
-impl<'a> Searcher<'a> {
-    fn new(cost: &'a Cost) -> Searcher<'a> {
+impl<'a, K: TermKernel> Searcher<'a, K> {
+    fn new(cost: &'a Cost) -> Searcher<'a, K> {
         Searcher {
             cost,
             st: Stage::new(),
             sums: [0; ROWS],
             evals: 0,
+            kernel: PhantomData,
         }
     }
 
@@ -382,7 +387,8 @@ impl<'a> Searcher<'a> {
 
     /// Costs of column `i` of the current stage.
     fn column(&mut self, i: usize, bound: u32, skip: u16) {
-        self.st.column(self.cost, i, bound, skip, &mut self.sums);
+        self.st
+            .column::<K>(self.cost, i, bound, skip, &mut self.sums);
     }
 
     #[inline(never)]
@@ -558,9 +564,19 @@ pub fn mle(
     area: AreaCm,
     search: Search,
 ) -> Result<Estimate, LocError> {
+    mle_with::<Portable>(obs, model, area, search)
+}
+
+/// [`mle`] with the cost kernel `K` (e.g. the AVR one of `uno-board`; same result).
+pub fn mle_with<K: TermKernel>(
+    obs: &Observations,
+    model: PathLoss,
+    area: AreaCm,
+    search: Search,
+) -> Result<Estimate, LocError> {
     check(obs)?;
     let cost = Cost::new(obs, model, area);
-    let mut s = Searcher::new(&cost);
+    let mut s = Searcher::<K>::new(&cost);
     let m = s.run(search);
     let min_cost = if cost.flat {
         Cost::flat_cost(obs, model)
@@ -675,9 +691,19 @@ pub fn mmse(
     area: AreaCm,
     sigma: u16,
 ) -> Result<Estimate, LocError> {
+    mmse_with::<Portable>(obs, model, area, sigma)
+}
+
+/// [`mmse`] with the cost kernel `K` (same result).
+pub fn mmse_with<K: TermKernel>(
+    obs: &Observations,
+    model: PathLoss,
+    area: AreaCm,
+    sigma: u16,
+) -> Result<Estimate, LocError> {
     check(obs)?;
     let cost = Cost::new(obs, model, area);
-    let mut srch = Searcher::new(&cost);
+    let mut srch = Searcher::<K>::new(&cost);
     let first = srch.thesis();
     let wts = if cost.flat {
         Weights::new(0, 1)
@@ -758,9 +784,19 @@ pub fn estimate(
     area: AreaCm,
     estimator: Estimator,
 ) -> Result<Estimate, LocError> {
+    estimate_with::<Portable>(obs, model, area, estimator)
+}
+
+/// [`estimate`] with the cost kernel `K` (same result).
+pub fn estimate_with<K: TermKernel>(
+    obs: &Observations,
+    model: PathLoss,
+    area: AreaCm,
+    estimator: Estimator,
+) -> Result<Estimate, LocError> {
     match estimator {
-        Estimator::Mle(search) => mle(obs, model, area, search),
-        Estimator::Mmse { sigma } => mmse(obs, model, area, sigma),
+        Estimator::Mle(search) => mle_with::<K>(obs, model, area, search),
+        Estimator::Mmse { sigma } => mmse_with::<K>(obs, model, area, sigma),
     }
 }
 

@@ -156,6 +156,18 @@ pub(crate) fn log2_seg(k: usize) -> [u8; 6] {
     }
 }
 
+/// Where the log2 table starts (a flash address on AVR).
+pub(crate) fn log2_seg_table() -> *const [u8; 6] {
+    #[cfg(target_arch = "avr")]
+    {
+        LOG2_SEG.as_ptr().cast()
+    }
+    #[cfg(not(target_arch = "avr"))]
+    {
+        plain::LOG2_SEG.as_ptr()
+    }
+}
+
 /// Segment `k` (`< 32`) of the exp2 table: `[2^(−k/32) Q.15, difference to the next]`.
 #[inline(always)]
 pub(crate) fn exp2_seg(k: usize) -> [u16; 2] {
