@@ -68,7 +68,7 @@ fn main() -> ExitCode {
 /// Runs everything; `Ok(false)` when a result disagrees.
 fn bench() -> Result<bool, String> {
     harness::build()?;
-    let runs: Vec<Run> = harness::BINS
+    let runs: Vec<Run> = harness::ESTIMATES
         .iter()
         .map(|b| harness::run_elf(&harness::elf(b)))
         .collect::<Result<_, _>>()?;

@@ -2,10 +2,17 @@
 
 use crate::{Inputs, Pipeline, Report, N_ANCHORS, N_CHANNELS, SIGMA_DB};
 use loc_core::fixed::{
-    estimate, fit_least_squares, mle, observations_of, AreaCm, Bounds, CalStats, ChannelBytes,
-    Estimator, FitMethod, Observations, OnlineParams, ParamMode, PathLoss, PointCm, Refinement,
-    Search,
+    estimate_with, fit_least_squares, mle_with, observations_of, AreaCm, Bounds, CalStats,
+    ChannelBytes, Estimator, FitMethod, Observations, OnlineParams, ParamMode, PathLoss, PointCm,
+    Refinement, Search,
 };
+
+/// The cost kernel: the AVR assembly one on the MCU (what the sink runs), the portable one on
+/// the host; they return the same values (`kernel-check`), so the host reference is exact.
+#[cfg(target_arch = "avr")]
+type Kernel = uno_board::AvrTerm;
+#[cfg(not(target_arch = "avr"))]
+type Kernel = loc_core::fixed::Portable;
 
 /// The MMSE variant the fixed path runs.
 ///
@@ -116,12 +123,12 @@ impl Pipeline for Fixed {
     }
 
     fn mle(&mut self, obs: &Observations, inp: &Inputs) -> Report {
-        let e = mle(obs, self.params.current(), area(inp), Search::Thesis);
+        let e = mle_with::<Kernel>(obs, self.params.current(), area(inp), Search::Thesis);
         self.report(e)
     }
 
     fn mmse(&mut self, obs: &Observations, inp: &Inputs) -> Report {
-        let e = estimate(obs, self.params.current(), area(inp), MMSE);
+        let e = estimate_with::<Kernel>(obs, self.params.current(), area(inp), MMSE);
         self.report(e)
     }
 }

@@ -59,3 +59,79 @@ pub fn main<P: Pipeline>(mut p: P) -> ! {
         avr_device::asm::sleep();
     }
 }
+
+/// The inputs of [`kernel_check`]: every `(d², carry)` edge of the normalisation and the
+/// segment table, then xorshift draws over the whole range of each argument.
+fn kernel_inputs(i: u32, r: &mut u32) -> (u32, bool, i32, i32) {
+    const EDGES: [u32; 12] = [
+        0,
+        1,
+        2,
+        3,
+        0xFFFF,
+        0x1_0000,
+        0xFF_FFFF,
+        0x100_0000,
+        0x7FFF_FFFF,
+        0x8000_0000,
+        0xFFFF_FFFF,
+        2500,
+    ];
+    let mut next = || {
+        *r ^= *r << 13;
+        *r ^= *r >> 17;
+        *r ^= *r << 5;
+        *r
+    };
+    if (i as usize) < EDGES.len() * 4 {
+        let lo = EDGES[i as usize / 4];
+        let rho = [0, -(20 << 20), i32::MIN, i32::MAX][i as usize % 4];
+        return (lo, i.is_multiple_of(3), rho, 11_836_024 - ((i % 5) << 20) as i32);
+    }
+    let a = next();
+    let b = next();
+    let c = next();
+    // d² spread over all magnitudes; ρ and the clamp around the values a search uses.
+    let lo = a >> (b % 32);
+    let rho = (c as i32) >> (a % 8);
+    let clamp = ((b as i32) >> 6) - (8 << 20);
+    (lo, c.is_multiple_of(5), rho, clamp)
+}
+
+/// Compares `uno_board::AvrTerm` with `loc_core::fixed::portable_term`; see `kernel-check`.
+pub fn kernel_check() -> ! {
+    use loc_core::fixed::{portable_term, TermKernel};
+    let Some(board) = Board::take() else {
+        uno_board::reset()
+    };
+    avr_device::interrupt::disable();
+    let mut serial = board.serial;
+    let (mut r, mut bad) = (0x9E37_79B9u32, 0u32);
+    let n = black_box(50_000u32);
+    for i in 0..n {
+        let (lo, carry, rho, clamp) = kernel_inputs(i, &mut r);
+        let want = portable_term(black_box(lo), carry, rho, clamp);
+        let got = uno_board::AvrTerm::term(black_box(lo), carry, rho, clamp);
+        if want != got {
+            bad += 1;
+            if bad <= 5 {
+                serial.write_bytes(b"bad");
+                for v in [lo, carry as u32, rho as u32, clamp as u32, want, got] {
+                    serial.write_byte(b' ');
+                    write_u32(&mut serial, v);
+                }
+                serial.write_byte(b'\n');
+            }
+        }
+    }
+    serial.write_bytes(b"kernel ");
+    write_u32(&mut serial, n);
+    serial.write_byte(b' ');
+    write_u32(&mut serial, bad);
+    serial.write_bytes(b"\nend\n");
+    serial.flush_blocking();
+    loop {
+        avr_device::interrupt::disable();
+        avr_device::asm::sleep();
+    }
+}

@@ -10,7 +10,9 @@ use simavr::{Avr, State};
 use crate::{float, run, Inputs, Report, MARKS, N_ANCHORS, N_CHANNELS, SIGMA_DB};
 
 /// The firmwares, baseline first.
-pub const BINS: [&str; 3] = ["est-none", "est-fixed", "est-f32"];
+pub const BINS: [&str; 4] = ["est-none", "est-fixed", "est-f32", "kernel-check"];
+/// The benchmark variants among [`BINS`] (`kernel-check` is a correctness check).
+pub const ESTIMATES: [&str; 3] = ["est-none", "est-fixed", "est-f32"];
 
 /// Simulated time after which a run that has not stopped counts as hung.
 const RUN_LIMIT_MS: f64 = 20_000.0;
@@ -23,11 +25,17 @@ pub fn workspace_root() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from("."))
 }
 
-/// Where the ELFs are: `HOPLOC_FIRMWARE_DIR`, else where `cargo fw-bench` puts them.
+/// Where the ELFs are: `HOPLOC_FIRMWARE_DIR`, else where `cargo fw-bench` puts them
+/// (`$CARGO_TARGET_DIR/avr-none/fw`, by default `target/avr-none/fw`).
 pub fn elf_dir() -> PathBuf {
-    std::env::var_os("HOPLOC_FIRMWARE_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| workspace_root().join("target/avr-none/fw"))
+    if let Some(dir) = std::env::var_os("HOPLOC_FIRMWARE_DIR") {
+        return PathBuf::from(dir);
+    }
+    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(
+        || workspace_root().join("target"),
+        |t| workspace_root().join(t),
+    );
+    target.join("avr-none/fw")
 }
 
 /// The ELF of firmware `bin` (one of [`BINS`]).

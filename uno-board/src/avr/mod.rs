@@ -1,6 +1,7 @@
 //! The AVR half of the crate: peripherals, interrupt handlers, panic handler.
 
 mod cell;
+mod cost_term;
 mod eeprom;
 mod led;
 pub mod libm;
@@ -10,6 +11,7 @@ mod serial;
 mod time;
 mod watchdog;
 
+pub use cost_term::AvrTerm;
 pub use eeprom::Eeprom;
 pub use led::Led;
 pub use power::{sleep_idle, sleep_unless};

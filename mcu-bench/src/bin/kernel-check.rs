@@ -1,0 +1,17 @@
+//! kernel-check: `uno_board::AvrTerm` (the cost term in AVR assembly) against
+//! `loc_core::fixed::portable_term` on the MCU itself: edge cases, then 50 000 pseudo-random
+//! inputs; prints `kernel <checked> <mismatches>` and the first mismatches (`bad lo carry rho
+//! clamp portable avr`). `tests/tests/mcu_bench.rs` runs it in simavr. Build: `cargo fw-bench`.
+#![cfg_attr(target_arch = "avr", no_std, no_main)]
+
+#[cfg(not(target_arch = "avr"))]
+fn main() {}
+
+#[cfg(target_arch = "avr")]
+uno_board::link_avr_libc!();
+
+#[cfg(target_arch = "avr")]
+#[uno_board::entry]
+fn main() -> ! {
+    mcu_bench::fw::kernel_check()
+}
