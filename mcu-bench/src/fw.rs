@@ -86,7 +86,12 @@ fn kernel_inputs(i: u32, r: &mut u32) -> (u32, bool, i32, i32) {
     if (i as usize) < EDGES.len() * 4 {
         let lo = EDGES[i as usize / 4];
         let rho = [0, -(20 << 20), i32::MIN, i32::MAX][i as usize % 4];
-        return (lo, i.is_multiple_of(3), rho, 11_836_024 - ((i % 5) << 20) as i32);
+        return (
+            lo,
+            i.is_multiple_of(3),
+            rho,
+            11_836_024 - ((i % 5) << 20) as i32,
+        );
     }
     let a = next();
     let b = next();
