@@ -59,18 +59,14 @@
 //!
 //! # On the ATmega328P
 //!
-//! Measured in simavr at 16 MHz (`opt-level = "s"`, LTO, libgcc linked as the firmwares do), one
-//! sink step with 4 anchors × 2 channels in a 10 m room, called as the lean sequence below (no
-//! [`Measurements`] copy): calibration statistics of the 6 anchor pairs ≈ 25 k cycles, the
-//! least-squares fit and AR(1) ≈ 14 k, the Extended refinement ≈ 6 k, the thesis MLE ≈ 405 k
-//! (≈ 380 anchor terms after the early exits at ≈ 650 cycles, plus ≈ 5 k per evaluated column),
-//! so ≈ 460 k (29 ms) in all; multi-start instead ≈ 670 k, the MMSE ≈ 10.8 M (all 2 601 points).
-//! Code ≈ 20 KB of flash for statistics, fit, refinement and the thesis MLE; stack peak ≈ 1 KB.
-//!
-//! The per-term cost is bounded by code generation, not by the arithmetic: LLVM's AVR backend
-//! spends ≈ 25 cycles per 8 × 8 product it composes into 16/32-bit values (the `mul` itself is 2)
-//! and ≈ 90 per 32-bit multiply (a libgcc call), and the crate forbids the `unsafe` an inline
-//! assembly kernel would need. A hand-written log2 + square kernel would be ≈ 80 cycles.
+//! `cargo bench -p hoploc --bench mcu_estimate` runs the whole sink step (4 anchors × 2
+//! channels in a 10 m room) as firmware in simavr (`mcu-bench`), with the cost term in AVR
+//! assembly ([`TermKernel`], `uno_board::AvrTerm`): calibration statistics of the 6 anchor pairs
+//! ≈ 24 k cycles, least-squares fit + AR(1) ≈ 15 k, Extended refinement ≈ 6 k, thesis MLE
+//! ≈ 303 k (≈ 380 anchor terms after the early exits), ≈ 348 k in all (21.7 ms): over the
+//! 160 k budget. Most of the remaining per-term cost is the column loop around the kernel
+//! (LLVM's AVR backend spills most of its state there); the full-lattice MMSE is ≈ 7.9 M. Code
+//! ≈ 28 KB of flash with both estimators linked; stack peak ≈ 1 KB.
 //!
 //! ```ignore
 //! // The lean sink step (what a firmware calls; `sink_fix` does the same from a `Measurements`):
