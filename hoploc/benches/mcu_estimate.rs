@@ -116,12 +116,17 @@ fn bench() -> Result<bool, String> {
             .filter(|(_, p)| p.variant == variant)
         {
             let (f, l) = (net(&p_fx, k), net(&p_fl, k));
+            let name = if k + 1 == PHASES.len() && !fixed::MMSE_IS_WINDOWED {
+                "MMSE (fixed: full lattice, NOTE)"
+            } else {
+                ph.name
+            };
             tf += f;
             tl += l;
             println!(
                 "{:<5} {:<34} {:>12} {:>12} {:>8.1}×",
                 tag,
-                ph.name,
+                name,
                 thousands(f),
                 thousands(l),
                 l as f64 / f.max(1) as f64
