@@ -5,5 +5,6 @@
 pub mod demo;
 pub mod firmware;
 pub mod footprint;
+pub mod report;
 pub mod simulate;
 pub mod study;

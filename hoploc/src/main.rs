@@ -59,6 +59,7 @@ enum Command {
     ///     hoploc simulate
     ///     hoploc simulate --runs 20 --sigma 3 --params estimated --estimator MLE,MMSE
     ///     hoploc simulate --area 30x20 --search multistart --format csv --out-dir study/
+    ///     hoploc simulate --report docs/study     # the docs page: docs/study/README.md + plots
     #[command(verbatim_doc_comment)]
     Simulate(simulate::Args),
 }

@@ -25,6 +25,7 @@ use loc_core::{Area, PathLoss};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
+use crate::report;
 use crate::study::{self, Algo, Config, ParamSource, Row, RowKind, StudyResult};
 
 /// Output format on stdout.
@@ -115,6 +116,12 @@ pub struct Args {
     /// Also write study.txt, study.csv, study.json and the CDF plots (SVG, PNG) here.
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
+    /// Also write a Markdown page, DIR/README.md, with this command line, the configuration,
+    /// the tables, the CDF plots (PNG linked to SVG, written next to it), study.csv, and what
+    /// the results show (winner, margins, distance to the bounds), computed from them.
+    /// Example: hoploc simulate --report docs/study
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<PathBuf>,
 }
 
 fn parse_area(s: &str) -> Result<Area, String> {
@@ -215,6 +222,12 @@ pub fn run(args: &Args) -> Result<(), String> {
             eprintln!("wrote {}", f.display());
         }
     }
+    if let Some(dir) = &args.report {
+        let command = report::command_line(std::env::args().skip(1));
+        for f in report::write(&result, dir, &command)? {
+            eprintln!("wrote {}", f.display());
+        }
+    }
     Ok(())
 }
 
@@ -237,7 +250,7 @@ pub fn write_files(result: &StudyResult, dir: &Path) -> Result<Vec<PathBuf>, Str
 }
 
 /// A number as the tables print it (`σ = 2`, `2.5`).
-fn num(v: f64) -> String {
+pub(crate) fn num(v: f64) -> String {
     let s = format!("{v}");
     s.strip_suffix(".0").map(str::to_owned).unwrap_or(s)
 }
