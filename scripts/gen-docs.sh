@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Regenerates the study pages from `hoploc simulate --report` (release build; ~10 s on 2 cores):
+#   docs/study/README.md            the thesis study (SPEC §6): P0, α and σ known
+#   docs/study/estimated/README.md  the same with P0/α/σ fitted per trial (--params estimated)
+# Each page records its own command line; the output is deterministic (same code, same bytes).
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+cargo build --release -q -p hoploc
+hoploc=target/release/hoploc
+"$hoploc" simulate --report docs/study >/dev/null
+"$hoploc" simulate --params estimated --report docs/study/estimated >/dev/null
