@@ -24,6 +24,21 @@
 //!   also 6 × 4 m and 30 × 30 m): the thesis search misses the fine-lattice minimum in 0.3–2.1 %
 //!   of trials, multi-start in 0.006–0.24 %, spending ~201–213 evaluations on average against
 //!   ~213–230. (The RMSE barely moves: the missed minima are near-ties.)
+//!
+//!   What it still misses is the lattice's doing, not the descent's: a descent ends at the first
+//!   point none of whose 8 neighbours is strictly cheaper, and the *sampled* cost can have several
+//!   such pits along one valley. Close to an anchor the cost's valley is the circle of the
+//!   measured distance around it, narrow (off the circle by Δd the term grows like
+//!   `(10α/ln 10 · Δd/d)²`, ≈ 136·Δd² per m² at d ≈ 1.1 m, α = 3) and curved across the 2 % lattice,
+//!   while the far anchors tilt it only gently along the circle; the lattice points that happen
+//!   to lie near the circle become separate pits. Noise-free, 4 anchors at the corners of
+//!   10 × 10 m, agent at (0.5, 1.0): the lattice minimum is (0.4, 1.0) (cost 0.260, 1.077 m from
+//!   the corner anchor), but (0.8, 0.8) (0.323, 1.131 m) is a pit too, separated by (0.6, 1.0)
+//!   (0.326, 1.166 m); the four best coarse points descend to (0, 1.2) and (0.8, 0.8), so the
+//!   search returns (0.8, 0.8), 0.36 m from the truth. The same happens at that point's seven
+//!   mirror images (8 of the 361 SPEC §6 points; at σ = 0.01 dB 7–8 of them). A plain full
+//!   8-neighbour descent from the same four starts ends at the same points
+//!   (`multi_start_misses_are_lattice_pits` in tests/estimator.rs).
 //! * [`Search::Exhaustive`]: all 51 × 51 fine points (2 601 evaluations): the true lattice MLE, the
 //!   host reference the fast searches are measured against.
 //!

@@ -234,6 +234,108 @@ fn multi_start_misses_the_lattice_minimum_far_less_often() {
     );
 }
 
+/// Reference multi-start without the shortcuts: the four best coarse points (ties in scan order),
+/// each descended by a full look at its 8 neighbours until none is strictly cheaper, no budget;
+/// the cheapest end wins (ties: the earlier start). Returns `(i, j, cost)`.
+fn plain_multi_start(cost: &dyn Fn(usize, usize) -> f64) -> (usize, usize, f64) {
+    let mut coarse: Vec<(f64, usize, usize)> = Vec::new();
+    for ci in 0..=10 {
+        for cj in 0..=10 {
+            coarse.push((cost(5 * ci, 5 * cj), 5 * ci, 5 * cj));
+        }
+    }
+    // A stable sort keeps scan order among equal costs.
+    coarse.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut best = (coarse[0].1, coarse[0].2, coarse[0].0);
+    for &(mut c, mut i, mut j) in &coarse[..4] {
+        loop {
+            let mut next = (c, i, j);
+            for a in i.saturating_sub(1)..=(i + 1).min(50) {
+                for b in j.saturating_sub(1)..=(j + 1).min(50) {
+                    let x = cost(a, b);
+                    if x < next.0 {
+                        next = (x, a, b);
+                    }
+                }
+            }
+            if next.0 < c {
+                (c, i, j) = next;
+            } else {
+                break;
+            }
+        }
+        if c < best.2 {
+            best = (i, j, c);
+        }
+    }
+    best
+}
+
+#[test]
+fn multi_start_misses_are_lattice_pits() {
+    // Noise-free, 4 anchors, agent at (0.5, 1.0): the sampled cost along the narrow circular
+    // valley around the (0, 0) anchor has two pits, the lattice minimum (2, 5) and (4, 4); every
+    // start descends into (4, 4) or (0, 6), so multi-start returns (4, 4) (see the grid module
+    // docs). That is where a correct descent stops: all 8 neighbours of (4, 4) cost more.
+    let model = PathLoss::THESIS;
+    let truth = Point::new(0.5, 1.0);
+    let obs = observations(&noise_free(&SQUARE, 1, model, truth), Refinement::Single(0));
+    let c = |i: usize, j: usize| cost(&obs, model, lattice_point(ROOM, i, j));
+    let ms = search_lattice(Search::MultiStart, c);
+    let ex = search_lattice(Search::Exhaustive, c);
+    assert_eq!((ex.i, ex.j), (2, 5));
+    assert!(close(lattice_point(ROOM, 2, 5), truth, 0.2));
+    assert_eq!((ms.i, ms.j), (4, 4));
+    assert!(ms.evaluations < 242, "not a budget stop: {ms:?}");
+    for a in 3..=5 {
+        for b in 3..=5 {
+            if (a, b) != (4, 4) {
+                assert!(c(a, b) > ms.cost, "({a}, {b}) is cheaper than (4, 4)");
+            }
+        }
+    }
+    assert_eq!(plain_multi_start(&c), (4, 4, ms.cost));
+
+    // Everywhere else too: on the SPEC §6 points, noise-free and noisy, 3 and 4 anchors, the
+    // search (ranking, shortcut descent, shared budget) ends where the plain reference does
+    // whenever it did not run out of budget, and every miss of the lattice minimum is such an end.
+    let mut rng = Rng(0xd15c);
+    let (mut compared, mut misses) = (0, 0);
+    for anchors in [&SQUARE[..3], &SQUARE[..]] {
+        for sigma in [0.0, 0.01, 2.0, 4.0] {
+            for k in 0..19 {
+                for l in 0..19 {
+                    let truth = Point::new(0.5 * (k + 1) as f64, 0.5 * (l + 1) as f64);
+                    let mut obs = Observations::new();
+                    for &a in anchors {
+                        let z = model.rssi_at(truth.dist(a)) + sigma * rng.normal();
+                        obs.push(Obs {
+                            pos: a,
+                            z,
+                            weight: 1.0,
+                        });
+                    }
+                    let c = |i: usize, j: usize| cost(&obs, model, lattice_point(ROOM, i, j));
+                    let ms = search_lattice(Search::MultiStart, c);
+                    if ms.evaluations >= 242 {
+                        continue;
+                    }
+                    compared += 1;
+                    assert_eq!(
+                        plain_multi_start(&c),
+                        (ms.i, ms.j, ms.cost),
+                        "{} anchors, σ {sigma}, {truth:?}",
+                        anchors.len()
+                    );
+                    misses += usize::from(ms.cost > search_lattice(Search::Exhaustive, c).cost);
+                }
+            }
+        }
+    }
+    assert!(compared > 2500, "only {compared} searches within budget");
+    assert!(misses > 0, "no miss to explain");
+}
+
 // ---------------------------------------------------------------- MMSE
 
 #[test]
