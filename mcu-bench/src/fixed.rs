@@ -57,7 +57,11 @@ impl Fixed {
         }
     }
 
-    fn report(&self, e: Result<loc_core::fixed::Estimate, loc_core::LocError>) -> Report {
+    /// The [`Report`] of `e` with the current P0/α (all `u32::MAX` if the estimate failed).
+    pub(crate) fn report(
+        &self,
+        e: Result<loc_core::fixed::Estimate, loc_core::LocError>,
+    ) -> Report {
         let m = self.params.current();
         match e {
             Ok(e) => Report {

@@ -223,21 +223,7 @@ pub fn host_fixed(inp: &Inputs) -> [Report; 2] {
     let _ = fx.params.update(&CalStats::from_measurements(&m, None));
     let mut one = |est: Estimator| {
         let e = sink_fix(&m, area, &mut fx.params, Refinement::Extended, est);
-        let pl = fx.params.current();
-        match e {
-            Ok(e) => Report {
-                x: e.pos.x,
-                y: e.pos.y,
-                p0: pl.p0 as u32,
-                alpha: pl.alpha as u32,
-            },
-            Err(_) => Report {
-                x: u32::MAX,
-                y: u32::MAX,
-                p0: u32::MAX,
-                alpha: u32::MAX,
-            },
-        }
+        fx.report(e)
     };
     [one(Estimator::Mle(Search::Thesis)), one(crate::fixed::MMSE)]
 }
