@@ -103,7 +103,111 @@ fn kernel_inputs(i: u32, r: &mut u32) -> (u32, bool, i32, i32) {
     (lo, c.is_multiple_of(5), rho, clamp)
 }
 
-/// Compares `uno_board::AvrTerm` with `loc_core::fixed::portable_term`; see `kernel-check`.
+/// One pseudo-random [`loc_core::fixed::ColumnJob`] and its sums (1 to 8 anchors, 1 to 11
+/// rows, some sums already at or over the bound): every row's `|dy|` stays below `2^16`, as the
+/// searches guarantee.
+fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::ColumnJob) -> usize {
+    use loc_core::fixed::AnchorTerm;
+    let mut next = || {
+        *r ^= *r << 13;
+        *r ^= *r >> 17;
+        *r ^= *r << 5;
+        *r
+    };
+    let (a, b) = (next(), next());
+    let rows = 1 + (a % 11) as usize;
+    let span = (rows - 1) as u32;
+    let n = 1 + (b % 8) as u8;
+    job.bound = match a % 4 {
+        0 => u32::MAX,
+        1 => next(),
+        _ => next() >> (b % 24),
+    };
+    job.n = n;
+    job.rows = rows as u8;
+    for t in job.anchors[..n as usize].iter_mut() {
+        let (c, d, e) = (next(), next(), next());
+        let step = 1 + c % (65_535 / span.max(1));
+        // Row 0 anywhere such that the last row is still within ±65 535.
+        let room = 131_070 - step * span;
+        *t = AnchorTerm {
+            dx2: d,
+            adx: e as u16,
+            dy0: -65_535 + (d % (room + 1)) as i32,
+            step: step as u16,
+            lclamp: 11_836_024 - ((c % 5) << 20) as i32,
+            rho: (e as i32) >> (c % 8),
+            table: loc_core::fixed::log2_segment_table(),
+            w: 1 + (d % 4) as u8,
+        };
+    }
+    for v in sums.iter_mut() {
+        let x = next();
+        *v = match x % 8 {
+            0 => u32::MAX,
+            1 => x,
+            2 => x >> (8 + x % 20),
+            _ => 0,
+        };
+    }
+    rows
+}
+
+/// `portable_column` over the portable term, out of line.
+#[inline(never)]
+fn reference_column(sums: &mut [u32], job: &mut loc_core::fixed::ColumnJob) {
+    loc_core::fixed::portable_column::<loc_core::fixed::Portable>(sums, job)
+}
+
+/// Whole columns: the assembly loop against the portable one over the portable term; returns
+/// (mismatches, columns checked). Out of line, with two jobs, to keep the stack small.
+#[inline(never)]
+fn column_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
+    use loc_core::fixed::{AnchorTerm, ColumnJob, TermKernel};
+    let (mut bad, cols) = (0u32, black_box(5_000u32));
+    let mut sums = [0u32; 11];
+    const EMPTY: ColumnJob = ColumnJob {
+        bound: 0,
+        n: 0,
+        rows: 0,
+        anchors: [AnchorTerm::NONE; loc_core::MAX_ANCHORS],
+    };
+    let mut jw = EMPTY;
+    let mut jg = EMPTY;
+    for _ in 0..cols {
+        let rows = column_inputs(r, &mut sums, &mut jw);
+        jg.clone_from(&jw);
+        let (mut want, mut got) = (sums, sums);
+        reference_column(black_box(&mut want[..rows]), &mut jw);
+        uno_board::AvrTerm::column(black_box(&mut got[..rows]), &mut jg);
+        let n = jw.n as usize;
+        let dx_ok = jw.anchors[..n]
+            .iter()
+            .zip(&jg.anchors[..n])
+            .all(|(w, g)| w.dx2 == g.dx2);
+        if want != got || !dx_ok {
+            bad += 1;
+            if bad <= 5 {
+                serial.write_bytes(b"badcol");
+                for v in [rows as u32, n as u32, jw.bound] {
+                    serial.write_byte(b' ');
+                    write_u32(serial, v);
+                }
+                for (w, g) in want[..rows].iter().zip(&got[..rows]) {
+                    serial.write_byte(b' ');
+                    write_u32(serial, *w);
+                    serial.write_byte(b'/');
+                    write_u32(serial, *g);
+                }
+                serial.write_byte(b'\n');
+            }
+        }
+    }
+    (bad, cols)
+}
+
+/// Compares `uno_board::AvrTerm` with `loc_core::fixed::{portable_term, portable_column}`; see
+/// `kernel-check`.
 pub fn kernel_check() -> ! {
     use loc_core::fixed::{portable_term, TermKernel};
     let Some(board) = Board::take() else {
@@ -131,6 +235,12 @@ pub fn kernel_check() -> ! {
     }
     serial.write_bytes(b"kernel ");
     write_u32(&mut serial, n);
+    serial.write_byte(b' ');
+    write_u32(&mut serial, bad);
+    serial.write_byte(b'\n');
+    let (bad, cols) = column_check(&mut serial, &mut r);
+    serial.write_bytes(b"column ");
+    write_u32(&mut serial, cols);
     serial.write_byte(b' ');
     write_u32(&mut serial, bad);
     serial.write_bytes(b"\nend\n");

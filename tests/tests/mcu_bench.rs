@@ -91,8 +91,9 @@ fn baseline_runs_the_same_markers() {
     assert!(p.iter().all(|&c| (3080..3500).contains(&c)), "{p:?}");
 }
 
-/// `uno_board::AvrTerm` (the cost term in AVR assembly, what the sink runs) returns exactly
-/// `loc_core::fixed::portable_term`'s value on the MCU: edge cases and 50 000 random inputs.
+/// `uno_board::AvrTerm` (the cost term and the column loop in AVR assembly, what the sink runs)
+/// returns exactly `loc_core::fixed::portable_term`'s value on the MCU (edge cases and 50 000
+/// random inputs) and leaves exactly `portable_column`'s sums (5 000 random columns).
 #[test]
 fn avr_cost_kernel_equals_the_portable_one() {
     if let Err(e) = BUILD.get_or_init(harness::build) {
@@ -104,4 +105,5 @@ fn avr_cost_kernel_equals_the_portable_one() {
     }
     let out = avr.uart_output_string();
     assert!(out.contains("kernel 50000 0\n"), "{out}");
+    assert!(out.contains("column 5000 0\n"), "{out}");
 }

@@ -10,8 +10,8 @@
 //! * the thesis' fine window skips the coarse points inside it: they cost at least as much as the
 //!   coarse winner the window starts from, so under a strict `<` they can never win.
 
-use super::kernel::{Portable, TermKernel};
-use super::math::{clamp_i64, exp2_neg_q26, sq16, sq_shr, square_shift};
+use super::kernel::{add_term, log2_segment_table, AnchorTerm, ColumnJob, Portable, TermKernel};
+use super::math::{clamp_i64, exp2_neg_q26, sq_shr, square_shift};
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
 use crate::grid::{Search, COARSE_DIVS, FINE_DIVS};
@@ -191,22 +191,17 @@ impl Window {
     }
 }
 
-/// A search window's per-anchor constants. Costs are computed a column at a time, anchor by
-/// anchor: the row squares come from exact forward differences (wrapping `u32` arithmetic is exact
-/// because every square fits), so a window needs no table of squares.
+/// A search window's per-anchor constants. Costs are computed a column at a time: all anchors
+/// at once by [`TermKernel::column`] when every square fits 32 bits unshifted (anchors and
+/// window within 13.1 m of each other), else anchor by anchor with shifted squares.
 struct Stage {
-    /// `ρ` plus the shift, Q.20.
-    rho: [i32; MAX_ANCHORS],
-    /// `log2` of the 1 cm clamp in shifted units, Q.20.
-    lclamp: [i32; MAX_ANCHORS],
-    /// Right shift of the squares (0 up to 13 m from the anchor).
+    /// The kernel's job: per anchor `ρ` and the clamp (both also used when shifted), `dy0`,
+    /// the step and the weight.
+    job: ColumnJob,
+    /// Right shift of each anchor's squares (0 up to 13 m from the anchor).
     shift: [u8; MAX_ANCHORS],
-    /// First row's square `(H·j0 − ay)²` (shifted).
-    row0: [u32; MAX_ANCHORS],
-    /// Its first forward difference (used when the shift is 0).
-    inc0: [u32; MAX_ANCHORS],
-    /// Second difference `2·(H·step)²` (wrapping).
-    dd: u32,
+    /// Some shift is not 0: the shifted path.
+    shifted: bool,
     w: Window,
     /// Rows in the window.
     rows: usize,
@@ -215,12 +210,14 @@ struct Stage {
 impl Stage {
     const fn new() -> Stage {
         Stage {
-            rho: [0; MAX_ANCHORS],
-            lclamp: [0; MAX_ANCHORS],
+            job: ColumnJob {
+                bound: 0,
+                n: 0,
+                rows: 0,
+                anchors: [AnchorTerm::NONE; MAX_ANCHORS],
+            },
             shift: [0; MAX_ANCHORS],
-            row0: [0; MAX_ANCHORS],
-            inc0: [0; MAX_ANCHORS],
-            dd: 0,
+            shifted: false,
             w: Window::COARSE,
             rows: 0,
         }
@@ -231,12 +228,12 @@ impl Stage {
     fn init(&mut self, cost: &Cost, w: Window, shifts: Option<&[u8; MAX_ANCHORS]>) {
         self.w = w;
         self.rows = w.rows();
-        let d = cost.height * w.step as i32;
-        // Forward differences in wrapping u32 arithmetic: exact whenever the squares fit.
-        let du = d as u32;
-        self.dd = du.wrapping_mul(du) << 1;
+        self.job.n = cost.n as u8;
+        self.job.rows = self.rows as u8;
+        self.shifted = false;
+        let step = cost.height * w.step as i32;
+        let y0 = cost.height * w.j0 as i32;
         for a in 0..cost.n {
-            let dy0 = cost.height * w.j0 as i32 - cost.ay[a];
             let s = match shifts {
                 Some(s) => s[a],
                 None => {
@@ -249,12 +246,20 @@ impl Stage {
                 }
             };
             self.shift[a] = s;
+            self.shifted |= s != 0;
             let sh = (s as i32) << 20;
-            self.rho[a] = cost.rho[a] + sh;
-            self.lclamp[a] = LOG2_CLAMP - sh;
-            self.row0[a] = sq_shr(dy0, s);
-            // (dy0 + d)² − dy0² = d·(2·dy0 + d).
-            self.inc0[a] = du.wrapping_mul((2 * dy0 + d) as u32);
+            let wt = cost.w[a];
+            self.job.anchors[a] = AnchorTerm {
+                dx2: 0,
+                adx: 0,
+                dy0: y0 - cost.ay[a],
+                // Below 2^16 whenever the path is unshifted (it spans at most the window).
+                step: step as u16,
+                lclamp: LOG2_CLAMP - sh,
+                rho: cost.rho[a] + sh,
+                table: log2_segment_table(),
+                w: if (1..=3).contains(&wt) { wt } else { 4 },
+            };
         }
     }
 
@@ -263,7 +268,7 @@ impl Stage {
     /// `≥ bound`, which is all a comparison with `bound` needs to know).
     #[inline(never)]
     fn column<K: TermKernel>(
-        &self,
+        &mut self,
         cost: &Cost,
         i: usize,
         bound: u32,
@@ -279,58 +284,41 @@ impl Stage {
         if cost.flat {
             return;
         }
-        let dy_step = cost.height * self.w.step as i32;
-        let (x, y0) = (cost.width * i as i32, cost.height * self.w.j0 as i32);
-        for a in 0..cost.n {
-            let s = self.shift[a];
-            let dx = x - cost.ax[a];
-            let (rho, lclamp, w) = (self.rho[a], self.lclamp[a], cost.w[a]);
-            if s == 0 {
-                // Exact forward differences of the row squares (wrapping: every square fits).
-                let dx2 = sq16(dx);
-                let (mut dy2, mut inc, dd) = (self.row0[a], self.inc0[a], self.dd);
-                for sum in rows.iter_mut() {
-                    if *sum < bound {
-                        *sum = add_term::<K>(*sum, dx2, dy2, rho, lclamp, w);
-                    }
-                    dy2 = dy2.wrapping_add(inc);
-                    inc = inc.wrapping_add(dd);
-                }
-            } else {
-                let dx2 = sq_shr(dx, s);
+        let x = cost.width * i as i32;
+        let anchors = &mut self.job.anchors[..cost.n];
+        if !self.shifted {
+            for (a, t) in anchors.iter_mut().enumerate() {
+                // Below 2^16: the shift is 0.
+                t.adx = (x - cost.ax[a]).unsigned_abs() as u16;
+            }
+            self.job.bound = bound;
+            K::column(rows, &mut self.job);
+        } else {
+            let dy_step = cost.height * self.w.step as i32;
+            let y0 = cost.height * self.w.j0 as i32;
+            for (a, t) in anchors.iter().enumerate() {
+                let s = self.shift[a];
+                let dx2 = sq_shr(x - cost.ax[a], s);
                 let mut dy = y0 - cost.ay[a];
                 for sum in rows.iter_mut() {
                     if *sum < bound {
-                        *sum = add_term::<K>(*sum, dx2, sq_shr(dy, s), rho, lclamp, w);
+                        *sum = add_term::<K>(*sum, dx2, sq_shr(dy, s), t.rho, t.lclamp, t.w);
                     }
                     dy += dy_step;
                 }
             }
         }
-        let mut bit = 1u16;
-        for v in rows.iter_mut() {
-            if skip & bit == 0 {
-                *v = (*v).min(COST_MAX);
+        if bound == INF {
+            // Only then can a real cost have saturated at INF ("no cost yet").
+            let mut bit = 1u16;
+            for v in rows.iter_mut() {
+                if skip & bit == 0 {
+                    *v = (*v).min(COST_MAX);
+                }
+                bit <<= 1;
             }
-            bit <<= 1;
         }
     }
-}
-
-/// `sum` plus one anchor's weighted term `w·(ρ + max(log2 d², clamp))²` (Q.20, saturating) for
-/// `d² = dx2 + dy2` (33 bits): the log, the 1 cm clamp, `u` and its square ([`TermKernel`]).
-#[inline(always)]
-fn add_term<K: TermKernel>(sum: u32, dx2: u32, dy2: u32, rho: i32, lclamp: i32, w: u8) -> u32 {
-    let (lo, carry) = dx2.overflowing_add(dy2);
-    // Below 2^30 − 1.
-    let sq = K::term(lo, carry, rho, lclamp);
-    let t = match w {
-        1 => sq,
-        2 => sq << 1,
-        3 => sq + (sq << 1),
-        _ => sq << 2,
-    };
-    sum.saturating_add(t)
 }
 
 /// A lattice point and its cost.
@@ -391,16 +379,29 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
             .column::<K>(self.cost, i, bound, skip, &mut self.sums);
     }
 
+    /// Evaluates column `i` (rows in `skip` left out) and offers its first smallest cost to
+    /// `best`: the same outcome as offering every row in order under the strict `<`.
+    fn column_offer(&mut self, i: usize, skip: u16, best: &mut LatticeMin) {
+        self.column(i, best.cost, skip);
+        let rows = self.st.rows;
+        self.evals += rows - (skip & ((1 << rows) - 1)).count_ones() as usize;
+        let (mut r_min, mut c_min) = (0, INF);
+        for (r, &c) in self.sums[..rows].iter().enumerate() {
+            // Skipped rows hold INF, which never wins.
+            if c < c_min {
+                (r_min, c_min) = (r, c);
+            }
+        }
+        let w = &self.st.w;
+        best.offer(i, w.j0 + r_min * w.step, c_min);
+    }
+
     #[inline(never)]
     fn thesis(&mut self) -> LatticeMin {
         self.st.init(self.cost, Window::COARSE, None);
         let mut best = LatticeMin::NONE;
         for i in (0..=FINE_DIVS).step_by(RATIO) {
-            self.column(i, best.cost, 0);
-            for r in 0..=COARSE_DIVS {
-                self.evals += 1;
-                best.offer(i, r * RATIO, self.sums[r]);
-            }
+            self.column_offer(i, 0, &mut best);
         }
         let coarse_shift = self.st.shift;
         let w = Window::around(best.i, best.j, RATIO);
@@ -426,13 +427,7 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
         for i in w.i0..=w.i1 {
             // Coarse points cannot beat the coarse winner the window starts from.
             let skip = if i % RATIO == 0 { coarse_rows } else { 0 };
-            self.column(i, fine.cost, skip);
-            for r in 0..rows {
-                if skip & (1 << r) == 0 {
-                    self.evals += 1;
-                    fine.offer(i, w.j0 + r, self.sums[r]);
-                }
-            }
+            self.column_offer(i, skip, &mut fine);
         }
         fine
     }

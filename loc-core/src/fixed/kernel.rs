@@ -7,8 +7,9 @@
 //! this crate keeps no `unsafe`. Every implementation must return exactly [`portable_term`]'s
 //! value for every input; `uno-board`'s is checked against it in simavr.
 
-use super::math::{log2_fast, sq_q18};
+use super::math::{log2_fast, sq16, sq_q18};
 use super::tables;
+use crate::MAX_ANCHORS;
 
 /// `|u|` at which [`portable_term`] saturates, Q.20: 32 log2 units (`|z − p| ≥ 32·K` dB).
 pub const U_SAT: u32 = 32 << 20;
@@ -19,6 +20,122 @@ pub const SQ_SAT: u32 = (1 << 30) - 1;
 pub trait TermKernel {
     /// Exactly [`portable_term`]`(lo, carry, rho, lclamp)`.
     fn term(lo: u32, carry: bool, rho: i32, lclamp: i32) -> u32;
+
+    /// The costs of a column's rows, all anchors: exactly [`portable_column`]`::<Self>(sums,
+    /// job)` (the default). A kernel overrides it to keep the whole loop in registers: on AVR
+    /// the loop's bookkeeping costs LLVM more than the terms themselves.
+    #[inline(always)]
+    fn column(sums: &mut [u32], job: &mut ColumnJob)
+    where
+        Self: Sized,
+    {
+        portable_column::<Self>(sums, job)
+    }
+}
+
+/// One anchor of a [`ColumnJob`]: the unshifted case, where `|dx|` and every row's `|dy|` are
+/// below `2^16` lattice units (13.1 m).
+///
+/// `repr(C)`: assembly kernels read it by offset (on AVR, where nothing is padded: `dx2` 0,
+/// `adx` 4, `dy0` 6, `step` 10, `lclamp` 12, `rho` 16, `table` 20, `w` 22; 23 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct AnchorTerm {
+    /// `dx²` of the column: scratch, the kernel computes it from `adx`.
+    pub dx2: u32,
+    /// `|dx|` of the column, lattice units.
+    pub adx: u16,
+    /// `dy` of row 0, lattice units; row `r`'s is `dy0 + r·step` (`|dy| < 2^16` on every row).
+    pub dy0: i32,
+    /// Row step, lattice units.
+    pub step: u16,
+    /// `log2` of the 1 cm clamp, Q.20.
+    pub lclamp: i32,
+    /// The anchor's `ρ`, Q.20.
+    pub rho: i32,
+    /// [`log2_segment_table`], for kernels that read it directly.
+    pub table: *const [u8; 6],
+    /// The anchor's weight, 1 to 4.
+    pub w: u8,
+}
+
+impl AnchorTerm {
+    /// No anchor (a placeholder for unused slots).
+    pub const NONE: AnchorTerm = AnchorTerm {
+        dx2: 0,
+        adx: 0,
+        dy0: 0,
+        step: 0,
+        lclamp: 0,
+        rho: 0,
+        table: core::ptr::null(),
+        w: 1,
+    };
+}
+
+/// A column of a search window, for [`TermKernel::column`] (on AVR: `bound` at offset 0, `n`
+/// 4, `rows` 5, the anchors from 6).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ColumnJob {
+    /// Rows whose sum reaches it stop there (they cannot win any more).
+    pub bound: u32,
+    /// Anchors in use (1 to [`MAX_ANCHORS`]).
+    pub n: u8,
+    /// Rows of the column (kernels may set it from the slice length; the searches do).
+    pub rows: u8,
+    /// The anchors, in evaluation order.
+    pub anchors: [AnchorTerm; MAX_ANCHORS],
+}
+
+/// The reference of [`TermKernel::column`]. For every row whose sum is below `job.bound`, the
+/// anchors' weighted terms `w·term(dx² + dy², ρ, clamp)` are added in order; a row whose sum
+/// reaches the bound is set to the bound and the rest of its anchors are skipped (its exact
+/// cost no longer matters). Rows not below the bound are left alone. Fills every `dx2`.
+#[inline(always)]
+pub fn portable_column<K: TermKernel>(sums: &mut [u32], job: &mut ColumnJob) {
+    let n = (job.n as usize).min(MAX_ANCHORS);
+    for a in &mut job.anchors[..n] {
+        a.dx2 = sq16(a.adx as i32);
+    }
+    for (r, sum) in sums.iter_mut().enumerate() {
+        if *sum >= job.bound {
+            continue;
+        }
+        let mut s = *sum;
+        for a in &job.anchors[..n] {
+            let dy = a.dy0.wrapping_add((r as i32).wrapping_mul(a.step as i32));
+            s = add_term::<K>(s, a.dx2, sq16(dy), a.rho, a.lclamp, a.w);
+            if s >= job.bound {
+                s = job.bound;
+                break;
+            }
+        }
+        *sum = s;
+    }
+}
+
+/// `sum` plus one anchor's weighted term `w·(ρ + max(log2 d², clamp))²` (Q.20, saturating) for
+/// `d² = dx2 + dy2` (33 bits); `w` outside 1..=3 counts as 4.
+#[inline(always)]
+pub(crate) fn add_term<K: TermKernel>(
+    sum: u32,
+    dx2: u32,
+    dy2: u32,
+    rho: i32,
+    lclamp: i32,
+    w: u8,
+) -> u32 {
+    let (lo, carry) = dx2.overflowing_add(dy2);
+    // Below 2^30 − 1, so w·sq fits.
+    let sq = K::term(lo, carry, rho, lclamp);
+    let t = match w {
+        1 => sq,
+        2 => sq << 1,
+        3 => sq + (sq << 1),
+        _ => sq << 2,
+    };
+    sum.saturating_add(t)
 }
 
 /// The portable kernel: plain Rust, used on the host and by default.

@@ -89,7 +89,10 @@ mod tables;
 pub use grid::{
     estimate, estimate_with, locate, mle, mle_with, mmse, mmse_with, sink_fix, Estimate, Estimator,
 };
-pub use kernel::{log2_segment_table, portable_term, Portable, TermKernel, SQ_SAT, U_SAT};
+pub use kernel::{
+    log2_segment_table, portable_column, portable_term, AnchorTerm, ColumnJob, Portable,
+    TermKernel, SQ_SAT, U_SAT,
+};
 pub use params::{
     distance_x, fit, fit_grid, fit_least_squares, Ar1, Bounds, CalStats, OnlineParams, ParamFit,
     MAX_SAMPLES,

@@ -1,15 +1,44 @@
-//! The position search's cost term in AVR assembly: [`AvrTerm`].
+//! The position search's inner loop in AVR assembly: [`AvrTerm`].
 //!
-//! `loc_core::fixed` evaluates `(ρ + max(log2 d², clamp))²` a few hundred times per fix; LLVM's
-//! AVR backend spends ≈ 650 cycles on it (its 8 × 8 → 16/32-bit products cost many moves and
-//! spills), this hand-scheduled version ≈ 100. It computes exactly
-//! [`loc_core::fixed::portable_term`] — the same normalisation, the same 64-segment quadratic
+//! `loc_core::fixed` evaluates `w·(ρ + max(log2 d², clamp))²` a few hundred times per fix, a
+//! column of rows at a time. LLVM's AVR backend spends ≈ 650 cycles on one term (its 8 × 8 →
+//! 16/32-bit products cost many moves and spills) and as much again on the loops around it;
+//! this hand-scheduled version keeps a whole column — rows, anchors, the early exit at the bound
+//! — in registers. It computes exactly [`loc_core::fixed::portable_column`] and
+//! [`loc_core::fixed::portable_term`]: the same normalisation, the same 64-segment quadratic
 //! from the same flash table ([`loc_core::fixed::log2_segment_table`]), the same clamp,
-//! saturation and five-product square — which `hoploc-tests` checks in simavr on every edge case
-//! and 50 000 random inputs (`tests/tests/mcu_bench.rs`).
+//! saturation and five-product square, the same weights and bound, which `hoploc-tests` checks
+//! in simavr on every edge case and 50 000 random terms and 5 000 random columns
+//! (`tests/tests/mcu_bench.rs`).
+//!
+//! Register plan (explicit, so both entry points share one instruction text, [`term_body!`]):
+//! `d²` in r15:r12 with its 33rd bit in the T flag, the term in r15:r12; the [`AnchorTerm`] in
+//! `Z` (the body reads `lclamp`, `ρ` and the table address at their offsets, and restores `Z`
+//! from r25:r24 after the table reads); r2 is a zero register, r3–r11, r16, r17 scratch; r0/r1
+//! for `mul` (r1 cleared at the end, as the ABI requires). The column loop adds: X walks the
+//! sums, r21:r18 the room left below the bound, r22 the row, r23 the anchors left, and the job's
+//! address on the stack.
 
 use core::arch::asm;
-use loc_core::fixed::{log2_segment_table, TermKernel};
+use core::mem::{offset_of, size_of};
+use loc_core::fixed::{log2_segment_table, AnchorTerm, ColumnJob, TermKernel};
+
+// The offsets the assembly reads (AVR has no padding).
+const _: () = {
+    assert!(offset_of!(AnchorTerm, dx2) == 0);
+    assert!(offset_of!(AnchorTerm, adx) == 4);
+    assert!(offset_of!(AnchorTerm, dy0) == 6);
+    assert!(offset_of!(AnchorTerm, step) == 10);
+    assert!(offset_of!(AnchorTerm, lclamp) == 12);
+    assert!(offset_of!(AnchorTerm, rho) == 16);
+    assert!(offset_of!(AnchorTerm, table) == 20);
+    assert!(offset_of!(AnchorTerm, w) == 22);
+    assert!(size_of::<AnchorTerm>() == 23);
+    assert!(offset_of!(ColumnJob, bound) == 0);
+    assert!(offset_of!(ColumnJob, n) == 4);
+    assert!(offset_of!(ColumnJob, rows) == 5);
+    assert!(offset_of!(ColumnJob, anchors) == 6);
+};
 
 /// The AVR kernel for `loc_core::fixed::{mle_with, mmse_with, estimate_with}`.
 #[derive(Clone, Copy, Debug, Default)]
@@ -20,242 +49,453 @@ impl TermKernel for AvrTerm {
     fn term(lo: u32, carry: bool, rho: i32, lclamp: i32) -> u32 {
         term(lo, carry, rho, lclamp)
     }
+
+    #[inline(never)]
+    fn column(sums: &mut [u32], job: &mut ColumnJob) {
+        column(sums, job)
+    }
 }
 
-/// See the module docs. Register use: `d²` and the result in four bytes, the table in `Z`, the
-/// clamp and `ρ` read through `X`, twelve scratch registers; `r0`/`r1` for `mul` (r1 cleared).
+/// `(ρ + max(log2 n, clamp))²` (Q.20, saturated) of `n` = r15:r12 plus `2^32·T` (the T flag),
+/// into r15:r12, for the [`AnchorTerm`] at `Z`.
+macro_rules! term_body {
+    () => {
+        concat!(
+            // ---- normalise n = d² to [2^31, 2^32), exponent e ----
+            "brtc 10f\n",
+            // 33-bit input: n = (2^32 + lo) >> 1, e = 32.
+            "sec\n",
+            "ror r15\n",
+            "ror r14\n",
+            "ror r13\n",
+            "ror r12\n",
+            "ldi r16, 32\n",
+            "rjmp 14f\n",
+            "10:\n",
+            "ldi r16, 31\n",
+            "cp r14, r1\n",
+            "cpc r15, r1\n",
+            "brne 11f\n",
+            "cp r12, r1\n",
+            "cpc r13, r1\n",
+            "brne 12f\n",
+            // d² = 0: log = 0.
+            "clr r3\n",
+            "clr r4\n",
+            "clr r5\n",
+            "clr r16\n",
+            "rjmp 20f\n",
+            "12:\n",
+            "mov r15, r13\n",
+            "mov r14, r12\n",
+            "clr r13\n",
+            "clr r12\n",
+            "subi r16, 16\n",
+            "11:\n",
+            "tst r15\n",
+            "brne 13f\n",
+            "mov r15, r14\n",
+            "mov r14, r13\n",
+            "mov r13, r12\n",
+            "clr r12\n",
+            "subi r16, 8\n",
+            "13:\n",
+            "sbrc r15, 7\n",
+            "rjmp 14f\n",
+            "lsl r12\n",
+            "rol r13\n",
+            "rol r14\n",
+            "rol r15\n",
+            "dec r16\n",
+            "rjmp 13b\n",
+            // ---- segment k = n >> 25 & 63, position t = n >> 9 (n2:n1 after the shift) ----
+            "14:\n",
+            "lsr r15\n",
+            "ror r14\n",
+            "ror r13\n",
+            // n3 = 64 + k: Z = table + 6·n3 − 384 (the job pointer waits in r25:r24).
+            "movw r24, r30\n",
+            "ldd r6, Z+20\n",
+            "ldd r7, Z+21\n",
+            "movw r30, r6\n",
+            "ldi r17, 6\n",
+            "mul r15, r17\n",
+            "add r30, r0\n",
+            "adc r31, r1\n",
+            "subi r30, 0x80\n",
+            "sbci r31, 0x01\n",
+            "lpm r3, Z+\n",
+            "lpm r4, Z+\n",
+            "lpm r5, Z+\n",
+            "lpm r6, Z+\n",
+            "lpm r7, Z+\n",
+            "lpm r8, Z\n",
+            "movw r30, r24\n",
+            // q = (t1·c2 + (t0·c2 >> 8)) >> 8; i = c1 − q (in c1b:c1a).
+            "mul r13, r8\n",
+            "mov r17, r1\n",
+            "mul r14, r8\n",
+            "add r0, r17\n",
+            "mov r17, r1\n",
+            "adc r17, r2\n",
+            "sub r6, r17\n",
+            "sbc r7, r2\n",
+            // mid = (t0·i0 >> 8) + t1·i0 + t0·i1 (17 bits in m2:m1:m0).
+            "mul r13, r6\n",
+            "mov r9, r1\n",
+            "clr r10\n",
+            "clr r11\n",
+            "mul r14, r6\n",
+            "add r9, r0\n",
+            "adc r10, r1\n",
+            "adc r11, r2\n",
+            "mul r13, r7\n",
+            "add r9, r0\n",
+            "adc r10, r1\n",
+            "adc r11, r2\n",
+            // mantissa = c0 + t1·i1 + (mid >> 8).
+            "mul r14, r7\n",
+            "add r3, r0\n",
+            "adc r4, r1\n",
+            "adc r5, r2\n",
+            "add r3, r10\n",
+            "adc r4, r11\n",
+            "adc r5, r2\n",
+            // log = (e << 20) + mantissa, in e:c0c:c0b:c0a.
+            "swap r16\n",
+            "mov r17, r16\n",
+            "andi r17, 0xF0\n",
+            "andi r16, 0x0F\n",
+            "add r5, r17\n",
+            "adc r16, r2\n",
+            // ---- l = max(log, clamp) (signed) ----
+            "20:\n",
+            "ldd r6, Z+12\n",
+            "ldd r7, Z+13\n",
+            "ldd r8, Z+14\n",
+            "ldd r9, Z+15\n",
+            "cp r3, r6\n",
+            "cpc r4, r7\n",
+            "cpc r5, r8\n",
+            "cpc r16, r9\n",
+            "brge 21f\n",
+            "mov r3, r6\n",
+            "mov r4, r7\n",
+            "mov r5, r8\n",
+            "mov r16, r9\n",
+            // ---- u = |ρ + l| ----
+            "21:\n",
+            "ldd r6, Z+16\n",
+            "ldd r7, Z+17\n",
+            "ldd r8, Z+18\n",
+            "ldd r9, Z+19\n",
+            "add r3, r6\n",
+            "adc r4, r7\n",
+            "adc r5, r8\n",
+            "adc r16, r9\n",
+            "sbrs r16, 7\n",
+            "rjmp 22f\n",
+            "com r3\n",
+            "com r4\n",
+            "com r5\n",
+            "com r16\n",
+            "sec\n",
+            "adc r3, r2\n",
+            "adc r4, r2\n",
+            "adc r5, r2\n",
+            "adc r16, r2\n",
+            // ---- |u| ≥ 32 << 20: the saturated term ----
+            "22:\n",
+            "cpi r16, 2\n",
+            "brlo 23f\n",
+            "ldi r16, 0xFF\n",
+            "mov r12, r16\n",
+            "mov r13, r16\n",
+            "mov r14, r16\n",
+            "ldi r16, 0x3F\n",
+            "mov r15, r16\n",
+            "rjmp 30f\n",
+            // ---- v = |u| >> 2 (c0c:c0b:c0a); term = v² >> 16 from five products ----
+            "23:\n",
+            "lsr r16\n",
+            "ror r5\n",
+            "ror r4\n",
+            "ror r3\n",
+            "lsr r16\n",
+            "ror r5\n",
+            "ror r4\n",
+            "ror r3\n",
+            // v2² << 16 + v1².
+            "mul r5, r5\n",
+            "mov r14, r0\n",
+            "mov r15, r1\n",
+            "mul r4, r4\n",
+            "mov r12, r0\n",
+            "mov r13, r1\n",
+            // + 2·v1·v2 << 8.
+            "mul r4, r5\n",
+            "clr r17\n",
+            "lsl r0\n",
+            "rol r1\n",
+            "rol r17\n",
+            "add r13, r0\n",
+            "adc r14, r1\n",
+            "adc r15, r17\n",
+            // + 2·v0·v2.
+            "mul r3, r5\n",
+            "clr r17\n",
+            "lsl r0\n",
+            "rol r1\n",
+            "rol r17\n",
+            "add r12, r0\n",
+            "adc r13, r1\n",
+            "adc r14, r17\n",
+            "adc r15, r2\n",
+            // + (2·v0·v1) >> 8.
+            "mul r3, r4\n",
+            "clr r17\n",
+            "lsl r0\n",
+            "rol r1\n",
+            "rol r17\n",
+            "add r12, r1\n",
+            "adc r13, r17\n",
+            "adc r14, r2\n",
+            "adc r15, r2\n",
+            "30:\n",
+        )
+    };
+}
+
+/// [`loc_core::fixed::portable_term`], exactly; see the module docs.
 #[inline(always)]
 pub fn term(lo: u32, carry: bool, rho: i32, lclamp: i32) -> u32 {
-    let consts: [i32; 2] = [lclamp, rho];
+    let t = AnchorTerm {
+        lclamp,
+        rho,
+        table: log2_segment_table(),
+        ..AnchorTerm::NONE
+    };
     let [mut n0, mut n1, mut n2, mut n3] = lo.to_le_bytes();
-    let table = log2_segment_table() as u16;
-    let ptr = consts.as_ptr() as u16;
-    // SAFETY: the assembly reads the 8 bytes of `consts` through X and 6 bytes of the log2
-    // table (64 × 6 bytes in flash, index < 64 by construction) through Z with `lpm`; it writes
-    // only its register operands, r0, and r1 (left at 0 as the ABI requires) and the flags.
+    // SAFETY: the assembly reads `t` (23 bytes, at the offsets asserted above) through Z and
+    // 6 bytes of the log2 table (64 × 6 bytes in flash, index < 64 by construction) with `lpm`;
+    // it writes only the registers declared here, r0, and r1 (left at 0 as the ABI requires) and
+    // the flags.
     unsafe {
         asm!(
-            // A zero register of our own: r1 holds products below.
-            "clr {zr}",
-            // ---- normalise n = d² to [2^31, 2^32), exponent e ----
-            "tst {cy}",
-            "breq 10f",
-            // 33-bit input: n = (2^32 + lo) >> 1, e = 32.
-            "sec",
-            "ror {n3}",
-            "ror {n2}",
-            "ror {n1}",
-            "ror {n0}",
-            "ldi {e}, 32",
-            "rjmp 14f",
-            "10:",
-            "ldi {e}, 31",
-            "cp {n2}, r1",
-            "cpc {n3}, r1",
-            "brne 11f",
-            "cp {n0}, r1",
-            "cpc {n1}, r1",
-            "brne 12f",
-            // d² = 0: log = 0.
-            "clr {c0a}",
-            "clr {c0b}",
-            "clr {c0c}",
-            "clr {e}",
-            "rjmp 20f",
-            "12:",
-            "mov {n3}, {n1}",
-            "mov {n2}, {n0}",
-            "clr {n1}",
-            "clr {n0}",
-            "subi {e}, 16",
-            "11:",
-            "tst {n3}",
-            "brne 13f",
-            "mov {n3}, {n2}",
-            "mov {n2}, {n1}",
-            "mov {n1}, {n0}",
-            "clr {n0}",
-            "subi {e}, 8",
-            "13:",
-            "sbrc {n3}, 7",
-            "rjmp 14f",
-            "lsl {n0}",
-            "rol {n1}",
-            "rol {n2}",
-            "rol {n3}",
-            "dec {e}",
-            "rjmp 13b",
-            // ---- segment k = n >> 25 & 63, position t = n >> 9 (n2:n1 after the shift) ----
-            "14:",
-            "lsr {n3}",
-            "ror {n2}",
-            "ror {n1}",
-            // n3 = 64 + k: Z = table + 6·n3 − 384.
-            "ldi {x}, 6",
-            "mul {n3}, {x}",
-            "add r30, r0",
-            "adc r31, r1",
-            "subi r30, 0x80",
-            "sbci r31, 0x01",
-            "lpm {c0a}, Z+",
-            "lpm {c0b}, Z+",
-            "lpm {c0c}, Z+",
-            "lpm {c1a}, Z+",
-            "lpm {c1b}, Z+",
-            "lpm {c2}, Z",
-            // q = (t1·c2 + (t0·c2 >> 8)) >> 8; i = c1 − q (in c1b:c1a).
-            "mul {n1}, {c2}",
-            "mov {x}, r1",
-            "mul {n2}, {c2}",
-            "add r0, {x}",
-            "mov {x}, r1",
-            "adc {x}, {zr}",
-            "sub {c1a}, {x}",
-            "sbc {c1b}, {zr}",
-            // mid = (t0·i0 >> 8) + t1·i0 + t0·i1 (17 bits in m2:m1:m0).
-            "mul {n1}, {c1a}",
-            "mov {m0}, r1",
-            "clr {m1}",
-            "clr {m2}",
-            "mul {n2}, {c1a}",
-            "add {m0}, r0",
-            "adc {m1}, r1",
-            "adc {m2}, {zr}",
-            "mul {n1}, {c1b}",
-            "add {m0}, r0",
-            "adc {m1}, r1",
-            "adc {m2}, {zr}",
-            // mantissa = c0 + t1·i1 + (mid >> 8).
-            "mul {n2}, {c1b}",
-            "add {c0a}, r0",
-            "adc {c0b}, r1",
-            "adc {c0c}, {zr}",
-            "add {c0a}, {m1}",
-            "adc {c0b}, {m2}",
-            "adc {c0c}, {zr}",
-            // log = (e << 20) + mantissa, in e:c0c:c0b:c0a.
-            "swap {e}",
-            "mov {x}, {e}",
-            "andi {x}, 0xF0",
-            "andi {e}, 0x0F",
-            "add {c0c}, {x}",
-            "adc {e}, {zr}",
-            // ---- l = max(log, clamp) (signed) ----
-            "20:",
-            "ld {c1a}, X+",
-            "ld {c1b}, X+",
-            "ld {c2}, X+",
-            "ld {m0}, X+",
-            "cp {c0a}, {c1a}",
-            "cpc {c0b}, {c1b}",
-            "cpc {c0c}, {c2}",
-            "cpc {e}, {m0}",
-            "brge 21f",
-            "mov {c0a}, {c1a}",
-            "mov {c0b}, {c1b}",
-            "mov {c0c}, {c2}",
-            "mov {e}, {m0}",
-            // ---- u = |ρ + l| ----
-            "21:",
-            "ld {c1a}, X+",
-            "ld {c1b}, X+",
-            "ld {c2}, X+",
-            "ld {m0}, X+",
-            "add {c0a}, {c1a}",
-            "adc {c0b}, {c1b}",
-            "adc {c0c}, {c2}",
-            "adc {e}, {m0}",
-            "sbrs {e}, 7",
-            "rjmp 22f",
-            "com {c0a}",
-            "com {c0b}",
-            "com {c0c}",
-            "com {e}",
-            "sec",
-            "adc {c0a}, {zr}",
-            "adc {c0b}, {zr}",
-            "adc {c0c}, {zr}",
-            "adc {e}, {zr}",
-            // ---- |u| ≥ 32 << 20: the saturated term ----
-            "22:",
-            "cpi {e}, 2",
-            "brlo 23f",
-            "ldi {e}, 0xFF",
-            "mov {n0}, {e}",
-            "mov {n1}, {e}",
-            "mov {n2}, {e}",
-            "ldi {e}, 0x3F",
-            "mov {n3}, {e}",
-            "rjmp 30f",
-            // ---- v = |u| >> 2 (c0c:c0b:c0a); term = v² >> 16 from five products ----
-            "23:",
-            "lsr {e}",
-            "ror {c0c}",
-            "ror {c0b}",
-            "ror {c0a}",
-            "lsr {e}",
-            "ror {c0c}",
-            "ror {c0b}",
-            "ror {c0a}",
-            // v2² << 16 + v1².
-            "mul {c0c}, {c0c}",
-            "mov {n2}, r0",
-            "mov {n3}, r1",
-            "mul {c0b}, {c0b}",
-            "mov {n0}, r0",
-            "mov {n1}, r1",
-            // + 2·v1·v2 << 8.
-            "mul {c0b}, {c0c}",
-            "clr {x}",
-            "lsl r0",
-            "rol r1",
-            "rol {x}",
-            "add {n1}, r0",
-            "adc {n2}, r1",
-            "adc {n3}, {x}",
-            // + 2·v0·v2.
-            "mul {c0a}, {c0c}",
-            "clr {x}",
-            "lsl r0",
-            "rol r1",
-            "rol {x}",
-            "add {n0}, r0",
-            "adc {n1}, r1",
-            "adc {n2}, {x}",
-            "adc {n3}, {zr}",
-            // + (2·v0·v1) >> 8.
-            "mul {c0a}, {c0b}",
-            "clr {x}",
-            "lsl r0",
-            "rol r1",
-            "rol {x}",
-            "add {n0}, r1",
-            "adc {n1}, {x}",
-            "adc {n2}, {zr}",
-            "adc {n3}, {zr}",
-            "30:",
+            "clr r2",
+            "clt",
+            "tst r22",
+            "breq 1f",
+            "set",
+            "1:",
+            term_body!(),
             "clr r1",
-            n0 = inout(reg) n0,
-            n1 = inout(reg) n1,
-            n2 = inout(reg) n2,
-            n3 = inout(reg) n3,
-            cy = in(reg) carry as u8,
-            zr = out(reg) _,
-            e = out(reg_upper) _,
-            x = out(reg_upper) _,
-            c0a = out(reg) _,
-            c0b = out(reg) _,
-            c0c = out(reg) _,
-            c1a = out(reg) _,
-            c1b = out(reg) _,
-            c2 = out(reg) _,
-            m0 = out(reg) _,
-            m1 = out(reg) _,
-            m2 = out(reg) _,
-            inout("Z") table => _,
-            inout("X") ptr => _,
+            inout("r12") n0,
+            inout("r13") n1,
+            inout("r14") n2,
+            inout("r15") n3,
+            in("r22") carry as u8,
+            inout("Z") &t as *const AnchorTerm => _,
+            out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
+            out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r16") _, out("r17") _,
+            out("r24") _, out("r25") _,
             options(readonly, nostack),
         );
     }
     u32::from_le_bytes([n0, n1, n2, n3])
+}
+
+/// [`loc_core::fixed::portable_column`], exactly; see the module docs.
+pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
+    let n = job.n.min(job.anchors.len() as u8);
+    if n == 0 || sums.is_empty() {
+        // The reference fills every dx² (none here) and adds nothing.
+        return;
+    }
+    // The assembly reads both from the job.
+    job.n = n;
+    job.rows = sums.len().min(255) as u8;
+    // SAFETY: X walks the first `rows` (1 to 255) sums, each read and written at most once in
+    // place; Z points at `job` (its address also kept on the stack, popped before the end):
+    // the loop reads its bound and its first `n` (1 to 8) anchors and writes their `dx2`;
+    // `lpm` reads 6 bytes of the log2 table per term as in [`term`]. Only the declared
+    // registers, r0, r1 (left at 0), the flags and those two stack bytes are written.
+    unsafe {
+        asm!(
+            "clr r2",
+            "push r31",
+            "push r30",
+            // ---- dx² of every anchor, from |dx| ----
+            "ldd r23, Z+4",
+            "adiw r30, 6",
+            "8:",
+            "ldd r16, Z+4",
+            "ldd r17, Z+5",
+            "mul r16, r16",
+            "movw r12, r0",
+            "mul r17, r17",
+            "movw r14, r0",
+            "mul r16, r17",
+            "clr r3",
+            "lsl r0",
+            "rol r1",
+            "rol r3",
+            "add r13, r0",
+            "adc r14, r1",
+            "adc r15, r3",
+            "std Z+0, r12",
+            "std Z+1, r13",
+            "std Z+2, r14",
+            "std Z+3, r15",
+            "adiw r30, 23",
+            "dec r23",
+            "brne 8b",
+            "clr r22",
+            // ---- row r22: room = bound − sum; rows not below the bound are left alone ----
+            "1:",
+            "pop r30",
+            "pop r31",
+            "push r31",
+            "push r30",
+            "ld r18, X+",
+            "ld r19, X+",
+            "ld r20, X+",
+            "ld r21, X+",
+            "ldd r16, Z+0",
+            "sub r16, r18",
+            "mov r18, r16",
+            "ldd r16, Z+1",
+            "sbc r16, r19",
+            "mov r19, r16",
+            "ldd r16, Z+2",
+            "sbc r16, r20",
+            "mov r20, r16",
+            "ldd r16, Z+3",
+            "sbc r16, r21",
+            "mov r21, r16",
+            "brcs 39f",
+            "brne 2f",
+            "39:",
+            "rjmp 37f",
+            "2:",
+            "ldd r23, Z+4",
+            "adiw r30, 6",
+            // ---- anchor at Z: dy = dy0 + r·step (24 bits; |dy| < 2^16) ----
+            "5:",
+            "ldd r16, Z+10",
+            "mul r22, r16",
+            "movw r16, r0",
+            "ldd r3, Z+11",
+            "mul r22, r3",
+            "add r17, r0",
+            "clr r3",
+            "adc r3, r1",
+            "ldd r4, Z+6",
+            "add r16, r4",
+            "ldd r4, Z+7",
+            "adc r17, r4",
+            "ldd r4, Z+8",
+            "adc r3, r4",
+            "sbrs r3, 7",
+            "rjmp 6f",
+            "com r17",
+            "neg r16",
+            "sbci r17, 0xFF",
+            // ---- d² = dx² + dy² in T:r15:r12 ----
+            "6:",
+            "mul r16, r16",
+            "movw r12, r0",
+            "mul r17, r17",
+            "movw r14, r0",
+            "mul r16, r17",
+            "clr r3",
+            "lsl r0",
+            "rol r1",
+            "rol r3",
+            "add r13, r0",
+            "adc r14, r1",
+            "adc r15, r3",
+            "ldd r16, Z+0",
+            "add r12, r16",
+            "ldd r16, Z+1",
+            "adc r13, r16",
+            "ldd r16, Z+2",
+            "adc r14, r16",
+            "ldd r16, Z+3",
+            "adc r15, r16",
+            "clt",
+            "brcc 7f",
+            "set",
+            "7:",
+            term_body!(),
+            // ---- room −= w·term; at or below 0 the row has reached the bound ----
+            "ldd r17, Z+22",
+            "31:",
+            "sub r18, r12",
+            "sbc r19, r13",
+            "sbc r20, r14",
+            "sbc r21, r15",
+            "brcs 35f",
+            "breq 35f",
+            "dec r17",
+            "brne 31b",
+            "adiw r30, 23",
+            "dec r23",
+            "breq 3f",
+            "rjmp 5b",
+            // ---- every anchor added: sum = bound − room ----
+            "3:",
+            "pop r30",
+            "pop r31",
+            "push r31",
+            "push r30",
+            "ldd r16, Z+0",
+            "sub r16, r18",
+            "mov r18, r16",
+            "ldd r16, Z+1",
+            "sbc r16, r19",
+            "mov r19, r16",
+            "ldd r16, Z+2",
+            "sbc r16, r20",
+            "mov r20, r16",
+            "ldd r16, Z+3",
+            "sbc r16, r21",
+            "mov r21, r16",
+            "rjmp 36f",
+            // ---- reached: the row is left at the bound ----
+            "35:",
+            "pop r30",
+            "pop r31",
+            "push r31",
+            "push r30",
+            "ldd r18, Z+0",
+            "ldd r19, Z+1",
+            "ldd r20, Z+2",
+            "ldd r21, Z+3",
+            "36:",
+            "st -X, r21",
+            "st -X, r20",
+            "st -X, r19",
+            "st -X, r18",
+            "adiw r26, 4",
+            // ---- next row ----
+            "37:",
+            "inc r22",
+            "ldd r16, Z+5",
+            "cp r22, r16",
+            "brsh 38f",
+            "rjmp 1b",
+            "38:",
+            "pop r30",
+            "pop r31",
+            "clr r1",
+            inout("X") sums.as_mut_ptr() => _,
+            inout("Z") &mut *job as *mut ColumnJob => _,
+            out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
+            out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r12") _,
+            out("r13") _, out("r14") _, out("r15") _, out("r16") _, out("r17") _,
+            out("r18") _, out("r19") _, out("r20") _, out("r21") _, out("r22") _,
+            out("r23") _, out("r24") _, out("r25") _,
+        );
+    }
 }
