@@ -170,6 +170,8 @@ fn column_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
         bound: 0,
         n: 0,
         rows: 0,
+        min: 0,
+        min_row: 0,
         anchors: [AnchorTerm::NONE; loc_core::MAX_ANCHORS],
     };
     let mut jw = EMPTY;
@@ -185,7 +187,8 @@ fn column_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
             .iter()
             .zip(&jg.anchors[..n])
             .all(|(w, g)| w.dx2 == g.dx2);
-        if want != got || !dx_ok {
+        let min_ok = (jw.min, jw.min_row) == (jg.min, jg.min_row);
+        if want != got || !dx_ok || !min_ok {
             bad += 1;
             if bad <= 5 {
                 serial.write_bytes(b"badcol");

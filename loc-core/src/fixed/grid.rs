@@ -214,6 +214,8 @@ impl Stage {
                 bound: 0,
                 n: 0,
                 rows: 0,
+                min: 0,
+                min_row: 0,
                 anchors: [AnchorTerm::NONE; MAX_ANCHORS],
             },
             shift: [0; MAX_ANCHORS],
@@ -379,21 +381,30 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
             .column::<K>(self.cost, i, bound, skip, &mut self.sums);
     }
 
-    /// Evaluates column `i` (rows in `skip` left out) and offers its first smallest cost to
-    /// `best`: the same outcome as offering every row in order under the strict `<`.
-    fn column_offer(&mut self, i: usize, skip: u16, best: &mut LatticeMin) {
-        self.column(i, best.cost, skip);
+    /// Evaluates column `i` (rows in `skip`, `skipped` of them, left out) and offers its first
+    /// smallest cost to `best`: the same outcome as offering every row in order under the
+    /// strict `<`.
+    fn column_offer(&mut self, i: usize, skip: u16, skipped: usize, best: &mut LatticeMin) {
+        let bound = best.cost;
+        self.column(i, bound, skip);
         let rows = self.st.rows;
-        self.evals += rows - (skip & ((1 << rows) - 1)).count_ones() as usize;
-        let (mut r_min, mut c_min) = (0, INF);
-        for (r, &c) in self.sums[..rows].iter().enumerate() {
-            // Skipped rows hold INF, which never wins.
-            if c < c_min {
-                (r_min, c_min) = (r, c);
+        self.evals += rows - skipped;
+        let (r, c) = if self.st.shifted || bound == INF || self.cost.flat {
+            // The kernel's minimum covers only the unshifted path's completed rows (a flat cost
+            // runs no kernel); with no bound a saturated cost (clamped to COST_MAX) may be the
+            // column's best.
+            let mut m = (0, INF);
+            for (r, &c) in self.sums[..rows].iter().enumerate() {
+                if c < m.1 {
+                    m = (r, c);
+                }
             }
-        }
+            m
+        } else {
+            (self.st.job.min_row as usize, self.st.job.min)
+        };
         let w = &self.st.w;
-        best.offer(i, w.j0 + r_min * w.step, c_min);
+        best.offer(i, w.j0 + r * w.step, c);
     }
 
     #[inline(never)]
@@ -401,7 +412,7 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
         self.st.init(self.cost, Window::COARSE, None);
         let mut best = LatticeMin::NONE;
         for i in (0..=FINE_DIVS).step_by(RATIO) {
-            self.column_offer(i, 0, &mut best);
+            self.column_offer(i, 0, 0, &mut best);
         }
         let coarse_shift = self.st.shift;
         let w = Window::around(best.i, best.j, RATIO);
@@ -418,16 +429,21 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
             fine.cost = self.sums[rb];
         }
         // The coarse rows of the window (j a multiple of RATIO).
-        let mut coarse_rows = 0u16;
+        let (mut coarse_rows, mut n_coarse) = (0u16, 0);
         for r in 0..rows {
             if (w.j0 + r).is_multiple_of(RATIO) {
                 coarse_rows |= 1 << r;
+                n_coarse += 1;
             }
         }
         for i in w.i0..=w.i1 {
             // Coarse points cannot beat the coarse winner the window starts from.
-            let skip = if i % RATIO == 0 { coarse_rows } else { 0 };
-            self.column_offer(i, skip, &mut fine);
+            let (skip, skipped) = if i % RATIO == 0 {
+                (coarse_rows, n_coarse)
+            } else {
+                (0, 0)
+            };
+            self.column_offer(i, skip, skipped, &mut fine);
         }
         fine
     }

@@ -74,7 +74,7 @@ impl AnchorTerm {
 }
 
 /// A column of a search window, for [`TermKernel::column`] (on AVR: `bound` at offset 0, `n`
-/// 4, `rows` 5, the anchors from 6).
+/// 4, `rows` 5, `min` 6, `min_row` 10, the anchors from 11).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct ColumnJob {
@@ -84,6 +84,10 @@ pub struct ColumnJob {
     pub n: u8,
     /// Rows of the column (kernels may set it from the slice length; the searches do).
     pub rows: u8,
+    /// Output: the smallest sum the kernel completed below the bound (`u32::MAX` if none)…
+    pub min: u32,
+    /// …and its first row.
+    pub min_row: u8,
     /// The anchors, in evaluation order.
     pub anchors: [AnchorTerm; MAX_ANCHORS],
 }
@@ -91,13 +95,15 @@ pub struct ColumnJob {
 /// The reference of [`TermKernel::column`]. For every row whose sum is below `job.bound`, the
 /// anchors' weighted terms `w·term(dx² + dy², ρ, clamp)` are added in order; a row whose sum
 /// reaches the bound is set to the bound and the rest of its anchors are skipped (its exact
-/// cost no longer matters). Rows not below the bound are left alone. Fills every `dx2`.
+/// cost no longer matters). Rows not below the bound are left alone. Fills every `dx2`, and
+/// `min`/`min_row` with the first smallest completed sum (what a search offers).
 #[inline(always)]
 pub fn portable_column<K: TermKernel>(sums: &mut [u32], job: &mut ColumnJob) {
     let n = (job.n as usize).min(MAX_ANCHORS);
     for a in &mut job.anchors[..n] {
         a.dx2 = sq16(a.adx as i32);
     }
+    (job.min, job.min_row) = (u32::MAX, 0);
     for (r, sum) in sums.iter_mut().enumerate() {
         if *sum >= job.bound {
             continue;
@@ -110,6 +116,9 @@ pub fn portable_column<K: TermKernel>(sums: &mut [u32], job: &mut ColumnJob) {
                 s = job.bound;
                 break;
             }
+        }
+        if s < job.bound && s < job.min {
+            (job.min, job.min_row) = (s, r as u8);
         }
         *sum = s;
     }

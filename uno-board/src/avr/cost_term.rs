@@ -37,7 +37,9 @@ const _: () = {
     assert!(offset_of!(ColumnJob, bound) == 0);
     assert!(offset_of!(ColumnJob, n) == 4);
     assert!(offset_of!(ColumnJob, rows) == 5);
-    assert!(offset_of!(ColumnJob, anchors) == 6);
+    assert!(offset_of!(ColumnJob, min) == 6);
+    assert!(offset_of!(ColumnJob, min_row) == 10);
+    assert!(offset_of!(ColumnJob, anchors) == 11);
 };
 
 /// The AVR kernel for `loc_core::fixed::{mle_with, mmse_with, estimate_with}`.
@@ -319,15 +321,23 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
     // place; Z points at `job` (its address also kept on the stack, popped before the end):
     // the loop reads its bound and its first `n` (1 to 8) anchors and writes their `dx2`;
     // `lpm` reads 6 bytes of the log2 table per term as in [`term`]. Only the declared
-    // registers, r0, r1 (left at 0), the flags and those two stack bytes are written.
+    // registers, r0, r1 (left at 0), the flags and those two stack bytes are written (and the
+    // job's `min`, `min_row` and `dx2` fields).
     unsafe {
         asm!(
             "clr r2",
             "push r31",
             "push r30",
+            // ---- no minimum yet ----
+            "ldi r16, 0xFF",
+            "std Z+6, r16",
+            "std Z+7, r16",
+            "std Z+8, r16",
+            "std Z+9, r16",
+            "std Z+10, r2",
             // ---- dx² of every anchor, from |dx| ----
             "ldd r23, Z+4",
-            "adiw r30, 6",
+            "adiw r30, 11",
             "8:",
             "ldd r16, Z+4",
             "ldd r17, Z+5",
@@ -379,7 +389,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "rjmp 37f",
             "2:",
             "ldd r23, Z+4",
-            "adiw r30, 6",
+            "adiw r30, 11",
             // ---- anchor at Z: dy = dy0 + r·step (24 bits; |dy| < 2^16) ----
             "5:",
             "ldd r16, Z+10",
@@ -461,6 +471,21 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "ldd r16, Z+3",
             "sbc r16, r21",
             "mov r21, r16",
+            // ---- the column's first smallest completed sum ----
+            "ldd r16, Z+6",
+            "cp r18, r16",
+            "ldd r16, Z+7",
+            "cpc r19, r16",
+            "ldd r16, Z+8",
+            "cpc r20, r16",
+            "ldd r16, Z+9",
+            "cpc r21, r16",
+            "brsh 36f",
+            "std Z+6, r18",
+            "std Z+7, r19",
+            "std Z+8, r20",
+            "std Z+9, r21",
+            "std Z+10, r22",
             "rjmp 36f",
             // ---- reached: the row is left at the bound ----
             "35:",
