@@ -50,7 +50,8 @@
 //!   exact box-constrained least squares ([`fit_least_squares`]: the MCU's method, one solve) and
 //!   the thesis' grid ([`fit_grid`]: 31 α steps); AR(1) smoothing in Q.16.
 //! * Position ([`mle`] with [`Search::Thesis`], [`Search::MultiStart`] or [`Search::Exhaustive`];
-//!   [`mmse`] over the full lattice, weights `2^(−y)` from a 32-entry table; [`estimate`],
+//!   [`mmse`] over the full lattice, weights `2^(−y)` from a 32-entry table, and
+//!   [`mmse_window`] over the thesis' fine window only, the sink's MMSE; [`estimate`],
 //!   [`locate`]); [`sink_fix`] runs the whole sink step (fit, smoothing, refinement, estimate).
 //!
 //! Errors are [`LocError`]: fewer than three usable anchors is
@@ -87,7 +88,8 @@ mod refine;
 mod tables;
 
 pub use grid::{
-    estimate, estimate_with, locate, mle, mle_with, mmse, mmse_with, sink_fix, Estimate, Estimator,
+    estimate, estimate_with, locate, mle, mle_with, mmse, mmse_window, mmse_window_with, mmse_with,
+    sink_fix, Estimate, Estimator,
 };
 pub use kernel::{log2_segment_table, portable_term, Portable, TermKernel, SQ_SAT, U_SAT};
 pub use params::{
