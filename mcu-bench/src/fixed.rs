@@ -14,18 +14,17 @@ type Kernel = uno_board::AvrTerm;
 #[cfg(not(target_arch = "avr"))]
 type Kernel = loc_core::fixed::Portable;
 
-/// The MMSE variant the fixed path runs.
-///
-/// TODO(issue 4b): the windowed posterior mean (`Estimator::MmseWindow`, being added to
-/// `loc_core::fixed`); until it lands this is the full-lattice MMSE, which evaluates all 2 601
-/// points and so is far slower than the windowed one and not the same estimator as
-/// [`crate::float`]'s.
-pub const MMSE: Estimator = Estimator::Mmse {
+/// The MMSE variant the fixed path runs: the windowed posterior mean
+/// ([`loc_core::fixed::mmse_window`]: the thesis' coarse stage, then the posterior mean over its
+/// fine window), σ = [`SIGMA_DB`] in Q.8 dB. The same estimator as [`crate::float`]'s and
+/// [`loc_core::grid::mmse_window`], which the harness checks; the full-lattice
+/// `Estimator::Mmse` would evaluate all 2 601 lattice points.
+pub const MMSE: Estimator = Estimator::MmseWindow {
     sigma: (SIGMA_DB as u16) << 8,
 };
 
-/// Whether [`MMSE`] is the windowed estimator of [`crate::float`] (the harness says so).
-pub const MMSE_IS_WINDOWED: bool = false;
+/// Whether [`MMSE`] is the windowed estimator of [`crate::float`] (the bench says so when not).
+pub const MMSE_IS_WINDOWED: bool = matches!(MMSE, Estimator::MmseWindow { .. });
 
 /// [`loc_core::fixed`] with P0 and α estimated by least squares within the thesis' bounds, AR(1)
 /// smoothed from the thesis' prior.
