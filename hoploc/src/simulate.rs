@@ -91,7 +91,8 @@ pub struct Args {
     /// P0/α fit when estimated: exact least squares in the bounds, or the thesis' grid.
     #[arg(long, value_enum, default_value_t = FitArg::Ls)]
     pub fit: FitArg,
-    /// Estimators, comma-separated: MLE, MMSE, TRLT, QUAD, MDS.
+    /// Estimators, comma-separated: MLE, MMSE, TRLT, QUAD, MDS, and MMSE-window (the sink's
+    /// windowed MMSE, not in the default).
     #[arg(long, alias = "estimators", value_delimiter = ',', default_value = "MLE,MMSE,TRLT,QUAD,MDS", value_parser = parse_algo)]
     pub estimator: Vec<Algo>,
     /// The MLE's grid search.
@@ -142,7 +143,8 @@ fn parse_area(s: &str) -> Result<Area, String> {
 }
 
 fn parse_algo(s: &str) -> Result<Algo, String> {
-    Algo::parse(s).ok_or_else(|| format!("`{s}`: expected one of MLE, MMSE, TRLT, QUAD, MDS"))
+    Algo::parse(s)
+        .ok_or_else(|| format!("`{s}`: expected one of MLE, MMSE, TRLT, QUAD, MDS, MMSE-window"))
 }
 
 impl Args {
@@ -441,6 +443,7 @@ fn color(row: &Row) -> (RGBColor, bool) {
     match row.kind {
         RowKind::Estimator(Algo::Mle) => (RGBColor(31, 119, 180), false),
         RowKind::Estimator(Algo::Mmse) => (RGBColor(214, 39, 40), false),
+        RowKind::Estimator(Algo::MmseWindow) => (RGBColor(140, 86, 75), false),
         RowKind::Estimator(Algo::Mds) => (RGBColor(44, 160, 44), false),
         RowKind::Estimator(Algo::Trlt) => (RGBColor(255, 127, 14), false),
         RowKind::Estimator(Algo::Quad) => (RGBColor(148, 103, 189), false),

@@ -8,9 +8,10 @@
 //!   point index `19·k + m`: x-major); `runs` trials per point; `C` channels (default 2) with
 //!   independent `N(0, σ²)` shadowing per anchor and channel; true model `P0`, `α`.
 //! * Columns: every single channel (`Ch1`, `Ch2`, …), `Max`, `Linear avg` and `Ext-MCH`
-//!   ([`loc_core::refine::Refinement`]); rows per anchor count `n`: `MLE-n`, `MMSE-n`, `MDS-n`,
-//!   `TRLT-3` (three anchors) or `QUAD-n` (four or more), then the bounds `CRLB-n` and
-//!   `MMSE-floor-n` (unless [`Config::floor`] is off). The baselines work on distances, so they
+//!   ([`loc_core::refine::Refinement`]); rows per anchor count `n`: `MLE-n`, `MMSE-n`,
+//!   (on request: `MMSE-window-n`, the sink's windowed MMSE), `MDS-n`, `TRLT-3` (three anchors)
+//!   or `QUAD-n` (four or more), then the bounds `CRLB-n` and `MMSE-floor-n` (unless
+//!   [`Config::floor`] is off). The baselines work on distances, so they
 //!   have no `Ext-MCH` cell.
 //! * Metric per cell: the per-point RMSE over the runs, averaged over the points; its Monte Carlo
 //!   standard error ([`Cell::rmse_se`]); the bias, the standard deviation over the points of the
@@ -70,6 +71,8 @@
 //!   ([`Kernel::detect`]); no FMA is enabled and rustc never contracts `a·b + c`, so each lane
 //!   does the same IEEE operations in the same order on every path and the results are
 //!   bit-identical (tested);
+//! * the windowed MMSE is [`loc_core::grid::posterior_mean_window`] on the tabulated cost (at most
+//!   233 points, no kernel needed): bit-identical to [`loc_core::grid::mmse_window`] (tested);
 //! * the baselines are [`loc_core::baselines::Baseline::estimate`] on the distance estimates
 //!   [`PathLoss::distance`].
 //!
@@ -117,6 +120,10 @@ pub enum Algo {
     /// Lattice posterior mean ([`loc_core::grid::mmse`]).
     #[serde(rename = "MMSE")]
     Mmse,
+    /// Posterior mean over the thesis' fine window, the sink's MMSE
+    /// ([`loc_core::grid::mmse_window`]); not in [`Algo::DEFAULT`].
+    #[serde(rename = "MMSE-window")]
+    MmseWindow,
     /// MDS-MAP.
     #[serde(rename = "MDS")]
     Mds,
@@ -130,20 +137,32 @@ pub enum Algo {
 
 impl Algo {
     /// Every estimator, in table order.
-    pub const ALL: [Algo; 5] = [Algo::Mle, Algo::Mmse, Algo::Mds, Algo::Trlt, Algo::Quad];
+    pub const ALL: [Algo; 6] = [
+        Algo::Mle,
+        Algo::Mmse,
+        Algo::MmseWindow,
+        Algo::Mds,
+        Algo::Trlt,
+        Algo::Quad,
+    ];
+
+    /// The estimators of the thesis study (`hoploc simulate`'s default): all but the windowed
+    /// MMSE, an MCU economy that is selected explicitly.
+    pub const DEFAULT: [Algo; 5] = [Algo::Mle, Algo::Mmse, Algo::Mds, Algo::Trlt, Algo::Quad];
 
     /// The table label's stem.
     pub const fn label(self) -> &'static str {
         match self {
             Algo::Mle => "MLE",
             Algo::Mmse => "MMSE",
+            Algo::MmseWindow => "MMSE-window",
             Algo::Mds => "MDS",
             Algo::Trlt => "TRLT",
             Algo::Quad => "QUAD",
         }
     }
 
-    /// `MLE`, `mmse`, … (case-insensitive).
+    /// `MLE`, `mmse`, `mmse-window`, … (case-insensitive).
     pub fn parse(s: &str) -> Option<Algo> {
         Algo::ALL
             .into_iter()
@@ -259,7 +278,8 @@ pub struct Config {
 
 impl Default for Config {
     /// The thesis study: 10 m × 10 m, 3 and 4 anchors, 100 runs, σ = 2 and 4 dB, two channels,
-    /// P0 = −40 dBm, α = 3 known, every estimator, the thesis search, no clipping, seed 1.
+    /// P0 = −40 dBm, α = 3 known, the [`Algo::DEFAULT`] estimators, the thesis search, no
+    /// clipping, seed 1.
     fn default() -> Self {
         Config {
             area: Area::new(10.0, 10.0),
@@ -270,7 +290,7 @@ impl Default for Config {
             truth: PathLoss::THESIS,
             params: ParamSource::Known,
             fit: FitMethod::LeastSquares,
-            algos: Algo::ALL.to_vec(),
+            algos: Algo::DEFAULT.to_vec(),
             search: Search::Thesis,
             clip: false,
             floor: true,
@@ -622,7 +642,18 @@ impl Lattice {
                 grid::posterior_mean_lattice(sigma, |i, j| self.cost(obs, i * SIDE + j));
             (fi, fj)
         });
-        // As `loc_core::grid::mmse`.
+        self.fractional_point(fi, fj)
+    }
+
+    /// The windowed posterior mean with shadowing `sigma` (the sink's MMSE): loc-core's
+    /// [`grid::posterior_mean_window`] on the tabulated cost.
+    pub fn mmse_window(&self, obs: &Obs, sigma: f64) -> Point {
+        let m = grid::posterior_mean_window(sigma, |i, j| self.cost(obs, i * SIDE + j));
+        self.fractional_point(m.i, m.j)
+    }
+
+    /// The point at fractional fine indices, as `loc_core::grid::mmse` computes it.
+    fn fractional_point(&self, fi: f64, fj: f64) -> Point {
         let (w, h) = (self.area.width, self.area.height);
         let n = FINE_DIVS as f64;
         Point::new((w * fi / n).max(0.0).min(w), (h * fj / n).max(0.0).min(h))
@@ -1062,6 +1093,7 @@ impl Job<'_> {
                         Algo::Mmse => {
                             a.add(self.lat.mmse(&obs, sig, self.kernel, &mut scratch), truth)
                         }
+                        Algo::MmseWindow => a.add(self.lat.mmse_window(&obs, sig), truth),
                         _ => {
                             if col.refinement == Refinement::Extended {
                                 continue;
@@ -1482,6 +1514,20 @@ mod tests {
             }
         }
         assert!(worst < 1e-10, "worst {worst}");
+    }
+
+    #[test]
+    fn mmse_window_is_loc_cores_bit_for_bit() {
+        for (area, a, zw, model, sigma) in trials() {
+            let lat = Lattice::new(area, &a);
+            let obs = Obs::new(&zw, model);
+            for s in [sigma, 0.0, f64::INFINITY] {
+                let want = grid::mmse_window(&core_obs(&a, &zw), model, area, s)
+                    .unwrap()
+                    .pos;
+                assert_eq!(lat.mmse_window(&obs, s), want, "σ = {s}");
+            }
+        }
     }
 
     #[test]

@@ -434,6 +434,49 @@ fn area_and_channels_flags() {
 }
 
 #[test]
+fn windowed_mmse_only_on_request() {
+    // The thesis study's estimators (and so the committed docs/study pages) are unchanged.
+    assert_eq!(
+        Config::default().algos,
+        [Algo::Mle, Algo::Mmse, Algo::Mds, Algo::Trlt, Algo::Quad]
+    );
+    assert_eq!(Algo::parse("mmse-window"), Some(Algo::MmseWindow));
+    let json = ok(&[
+        "simulate",
+        "--runs",
+        "1",
+        "--sigma",
+        "1",
+        "--anchors",
+        "4",
+        "--estimator",
+        "mmse-window,MMSE",
+        "--no-floor",
+        "--format",
+        "json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let rows = v["tables"][0]["rows"].as_array().unwrap();
+    let labels: Vec<&str> = rows.iter().map(|r| r["label"].as_str().unwrap()).collect();
+    assert_eq!(labels, ["MMSE-4", "MMSE-window-4", "CRLB-4"]);
+    assert_eq!(rows[1]["kind"]["estimator"], "MMSE-window");
+    // At σ = 1 dB the posterior mostly fits in the thesis window: the two are close (but the
+    // windowed one is not the full posterior mean).
+    let cells = |r: usize| rows[r]["cells"].as_array().unwrap();
+    assert_eq!(cells(1).len(), 5);
+    for (c, (full, win)) in cells(0).iter().zip(cells(1)).enumerate() {
+        let (full, win) = (
+            full["rmse"].as_f64().unwrap(),
+            win["rmse"].as_f64().unwrap(),
+        );
+        assert!(
+            (full - win).abs() < 0.1 * full,
+            "column {c}: {full} vs {win}"
+        );
+    }
+}
+
+#[test]
 fn bad_flags_are_refused_with_a_reason() {
     for (args, want) in [
         (vec!["--channels", "9"], "channels"),

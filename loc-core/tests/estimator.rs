@@ -2,7 +2,8 @@
 
 use loc_core::bounds::{crlb, fisher, mmse_floor};
 use loc_core::grid::{
-    self, cost, lattice_point, locate, mle, mmse, search_lattice, Estimator, Search,
+    self, cost, lattice_point, locate, mle, mmse, mmse_window, posterior_mean_window,
+    search_lattice, Estimator, Search,
 };
 use loc_core::params::{estimate, fit, Ar1, Bounds, CalStats, FitMethod, OnlineParams, ParamMode};
 use loc_core::refine::{observations, Obs, Observations, Refinement};
@@ -423,6 +424,273 @@ fn mmse_is_stable_with_huge_costs() {
         "{e:?}"
     );
     assert!(e.min_cost > 1e4);
+    let w = locate(
+        &m,
+        Refinement::Single(0),
+        PathLoss::THESIS,
+        ROOM,
+        Estimator::MmseWindow { sigma: 0.5 },
+    )
+    .unwrap();
+    assert!(
+        w.pos.x.is_finite() && w.pos.y.is_finite() && ROOM.contains(w.pos),
+        "{w:?}"
+    );
+    // The window's smallest cost is at least the lattice's.
+    assert!(
+        w.min_cost.is_finite() && w.min_cost >= e.min_cost,
+        "{w:?} vs {e:?}"
+    );
+}
+
+// ---------------------------------------------------------------- windowed MMSE
+
+/// Noisy observations of `truth` from `anchors` (σ dB, each with `weight`).
+fn noisy(anchors: &[Point], truth: Point, sigma: f64, weight: f64, rng: &mut Rng) -> Observations {
+    let model = PathLoss::THESIS;
+    let mut obs = Observations::new();
+    for a in anchors {
+        obs.push(Obs {
+            pos: *a,
+            z: model.rssi_at(truth.dist(*a)) + sigma * rng.normal(),
+            weight,
+        });
+    }
+    obs
+}
+
+/// The thesis' fine window around the coarse winner, found directly: `(i0..=i1, j0..=j1)`.
+fn thesis_window(
+    obs: &Observations,
+    model: PathLoss,
+    area: Area,
+) -> (
+    std::ops::RangeInclusive<usize>,
+    std::ops::RangeInclusive<usize>,
+) {
+    let mut best = (0, 0, f64::INFINITY);
+    for i in (0..=50).step_by(5) {
+        for j in (0..=50).step_by(5) {
+            let c = cost(obs, model, lattice_point(area, i, j));
+            if c < best.2 {
+                best = (i, j, c);
+            }
+        }
+    }
+    let win = |c: usize| c.saturating_sub(5)..=(c + 5).min(50);
+    (win(best.0), win(best.1))
+}
+
+#[test]
+fn mmse_window_is_the_posterior_mean_over_the_thesis_window() {
+    let model = PathLoss::THESIS;
+    let mut rng = Rng(23);
+    // Inside, at a corner and at an edge (clipped windows), with 3 and 4 anchors.
+    let truths = [
+        (2.7, 8.1),
+        (0.3, 0.2),
+        (9.9, 5.0),
+        (5.0, 5.0),
+        (6.1, 3.3),
+        (4.4, 9.8),
+    ];
+    for (k, (x, y)) in truths.into_iter().enumerate() {
+        let anchors = if k % 2 == 0 {
+            &SQUARE[..]
+        } else {
+            &SQUARE[..3]
+        };
+        let obs = noisy(anchors, Point::new(x, y), 3.0, 2.0, &mut rng);
+        let (wi, wj) = thesis_window(&obs, model, ROOM);
+        let points: Vec<(usize, usize)> = wi
+            .clone()
+            .flat_map(|i| wj.clone().map(move |j| (i, j)))
+            .collect();
+        let coarse_inside = points.iter().filter(|(i, j)| i % 5 == 0 && j % 5 == 0);
+        let thesis = mle(&obs, model, ROOM, Search::Thesis).unwrap();
+        for sigma in [0.7, 3.0, 8.0] {
+            let cmin = points
+                .iter()
+                .map(|&(i, j)| cost(&obs, model, lattice_point(ROOM, i, j)))
+                .fold(f64::INFINITY, f64::min);
+            let (mut s, mut sx, mut sy) = (0.0, 0.0, 0.0);
+            for &(i, j) in &points {
+                let p = lattice_point(ROOM, i, j);
+                let w = (-(cost(&obs, model, p) - cmin) / (2.0 * sigma * sigma)).exp();
+                s += w;
+                sx += w * p.x;
+                sy += w * p.y;
+            }
+            let e = mmse_window(&obs, model, ROOM, sigma).unwrap();
+            assert!(
+                close(e.pos, Point::new(sx / s, sy / s), 1e-9),
+                "{k} σ = {sigma}: {e:?} vs ({}, {})",
+                sx / s,
+                sy / s
+            );
+            assert_eq!(e.estimator, Estimator::MmseWindow { sigma });
+            // The coarse points in the window keep their coarse costs.
+            assert_eq!(
+                e.evaluations,
+                121 + points.len() - coarse_inside.clone().count()
+            );
+            // Its smallest cost is the window's, which is the thesis MLE's.
+            assert_eq!(e.min_cost, thesis.min_cost);
+            assert!((e.min_cost - (cmin + obs.const_cost)).abs() < 1e-12);
+        }
+    }
+}
+
+#[test]
+fn mmse_window_limits() {
+    let model = PathLoss::THESIS;
+    let mut rng = Rng(3);
+    for (k, (x, y)) in [(6.1, 3.3), (0.4, 9.3), (5.0, 0.0)].into_iter().enumerate() {
+        let anchors = if k == 1 { &SQUARE[..] } else { &SQUARE[..3] };
+        let obs = noisy(anchors, Point::new(x, y), 4.0, 1.0, &mut rng);
+        let thesis = mle(&obs, model, ROOM, Search::Thesis).unwrap();
+        // Tiny σ: the window's posterior collapses onto its minimum, the thesis MLE; σ = 0 (or
+        // NaN) is that limit.
+        for sigma in [1e-3, 1e-200, 0.0, f64::NAN] {
+            let e = mmse_window(&obs, model, ROOM, sigma).unwrap();
+            assert!(
+                close(e.pos, thesis.pos, 1e-9),
+                "σ = {sigma}: {e:?} vs {thesis:?}"
+            );
+        }
+        // Infinite σ: flat weights, the centroid of the (clipped) window.
+        let (wi, wj) = thesis_window(&obs, model, ROOM);
+        let mid = |r: &std::ops::RangeInclusive<usize>| (r.start() + r.end()) as f64 / 2.0 * 0.2;
+        let e = mmse_window(&obs, model, ROOM, f64::INFINITY).unwrap();
+        assert!(
+            close(e.pos, Point::new(mid(&wi), mid(&wj)), 1e-9),
+            "{e:?} vs {wi:?} × {wj:?}"
+        );
+        // Any σ: inside the window.
+        for sigma in [0.5, 1.0, 4.0, 30.0, 1e6] {
+            let e = mmse_window(&obs, model, ROOM, sigma).unwrap();
+            let inside = |v: f64, r: &std::ops::RangeInclusive<usize>| {
+                (*r.start() as f64 * 0.2 - 1e-12..=*r.end() as f64 * 0.2 + 1e-12).contains(&v)
+            };
+            assert!(
+                inside(e.pos.x, &wi) && inside(e.pos.y, &wj),
+                "σ = {sigma}: {e:?}"
+            );
+        }
+    }
+    // Noise-free with the agent on the lattice: the cost is 0 there and only there, so with a
+    // small σ the windowed mean is the agent's position whenever the thesis window holds it (the
+    // thesis search finds it), and the thesis MLE always.
+    let (mut found, mut points) = (0, 0);
+    for anchors in [&SQUARE[..3], &SQUARE[..]] {
+        for i in (0..=50).step_by(7) {
+            for j in (0..=50).step_by(6) {
+                let truth = lattice_point(ROOM, i, j);
+                let m = noise_free(anchors, 2, model, truth);
+                let est = Estimator::MmseWindow { sigma: 0.01 };
+                let e = locate(&m, Refinement::Extended, model, ROOM, est).unwrap();
+                let t = locate(
+                    &m,
+                    Refinement::Extended,
+                    model,
+                    ROOM,
+                    Estimator::Mle(Search::Thesis),
+                )
+                .unwrap();
+                assert!(close(e.pos, t.pos, 1e-6), "{e:?} vs {t:?}");
+                assert_eq!(e.min_cost, t.min_cost);
+                if t.min_cost < 1e-12 {
+                    assert!(close(e.pos, truth, 1e-6), "{e:?} vs {truth:?}");
+                    found += 1;
+                }
+                points += 1;
+            }
+        }
+    }
+    assert!(found * 10 >= points * 9, "{found} of {points}");
+}
+
+/// The windowed mean is the full-lattice posterior mean truncated to the thesis window: the same
+/// when the posterior's mass lies inside the window (small σ), pulled to the window otherwise.
+#[test]
+fn mmse_window_differs_from_the_full_mmse_by_the_truncation() {
+    let model = PathLoss::THESIS;
+    let mut rng = Rng(77);
+    let obs = noisy(&SQUARE, Point::new(4.3, 5.6), 1.0, 2.0, &mut rng);
+    // (Here the truncation moves it by ~1 µm at σ = 0.5 dB, 9 mm at 1 dB, 0.27 m at 3 dB.)
+    for sigma in [0.2, 0.3] {
+        let (w, f) = (
+            mmse_window(&obs, model, ROOM, sigma).unwrap(),
+            mmse(&obs, model, ROOM, sigma).unwrap(),
+        );
+        assert!(close(w.pos, f.pos, 1e-9), "σ = {sigma}: {w:?} vs {f:?}");
+        assert_eq!(w.min_cost, f.min_cost);
+    }
+    // Near a corner with a wide posterior: the full mean heads for the area's centre, the
+    // windowed one cannot leave the window (at most 1 m from the coarse winner in this room).
+    let obs = noisy(&SQUARE, Point::new(1.1, 0.9), 1.0, 2.0, &mut rng);
+    let (wi, wj) = thesis_window(&obs, model, ROOM);
+    let sigma = 40.0;
+    let (w, f) = (
+        mmse_window(&obs, model, ROOM, sigma).unwrap(),
+        mmse(&obs, model, ROOM, sigma).unwrap(),
+    );
+    assert!(f.pos.dist(Point::new(5.0, 5.0)) < 1.5, "{f:?}");
+    assert!(
+        w.pos.x <= *wi.end() as f64 * 0.2 && w.pos.y <= *wj.end() as f64 * 0.2,
+        "{w:?}"
+    );
+    assert!(w.pos.dist(f.pos) > 2.0, "{w:?} vs {f:?}");
+}
+
+#[test]
+fn posterior_mean_window_on_a_table() {
+    // Flat: the coarse winner is the first point, its window clipped at the corner (6 × 6, 4
+    // coarse points among them), the mean its centroid; the smallest cost the thesis' (0, 0).
+    let m = posterior_mean_window(1.0, |_, _| 1.0);
+    assert_eq!((m.i, m.j), (2.5, 2.5));
+    assert_eq!((m.min.i, m.min.j, m.min.cost), (0, 0, 1.0));
+    assert_eq!(m.min.evaluations, 121 + 36 - 4);
+    // A bowl at (27, 23): coarse winner (25, 25), window 20…30 × 20…30, 9 coarse points in it.
+    let bowl = |i: usize, j: usize| {
+        let (x, y) = (i as f64 - 27.0, j as f64 - 23.0);
+        0.5 * (x * x + y * y)
+    };
+    let m = posterior_mean_window(0.0, bowl);
+    assert_eq!((m.i, m.j), (27.0, 23.0));
+    assert_eq!(m.min.evaluations, 121 + 121 - 9);
+    let t = search_lattice(Search::Thesis, bowl);
+    assert_eq!((m.min.i, m.min.j, m.min.cost), (t.i, t.j, t.cost));
+    // σ = 1: weights exp(−(x² + y²)/4) truncated to the window, x = i − 27 ∈ [−7, 3] and
+    // y = j − 23 ∈ [−3, 7]: mirror images, so the mean is pulled by the same small amount (the
+    // tail beyond 3, ≈ 0.024) left of 27 and above 23.
+    let m = posterior_mean_window(1.0, bowl);
+    assert!((m.i - 27.0 + (m.j - 23.0)).abs() < 1e-12, "{m:?}");
+    assert!(m.j > 23.01 && m.j < 23.05, "{m:?}");
+    // Ties: the coarse winner keeps the smallest cost (as in the thesis search), σ = 0 averages
+    // every minimiser of the window. Minimum 0 on the row j = 25, i = 20…30 (the coarse winner is
+    // (20, 25), the first coarse point on it).
+    let row = |i: usize, j: usize| {
+        if j == 25 && (20..=30).contains(&i) {
+            0.0
+        } else {
+            1.0
+        }
+    };
+    let m = posterior_mean_window(0.0, row);
+    assert_eq!((m.min.i, m.min.j), (20, 25));
+    let t = search_lattice(Search::Thesis, row);
+    assert_eq!((t.i, t.j), (20, 25));
+    // Window 15…25: the minimisers 20…25 of the row.
+    assert_eq!((m.i, m.j), (22.5, 25.0));
+    // NaN and +∞ never win and weigh nothing; nothing finite: the coarse winner (0, 0).
+    let m = posterior_mean_window(2.0, |i, j| if i == 3 && j == 4 { 7.0 } else { f64::NAN });
+    assert_eq!(
+        (m.i, m.j, m.min.i, m.min.j, m.min.cost),
+        (3.0, 4.0, 3, 4, 7.0)
+    );
+    let m = posterior_mean_window(2.0, |_, _| f64::INFINITY);
+    assert_eq!((m.i, m.j, m.min.cost), (0.0, 0.0, f64::INFINITY));
 }
 
 // ---------------------------------------------------------------- too few anchors
@@ -434,6 +702,7 @@ fn too_few_anchors() {
     for est in [
         Estimator::Mle(Search::Thesis),
         Estimator::Mmse { sigma: 2.0 },
+        Estimator::MmseWindow { sigma: 2.0 },
     ] {
         assert_eq!(
             locate(&m, Refinement::Max, model, ROOM, est),
@@ -1101,6 +1370,7 @@ proptest! {
             Estimator::Mle(Search::MultiStart),
             Estimator::Mle(Search::Exhaustive),
             Estimator::Mmse { sigma },
+            Estimator::MmseWindow { sigma },
         ] {
             match locate(&m, refinement, model, area, est) {
                 Ok(e) => {

@@ -172,9 +172,15 @@ impl Tally {
 fn agrees_with_the_f64_reference_within_1_cm() {
     const TRIALS: usize = 2100;
     let mut rng = Rng(0x5EED_F1C5);
-    let names = ["MLE thesis", "MLE multi-start", "MLE exhaustive", "MMSE"];
-    let mut end_to_end: [Tally; 4] = Default::default();
-    let mut same_model: [Tally; 4] = Default::default();
+    let names = [
+        "MLE thesis",
+        "MLE multi-start",
+        "MLE exhaustive",
+        "MMSE",
+        "MMSE windowed",
+    ];
+    let mut end_to_end: [Tally; 5] = Default::default();
+    let mut same_model: [Tally; 5] = Default::default();
     let (mut worst_alpha, mut worst_p0) = (0.0f64, 0.0f64);
     for t in 0..TRIALS {
         let tr = trial(&mut rng);
@@ -219,10 +225,16 @@ fn agrees_with_the_f64_reference_within_1_cm() {
                 },
                 fx::Estimator::Mmse { sigma: sigma_q8 },
             ),
+            (
+                Estimator::MmseWindow {
+                    sigma: sigma_q8 as f64 / 256.0,
+                },
+                fx::Estimator::MmseWindow { sigma: sigma_q8 },
+            ),
         ];
         for (k, (est, fest)) in estimators.into_iter().enumerate() {
             // The full-lattice estimators are slow in a debug build: every other trial.
-            if k >= 2 && t % 2 == 1 {
+            if (k == 2 || k == 3) && t % 2 == 1 {
                 continue;
             }
             let e = grid::locate(&tr.m, tr.refinement, rf.model, tr.area, est);
@@ -243,11 +255,11 @@ fn agrees_with_the_f64_reference_within_1_cm() {
         t.report(names[k]);
     }
     for (k, t) in end_to_end.iter().chain(&same_model).enumerate() {
-        assert!(t.trials >= 1000, "{}", names[k % 4]);
+        assert!(t.trials >= 1000, "{}", names[k % 5]);
         assert!(
             t.fraction() >= 0.99,
             "{}: {:.4}",
-            names[k % 4],
+            names[k % 5],
             t.fraction()
         );
     }
@@ -451,6 +463,86 @@ fn mmse_limits() {
     );
 }
 
+/// The windowed MMSE: σ = 0 is the mean of the window's minimisers (here the thesis MLE), a huge
+/// σ the centroid of the window; its smallest cost is the thesis MLE's, at the thesis' price.
+#[test]
+fn mmse_window_limits() {
+    let anchors = [
+        fx::PointCm::new(0, 0),
+        fx::PointCm::new(1000, 0),
+        fx::PointCm::new(1000, 1000),
+        fx::PointCm::new(0, 1000),
+    ];
+    let area = fx::AreaCm::new(1000, 1000);
+    let model = fx::PathLoss::THESIS;
+    let mut rng = Rng(0xC0FFEE);
+    // No symmetry, so no two lattice points tie (on the square two anchors with the same bytes
+    // make mirror images tie, and σ = 0 averages them).
+    let skew = [
+        fx::PointCm::new(0, 0),
+        fx::PointCm::new(1000, 130),
+        fx::PointCm::new(870, 1000),
+        fx::PointCm::new(40, 790),
+    ];
+    for _ in 0..40 {
+        let mut m = fx::Measurements::new(&skew, 2);
+        for row in m.rssi.iter_mut().take(4) {
+            for v in row.iter_mut().take(2) {
+                *v = Some(45 + rng.below(40) as u8);
+            }
+        }
+        let obs = fx::observations(&m, Refinement::Extended);
+        let thesis = fx::mle(&obs, model, area, Search::Thesis).unwrap();
+        let hard = fx::mmse_window(&obs, model, area, 0).unwrap();
+        assert_eq!((hard.pos, hard.lattice), (thesis.pos, thesis.lattice));
+        assert_eq!(hard.min_cost, thesis.min_cost);
+        assert_eq!(hard.estimator, fx::Estimator::MmseWindow { sigma: 0 });
+        for sigma in [256u16, 1024, 4096, u16::MAX] {
+            let e = fx::mmse_window(&obs, model, area, sigma).unwrap();
+            assert_eq!((e.lattice, e.min_cost), (thesis.lattice, thesis.min_cost));
+            // The coarse stage, the re-evaluated winner, the window.
+            assert!(e.evaluations <= 121 + 1 + 121, "{e:?}");
+            // The window is ± 1 m around the coarse winner, which holds the MLE.
+            let d = |a: u32, b: u32| a.abs_diff(b);
+            assert!(
+                d(e.pos.x, thesis.pos.x) <= 2000 && d(e.pos.y, thesis.pos.y) <= 2000,
+                "{e:?} vs {thesis:?}"
+            );
+        }
+    }
+    // The agent at (1 m, 0), a coarse point on the edge: the coarse winner, whose window is
+    // 0…2 m × 0…1 m; with σ = 256 dB every weight is within 10⁻³ of 1, the mean its centroid.
+    let mut m = fx::Measurements::new(&anchors, 2);
+    let agent = Point::new(1.0, 0.0);
+    for (a, p) in anchors.iter().enumerate() {
+        let d = agent.dist(Point::new(p.x as f64 / 100.0, p.y as f64 / 100.0));
+        m.rssi[a] = [Some(byte(PathLoss::THESIS.rssi_at(d))); MAX_CHANNELS];
+    }
+    let obs = fx::observations(&m, Refinement::Extended);
+    let e = fx::mmse_window(&obs, model, area, u16::MAX).unwrap();
+    assert!(
+        e.pos.x.abs_diff(1000) <= 5 && e.pos.y.abs_diff(500) <= 5,
+        "{e:?}"
+    );
+    // α = 0: the cost does not depend on the position; the coarse winner is the corner (0, 0)
+    // and the windowed mean the centroid of its clipped window, 0…5 × 0…5 fine steps.
+    let mut m = fx::Measurements::new(&anchors, 1);
+    for (a, b) in [62u8, 75, 80, 70].into_iter().enumerate() {
+        m.rssi[a][0] = Some(b);
+    }
+    let obs = fx::observations(&m, Refinement::Single(0));
+    let alpha0 = fx::PathLoss {
+        p0: -40 * fx::DB,
+        alpha: 0,
+    };
+    for sigma in [0, 512] {
+        assert_eq!(
+            fx::mmse_window(&obs, alpha0, area, sigma).unwrap().pos,
+            fx::PointMm { x: 500, y: 500 }
+        );
+    }
+}
+
 #[test]
 fn fewer_than_three_usable_anchors_is_an_error() {
     let anchors = [
@@ -467,6 +559,7 @@ fn fewer_than_three_usable_anchors_is_an_error() {
         fx::Estimator::Mle(Search::MultiStart),
         fx::Estimator::Mle(Search::Exhaustive),
         fx::Estimator::Mmse { sigma: 1024 },
+        fx::Estimator::MmseWindow { sigma: 1024 },
     ] {
         assert_eq!(
             fx::locate(&m, Refinement::Max, fx::PathLoss::THESIS, area, est),
@@ -595,6 +688,7 @@ proptest! {
             fx::Estimator::Mle(Search::MultiStart),
             fx::Estimator::Mle(Search::Exhaustive),
             fx::Estimator::Mmse { sigma },
+            fx::Estimator::MmseWindow { sigma },
         ] {
             match fx::locate(&m, refinement, model, area, est) {
                 Ok(e) => {
@@ -660,6 +754,9 @@ fn extreme_inputs() {
                 fx::Estimator::Mle(Search::Thesis),
                 fx::Estimator::Mle(Search::MultiStart),
                 fx::Estimator::Mmse { sigma: 256 },
+                fx::Estimator::MmseWindow { sigma: 256 },
+                fx::Estimator::MmseWindow { sigma: 0 },
+                fx::Estimator::MmseWindow { sigma: u16::MAX },
             ] {
                 let mut online = fx::OnlineParams::new(
                     ParamMode::P0AndAlpha,

@@ -2,9 +2,9 @@
 
 use crate::{Inputs, Pipeline, Report, N_ANCHORS, N_CHANNELS, SIGMA_DB};
 use loc_core::fixed::{
-    estimate_with, fit_least_squares, mle_with, observations_of, AreaCm, Bounds, CalStats,
-    ChannelBytes, Estimator, FitMethod, Observations, OnlineParams, ParamMode, PathLoss, PointCm,
-    Refinement, Search,
+    estimate_with, fit_least_squares, mle_with, mmse_window_with, observations_of, AreaCm, Bounds,
+    CalStats, ChannelBytes, Estimator, FitMethod, Observations, OnlineParams, ParamMode, PathLoss,
+    PointCm, Refinement, Search,
 };
 
 /// The cost kernel: the AVR assembly one on the MCU (what the sink runs), the portable one on
@@ -14,18 +14,17 @@ type Kernel = uno_board::AvrTerm;
 #[cfg(not(target_arch = "avr"))]
 type Kernel = loc_core::fixed::Portable;
 
-/// The MMSE variant the fixed path runs.
-///
-/// TODO(issue 4b): the windowed posterior mean (`Estimator::MmseWindow`, being added to
-/// `loc_core::fixed`); until it lands this is the full-lattice MMSE, which evaluates all 2 601
-/// points and so is far slower than the windowed one and not the same estimator as
-/// [`crate::float`]'s.
-pub const MMSE: Estimator = Estimator::Mmse {
+/// The MMSE variant the fixed path runs: the windowed posterior mean
+/// ([`loc_core::fixed::mmse_window`]: the thesis' coarse stage, then the posterior mean over its
+/// fine window), σ = [`SIGMA_DB`] in Q.8 dB. The same estimator as [`crate::float`]'s and
+/// [`loc_core::grid::mmse_window`], which the harness checks; the full-lattice
+/// `Estimator::Mmse` would evaluate all 2 601 lattice points.
+pub const MMSE: Estimator = Estimator::MmseWindow {
     sigma: (SIGMA_DB as u16) << 8,
 };
 
-/// Whether [`MMSE`] is the windowed estimator of [`crate::float`] (the harness says so).
-pub const MMSE_IS_WINDOWED: bool = false;
+/// Whether [`MMSE`] is the windowed estimator of [`crate::float`] (the bench says so when not).
+pub const MMSE_IS_WINDOWED: bool = matches!(MMSE, Estimator::MmseWindow { .. });
 
 /// [`loc_core::fixed`] with P0 and α estimated by least squares within the thesis' bounds, AR(1)
 /// smoothed from the thesis' prior.
@@ -132,7 +131,14 @@ impl Pipeline for Fixed {
     }
 
     fn mmse(&mut self, obs: &Observations, inp: &Inputs) -> Report {
-        let e = estimate_with::<Kernel>(obs, self.params.current(), area(inp), MMSE);
+        // What a sink runs: the windowed MMSE alone (through `estimate_with` every estimator
+        // would be linked in).
+        let e = match MMSE {
+            Estimator::MmseWindow { sigma } => {
+                mmse_window_with::<Kernel>(obs, self.params.current(), area(inp), sigma)
+            }
+            other => estimate_with::<Kernel>(obs, self.params.current(), area(inp), other),
+        };
         self.report(e)
     }
 }

@@ -1,7 +1,7 @@
 //! The same estimate in plain `f32`: a straightforward port of loc-core's f64 reference
 //! ([`loc_core::params`] with [`FitMethod::LeastSquares`](loc_core::params::FitMethod), AR(1),
-//! [`loc_core::refine`]'s Extended refinement, [`loc_core::grid`]'s thesis search), the yardstick
-//! the fixed path must beat by ≥ 25× (SPEC §8).
+//! [`loc_core::refine`]'s Extended refinement, [`loc_core::grid`]'s thesis search and windowed
+//! MMSE), the yardstick the fixed path must beat by ≥ 25× (SPEC §8).
 //!
 //! On the AVR, `log10`, `exp` and `sqrt` are avr-libc's ([`uno_board::libm`]); on the host, std's.
 //! It does what the reference does, with three exact economies the fixed path also makes, so the
@@ -9,10 +9,10 @@
 //! per sample), `log10(d²)` instead of a square root per distance, and the fine window skips the
 //! coarse points it contains (under the strict `<` they cannot win).
 //!
-//! The windowed MMSE: after the coarse stage picks `(ic, jc)`, the posterior mean over the fine
-//! indices `[ic − 5, ic + 5] × [jc − 5, jc + 5]` (clipped to the lattice), weights
-//! `exp(−(C − C_min)/(2σ²))`, accumulated in one pass relative to the running minimum as the
-//! reference's MMSE does; the coarse points' costs come from the coarse stage.
+//! The windowed MMSE ([`loc_core::grid::mmse_window`]): after the coarse stage picks `(ic, jc)`,
+//! the posterior mean over the fine indices `[ic − 5, ic + 5] × [jc − 5, jc + 5]` (clipped to the
+//! lattice), weights `exp(−(C − C_min)/(2σ²))`, accumulated in one pass relative to the running
+//! minimum as the reference does; the coarse points' costs come from the coarse stage.
 
 use crate::{Inputs, Pipeline, Report, N_ANCHORS, N_CHANNELS, SIGMA_DB};
 

@@ -234,8 +234,8 @@ pub fn host_f32(inp: &Inputs) -> [Report; 2] {
 }
 
 /// loc-core's f64 reference for the same sequence (an earlier round, then two estimates with
-/// the AR(1)-smoothed least-squares model): the thesis MLE, and the windowed MMSE (written here
-/// from [`loc_core::grid::cost`], as loc-core has no windowed MMSE).
+/// the AR(1)-smoothed least-squares model): the thesis MLE ([`loc_core::grid::mle`]) and the
+/// windowed MMSE ([`loc_core::grid::mmse_window`], σ = [`SIGMA_DB`]).
 pub fn host_f64(inp: &Inputs) -> [Fix; 2] {
     use loc_core::grid::{self, Search};
     use loc_core::params::{Bounds, FitMethod, OnlineParams, ParamMode};
@@ -277,32 +277,8 @@ pub fn host_f64(inp: &Inputs) -> [Fix; 2] {
     let mle = fix(mle, model);
     let _ = params.update(&m);
     let model = params.current();
-    let cost = |i: usize, j: usize| grid::cost(&obs, model, grid::lattice_point(area, i, j));
-    // Coarse winner (strict <, i outer), then the posterior mean over its ± 5 window.
-    let mut best = (0, 0, f64::INFINITY);
-    for i in (0..=50).step_by(5) {
-        for j in (0..=50).step_by(5) {
-            let c = cost(i, j);
-            if c < best.2 {
-                best = (i, j, c);
-            }
-        }
-    }
-    let win = |c: usize| c.saturating_sub(5)..=(c + 5).min(50);
-    let costs: Vec<(usize, usize, f64)> = win(best.0)
-        .flat_map(|i| win(best.1).map(move |j| (i, j)))
-        .map(|(i, j)| (i, j, cost(i, j)))
-        .collect();
-    let cmin = costs.iter().map(|c| c.2).fold(f64::INFINITY, f64::min);
-    let inv = 1.0 / (2.0 * SIGMA_DB as f64 * SIGMA_DB as f64);
-    let (mut s, mut sx, mut sy) = (0.0, 0.0, 0.0);
-    for &(i, j, c) in &costs {
-        let w = (-(c - cmin) * inv).exp();
-        let p = grid::lattice_point(area, i, j);
-        s += w;
-        sx += w * p.x;
-        sy += w * p.y;
-    }
-    let mmse = fix(Point::new(sx / s, sy / s), model);
+    let mmse = grid::mmse_window(&obs, model, area, SIGMA_DB as f64)
+        .map_or(Point::new(f64::NAN, f64::NAN), |e| e.pos);
+    let mmse = fix(mmse, model);
     [mle, mmse]
 }

@@ -2,12 +2,13 @@
 //! `cargo bench -p hoploc --bench mcu_estimate`): `est-fixed` in simavr prints exactly what
 //! `loc_core::fixed` computes on the host for the same inputs, `est-f32` what the same f32 code
 //! computes on the host and a position within one fine lattice step (20 cm) of the fixed path's,
-//! and `est-none` runs the same markers.
+//! and `est-none` runs the same markers; and on the host, the f32 port and the fixed path against
+//! loc-core's f64 reference (thesis MLE, windowed MMSE).
 
 use std::sync::OnceLock;
 
 use mcu_bench::harness::{self, Fix, Run};
-use mcu_bench::{Inputs, MARKS};
+use mcu_bench::{Inputs, MARKS, N_ANCHORS, N_CHANNELS};
 
 /// `cargo fw-bench`, once per test process (a no-op when the ELFs are current).
 static BUILD: OnceLock<Result<(), String>> = OnceLock::new();
@@ -78,6 +79,110 @@ fn f32_port_matches_the_f64_reference() {
             (a.p0 - r.p0).abs() < 1e-3 && (a.alpha - r.alpha).abs() < 1e-4,
             "{k}: {a:?} vs {r:?}"
         );
+    }
+}
+
+/// Small deterministic generator (xorshift64 + Box–Muller).
+struct Rng(u64);
+
+impl Rng {
+    fn uniform(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn normal(&mut self) -> f64 {
+        let u = self.uniform().max(1e-300);
+        let v = self.uniform();
+        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+    }
+}
+
+/// Random benchmark inputs: a 3–30 m × 3–30 m room, the four anchors anywhere in it, the agent
+/// anywhere, P0 ∈ [−50, −30] dBm, α ∈ [2, 4.5], shadowing σ ∈ [0, 6] dB on every byte.
+fn random_inputs(rng: &mut Rng) -> Inputs {
+    let side = |rng: &mut Rng| 300 + (rng.uniform() * 2700.0) as u16;
+    let (w, h) = (side(rng), side(rng));
+    let (p0, alpha, sigma) = (
+        -50.0 + 20.0 * rng.uniform(),
+        2.0 + 2.5 * rng.uniform(),
+        6.0 * rng.uniform(),
+    );
+    let mut inp = Inputs::BENCH;
+    inp.area = [w, h];
+    for a in inp.anchors.iter_mut() {
+        *a = [
+            (rng.uniform() * w as f64) as i16,
+            (rng.uniform() * h as f64) as i16,
+        ];
+    }
+    let agent = [rng.uniform() * w as f64, rng.uniform() * h as f64];
+    let dist = |p: [f64; 2], q: [i16; 2]| {
+        ((p[0] - q[0] as f64) / 100.0)
+            .hypot((p[1] - q[1] as f64) / 100.0)
+            .max(0.01)
+    };
+    let byte = |d: f64, rng: &mut Rng| {
+        let dbm = p0 - 10.0 * alpha * d.log10() + sigma * rng.normal();
+        (-dbm).round().clamp(0.0, 250.0) as u8
+    };
+    for a in 0..N_ANCHORS {
+        for c in 0..N_CHANNELS {
+            inp.agent[a][c] = byte(dist(agent, inp.anchors[a]), rng);
+        }
+        for b in 0..N_ANCHORS {
+            if a != b {
+                let q = inp.anchors[b];
+                inp.a2a[a][b] = byte(dist([q[0] as f64, q[1] as f64], inp.anchors[a]), rng);
+            }
+        }
+    }
+    inp
+}
+
+/// Beyond the one benchmark input: the f32 port's and the fixed path's windowed MMSE (and thesis
+/// MLE) against loc-core's f64 `mmse_window` (`grid::mle`) on random inputs, the whole sequence
+/// (fit, smoothing, refinement, estimate) on each: within 1 cm on at least 99 % of them.
+#[test]
+fn ports_match_the_f64_reference_on_random_inputs() {
+    const TRIALS: usize = 500;
+    let mut rng = Rng(0x4B1D_F00D);
+    // [MLE, MMSE] × [f32, fixed]: trials within 1 cm, worst mm.
+    let mut within = [[0usize; 2]; 2];
+    let mut worst = [[0.0f64; 2]; 2];
+    for _ in 0..TRIALS {
+        let inp = random_inputs(&mut rng);
+        let (f32s, fixed, f64s) = (
+            harness::host_f32(&inp),
+            harness::host_fixed(&inp),
+            harness::host_f64(&inp),
+        );
+        for k in 0..2 {
+            for (p, fix) in [Fix::of_f32(&f32s[k]), Fix::of_fixed(&fixed[k])]
+                .into_iter()
+                .enumerate()
+            {
+                let d = fix.dist_mm(&f64s[k]);
+                assert!(d.is_finite(), "{inp:?}: {fix:?} vs {:?}", f64s[k]);
+                within[k][p] += usize::from(d <= 10.0);
+                worst[k][p] = worst[k][p].max(d);
+            }
+        }
+    }
+    for (k, name) in ["MLE", "MMSE"].iter().enumerate() {
+        for (p, port) in ["f32", "fixed"].iter().enumerate() {
+            println!(
+                "{name:<4} {port:<5} vs f64: {}/{TRIALS} within 1 cm, worst {:.0} mm",
+                within[k][p], worst[k][p]
+            );
+            assert!(
+                within[k][p] * 100 >= TRIALS * 99,
+                "{name} {port}: {}/{TRIALS}",
+                within[k][p]
+            );
+        }
     }
 }
 

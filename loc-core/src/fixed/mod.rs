@@ -50,7 +50,8 @@
 //!   exact box-constrained least squares ([`fit_least_squares`]: the MCU's method, one solve) and
 //!   the thesis' grid ([`fit_grid`]: 31 α steps); AR(1) smoothing in Q.16.
 //! * Position ([`mle`] with [`Search::Thesis`], [`Search::MultiStart`] or [`Search::Exhaustive`];
-//!   [`mmse`] over the full lattice, weights `2^(−y)` from a 32-entry table; [`estimate`],
+//!   [`mmse`] over the full lattice, weights `2^(−y)` from a 32-entry table, and
+//!   [`mmse_window`] over the thesis' fine window only, the sink's MMSE; [`estimate`],
 //!   [`locate`]); [`sink_fix`] runs the whole sink step (fit, smoothing, refinement, estimate).
 //!
 //! Errors are [`LocError`]: fewer than three usable anchors is
@@ -65,8 +66,11 @@
 //! ≈ 24 k cycles, least-squares fit + AR(1) ≈ 15 k, Extended refinement ≈ 6 k, thesis MLE
 //! ≈ 303 k (≈ 380 anchor terms after the early exits), ≈ 348 k in all (21.7 ms): over the
 //! 160 k budget. Most of the remaining per-term cost is the column loop around the kernel
-//! (LLVM's AVR backend spills most of its state there); the full-lattice MMSE is ≈ 7.9 M. Code
-//! ≈ 28 KB of flash with both estimators linked; stack peak ≈ 1 KB.
+//! (LLVM's AVR backend spills most of its state there). The windowed MMSE (the sink's,
+//! [`mmse_window`]) is ≈ 536 k (≈ 581 k for the whole step): ≈ 1.8× the thesis MLE, because its
+//! weights need every window cost up to 27 bits of weight below the best, so the early exits
+//! hardly ever fire; the full-lattice [`mmse`] is ≈ 7.9 M. Code ≈ 28.7 KB of flash with both
+//! estimators linked (30.7 KB of the 32 KB in all); stack peak ≈ 1.1 KB.
 //!
 //! ```ignore
 //! // The lean sink step (what a firmware calls; `sink_fix` does the same from a `Measurements`):
@@ -87,7 +91,8 @@ mod refine;
 mod tables;
 
 pub use grid::{
-    estimate, estimate_with, locate, mle, mle_with, mmse, mmse_with, sink_fix, Estimate, Estimator,
+    estimate, estimate_with, locate, mle, mle_with, mmse, mmse_window, mmse_window_with, mmse_with,
+    sink_fix, Estimate, Estimator,
 };
 pub use kernel::{
     log2_segment_table, portable_column, portable_term, ring, ring_around, ring_radius, AnchorTerm,
