@@ -139,17 +139,6 @@ fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::C
             rho: (e as i32) >> (c % 8),
             table: loc_core::fixed::log2_segment_table(),
             w: 1 + (d % 4) as u8,
-            // Ring thresholds: none, or anywhere in the range of log2 d² (Q.20).
-            far: if c % 3 == 0 {
-                i32::MAX
-            } else {
-                (10 << 20) + (e % (24 << 20)) as i32
-            },
-            near: if d % 3 == 0 {
-                i32::MIN
-            } else {
-                (e >> 3) as i32 % (30 << 20)
-            },
         };
     }
     for v in sums.iter_mut() {

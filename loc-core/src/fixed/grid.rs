@@ -11,10 +11,7 @@
 //!   coarse winner the window starts from, so under a strict `<` they can never win. (The
 //!   windowed MMSE evaluates them again, with the window's shifts: they need their weights.)
 
-use super::kernel::{
-    add_term, log2_segment_table, ring_around, ring_radius, AnchorTerm, ColumnJob, Portable,
-    TermKernel,
-};
+use super::kernel::{add_term, log2_segment_table, AnchorTerm, ColumnJob, Portable, TermKernel};
 use super::math::{clamp_i64, exp2_neg_q26, sq_shr, square_shift};
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
@@ -213,8 +210,6 @@ struct Stage {
     shift: [u8; MAX_ANCHORS],
     /// Some shift is not 0: the shifted path.
     shifted: bool,
-    /// The bound the anchors' ring thresholds were derived from ([`INF`]: none yet).
-    ring_bound: u32,
     w: Window,
     /// Rows in the window.
     rows: usize,
@@ -233,7 +228,6 @@ impl Stage {
             },
             shift: [0; MAX_ANCHORS],
             shifted: false,
-            ring_bound: INF,
             w: Window::COARSE,
             rows: 0,
         }
@@ -247,7 +241,6 @@ impl Stage {
         self.job.n = cost.n as u8;
         self.job.rows = self.rows as u8;
         self.shifted = false;
-        self.ring_bound = INF;
         let step = cost.height * w.step as i32;
         let y0 = cost.height * w.j0 as i32;
         for a in 0..cost.n {
@@ -276,25 +269,7 @@ impl Stage {
                 rho: cost.rho[a] + sh,
                 table: log2_segment_table(),
                 w: if (1..=3).contains(&wt) { wt } else { 4 },
-                far: i32::MAX,
-                near: i32::MIN,
             };
-        }
-    }
-
-    /// New ring thresholds for `bound`. Thresholds from a larger bound stay valid (they reject
-    /// less), so the columns renew them only once the bound has dropped by a quarter: each
-    /// renewal costs a square root (per change of weight along the anchors: one in the common
-    /// case).
-    #[inline(never)]
-    fn renew_ring(&mut self, n: usize, bound: u32) {
-        self.ring_bound = bound;
-        let (mut w, mut u) = (0, None);
-        for t in self.job.anchors[..n].iter_mut() {
-            if t.w != w {
-                (w, u) = (t.w, ring_radius(bound, t.w));
-            }
-            (t.far, t.near) = ring_around(u, t.rho, t.lclamp);
         }
     }
 
@@ -320,11 +295,9 @@ impl Stage {
             return;
         }
         let x = cost.width * i as i32;
+        let anchors = &mut self.job.anchors[..cost.n];
         if !self.shifted {
-            if bound < self.ring_bound - self.ring_bound / 4 {
-                self.renew_ring(cost.n, bound);
-            }
-            for (a, t) in self.job.anchors[..cost.n].iter_mut().enumerate() {
+            for (a, t) in anchors.iter_mut().enumerate() {
                 // Below 2^16: the shift is 0.
                 t.adx = (x - cost.ax[a]).unsigned_abs() as u16;
             }
@@ -333,7 +306,7 @@ impl Stage {
         } else {
             let dy_step = cost.height * self.w.step as i32;
             let y0 = cost.height * self.w.j0 as i32;
-            for (a, t) in self.job.anchors[..cost.n].iter().enumerate() {
+            for (a, t) in anchors.iter().enumerate() {
                 let s = self.shift[a];
                 let dx2 = sq_shr(x - cost.ax[a], s);
                 let mut dy = y0 - cost.ay[a];

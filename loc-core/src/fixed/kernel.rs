@@ -7,7 +7,7 @@
 //! this crate keeps no `unsafe`. Every implementation must return exactly [`portable_term`]'s
 //! value for every input; `uno-board`'s is checked against it in simavr.
 
-use super::math::{log2_fast, log2_floor, sq16, sq_q18, LOG2_SEG_SPAN};
+use super::math::{log2_fast, sq16, sq_q18};
 use super::tables;
 use crate::MAX_ANCHORS;
 
@@ -37,13 +37,7 @@ pub trait TermKernel {
 /// below `2^16` lattice units (13.1 m).
 ///
 /// `repr(C)`: assembly kernels read it by offset (on AVR, where nothing is padded: `dx2` 0,
-/// `adx` 4, `dy0` 6, `step` 10, `lclamp` 12, `rho` 16, `table` 20, `w` 22, `far` 23, `near` 27;
-/// 31 bytes).
-///
-/// `far` and `near` are the ring test: a row whose `log2_floor(d²)` (the exponent and the
-/// segment's start, known before any product) is at least `far` or at most `near` is set to the
-/// bound at once. The search derives them from the bound so that such a row's term alone would
-/// reach it ([`ring`]); [`AnchorTerm::NONE`]'s never reject.
+/// `adx` 4, `dy0` 6, `step` 10, `lclamp` 12, `rho` 16, `table` 20, `w` 22; 23 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct AnchorTerm {
@@ -63,10 +57,6 @@ pub struct AnchorTerm {
     pub table: *const [u8; 6],
     /// The anchor's weight, 1 to 4.
     pub w: u8,
-    /// Ring test: reject from this `log2_floor(d²)` up (Q.20)…
-    pub far: i32,
-    /// …and from this one down.
-    pub near: i32,
 }
 
 impl AnchorTerm {
@@ -80,60 +70,7 @@ impl AnchorTerm {
         rho: 0,
         table: core::ptr::null(),
         w: 1,
-        far: i32::MAX,
-        near: i32::MIN,
     };
-}
-
-/// The ring test's thresholds `(far, near)` for an anchor with `ρ`, clamp `lclamp` and weight
-/// `w` (1 to 4) under `bound`: every `d² > 0` with `log2_floor(d²) ≥ far` or `≤ near` has
-/// `w·term(d²) ≥ bound`, so its row reaches the bound whatever the other anchors add.
-///
-/// With `T = ⌈bound/2^s⌉ ≥ ⌈bound/w⌉` (`s` = 0, 1, 1, 2 for `w` = 1…4: no division) and
-/// `U = 3 + r·2^10` for some `r ≥ √(T+3)` (`sqrt_above`: no loop), every `|u| ≥ U` has `term ≥ T` (the square is at most 2 ulp
-/// low and `|u| >> 2` drops at most 3/4; saturated terms are `SQ_SAT ≥ T`). Far: `log2 ≥
-/// log2_floor ≥ U − ρ`. Near: `log2 ≤ log2_floor + LOG2_SEG_SPAN ≤ −U − ρ`, and the clamp must
-/// not lift it (`lclamp ≤ −U − ρ`). `T > SQ_SAT`: no threshold.
-pub fn ring(bound: u32, rho: i32, lclamp: i32, w: u8) -> (i32, i32) {
-    ring_around(ring_radius(bound, w), rho, lclamp)
-}
-
-/// `U` of [`ring`] for `bound` and weight `w` (the square root, shared by the anchors of equal
-/// weight); `None`: no threshold.
-pub fn ring_radius(bound: u32, w: u8) -> Option<i32> {
-    let s = match w {
-        1 => 0,
-        2 | 3 => 1,
-        _ => 2,
-    };
-    let t = (bound >> s) + (bound & ((1 << s) - 1) != 0) as u32;
-    if t > SQ_SAT {
-        return None;
-    }
-    // Below 2^26.
-    Some(3 + (sqrt_above(t + 3) << 10) as i32)
-}
-
-/// A cheap `r ≥ √x` (within 25 %), `x ≥ 1`: one Newton step from the power of two above the
-/// root, whose division is a shift (the arithmetic–geometric mean keeps it above the root).
-fn sqrt_above(x: u32) -> u32 {
-    let k = (33 - x.leading_zeros()) / 2; // 2^k ≥ √x
-    (((1u32 << k) + (x >> k) + 1) >> 1) + 1
-}
-
-/// [`ring`]'s `(far, near)` from its radius `u` ([`ring_radius`]).
-pub fn ring_around(u: Option<i32>, rho: i32, lclamp: i32) -> (i32, i32) {
-    let Some(u) = u else {
-        return (i32::MAX, i32::MIN);
-    };
-    let far = u.saturating_sub(rho);
-    let top = (-u).saturating_sub(rho);
-    let near = if lclamp <= top {
-        top.saturating_sub(LOG2_SEG_SPAN)
-    } else {
-        i32::MIN
-    };
-    (far, near)
 }
 
 /// A column of a search window, for [`TermKernel::column`] (on AVR: `bound` at offset 0, `n`
@@ -158,8 +95,7 @@ pub struct ColumnJob {
 /// The reference of [`TermKernel::column`]. For every row whose sum is below `job.bound`, the
 /// anchors' weighted terms `w·term(dx² + dy², ρ, clamp)` are added in order; a row whose sum
 /// reaches the bound is set to the bound and the rest of its anchors are skipped (its exact
-/// cost no longer matters); so is a row that fails an anchor's ring test (`far`/`near`, checked
-/// before its term when `d² > 0`). Rows not below the bound are left alone. Fills every `dx2`, and
+/// cost no longer matters). Rows not below the bound are left alone. Fills every `dx2`, and
 /// `min`/`min_row` with the first smallest completed sum (what a search offers).
 #[inline(always)]
 pub fn portable_column<K: TermKernel>(sums: &mut [u32], job: &mut ColumnJob) {
@@ -175,16 +111,7 @@ pub fn portable_column<K: TermKernel>(sums: &mut [u32], job: &mut ColumnJob) {
         let mut s = *sum;
         for a in &job.anchors[..n] {
             let dy = a.dy0.wrapping_add((r as i32).wrapping_mul(a.step as i32));
-            let dy2 = sq16(dy);
-            let (lo, carry) = a.dx2.overflowing_add(dy2);
-            if lo != 0 || carry {
-                let l = log2_floor(lo, carry);
-                if l >= a.far || l <= a.near {
-                    s = job.bound;
-                    break;
-                }
-            }
-            s = add_term::<K>(s, a.dx2, dy2, a.rho, a.lclamp, a.w);
+            s = add_term::<K>(s, a.dx2, sq16(dy), a.rho, a.lclamp, a.w);
             if s >= job.bound {
                 s = job.bound;
                 break;
@@ -268,92 +195,6 @@ mod tests {
         };
         let u = rho as f64 + l.max(lclamp as f64);
         (u * u / 1048576.0).min(SQ_SAT as f64)
-    }
-
-    /// The ring test only ever rejects rows that would have reached the bound anyway: with
-    /// `ring`'s thresholds every completed row keeps its exact sum and every other row is at
-    /// or above the bound, on random columns around anchors; and it does reject (most rows).
-    #[test]
-    fn the_ring_test_changes_no_decision() {
-        let mut x = 0x2545_F491u32;
-        let mut next = move || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            x
-        };
-        let (mut rejected, mut rows_seen) = (0, 0);
-        for _ in 0..3000 {
-            let n = 3 + (next() % 6) as usize;
-            let mut job = ColumnJob {
-                bound: 0,
-                n: n as u8,
-                rows: 11,
-                min: 0,
-                min_row: 0,
-                anchors: [AnchorTerm::NONE; MAX_ANCHORS],
-            };
-            // A true point on the column (row `rt`, off it by `ox` across), anchors around it,
-            // and ρ from the true distances plus noise: costs as a search meets them.
-            let (rt, ox) = ((next() % 11) as i32, (next() % 3000) as f64);
-            let step = 200 + next() % 5000;
-            for a in job.anchors[..n].iter_mut() {
-                *a = AnchorTerm {
-                    adx: (next() % 60_000) as u16,
-                    dy0: (next() % 5_000) as i32 - (next() % 60_000) as i32,
-                    step: step as u16,
-                    lclamp: 11_836_024,
-                    w: 1 + (next() % 4) as u8,
-                    ..AnchorTerm::NONE
-                };
-                // Keep every |dy| below 2^16.
-                let last = a.dy0 + 10 * a.step as i32;
-                if last >= 1 << 16 {
-                    a.dy0 -= last - (1 << 16) + 1;
-                }
-                let dy = (a.dy0 + rt * a.step as i32) as f64;
-                let d2 = (a.adx as f64 + ox).powi(2) + dy * dy;
-                let noise = (next() % 600_000) as f64 - 300_000.0;
-                a.rho = (-(d2.max(1.0).log2() * 1048576.0) + noise) as i32;
-            }
-            // A bound near the column's smallest cost, as a search has.
-            let mut plain = [0u32; 11];
-            job.bound = u32::MAX;
-            portable_column::<Portable>(&mut plain, &mut job);
-            let m = *plain.iter().min().unwrap();
-            job.bound = m.saturating_add(m >> (next() % 6));
-            let mut without = [0u32; 11];
-            portable_column::<Portable>(&mut without, &mut job);
-            for a in job.anchors[..n].iter_mut() {
-                (a.far, a.near) = ring(job.bound, a.rho, a.lclamp, a.w);
-            }
-            let mut with = [0u32; 11];
-            portable_column::<Portable>(&mut with, &mut job);
-            // Reached rows are left at the bound either way: identical sums.
-            assert_eq!(with, without);
-            // The ring does work: rows the first anchor's test alone rejects.
-            let a = &job.anchors[0];
-            for r in 0..11 {
-                rows_seen += 1;
-                let dy = a.dy0 + r * a.step as i32;
-                let (lo, carry) = sq16(a.adx as i32).overflowing_add(sq16(dy));
-                let l = log2_floor(lo, carry);
-                rejected += (l >= a.far || l <= a.near) as usize;
-            }
-        }
-        assert!(rejected * 5 > rows_seen, "{rejected} of {rows_seen}");
-    }
-
-    #[test]
-    fn sqrt_above_is_above_and_close() {
-        let mut x = 1u32;
-        while x < u32::MAX / 3 {
-            let r = sqrt_above(x) as f64;
-            let s = (x as f64).sqrt();
-            assert!(r >= s && r <= 1.25 * s + 2.0, "{x}: {r} vs {s}");
-            x = x * 3 / 2 + 1;
-        }
-        assert!(sqrt_above(u32::MAX) as f64 >= (u32::MAX as f64).sqrt());
     }
 
     #[test]

@@ -54,37 +54,6 @@ pub(crate) fn log2_fast(lo: u32, carry: bool) -> i32 {
     (e << 20) + log2_mantissa(n) as i32
 }
 
-/// [`log2_fast`]'s value at the start of its segment: the exponent plus the segment's `c0`,
-/// no products. For `n = lo + 2^32·carry > 0`, `log2_fast(n) − LOG2_SEG_SPAN ≤ log2_floor(n) ≤
-/// log2_fast(n)` (the segment polynomial only adds). The search's ring test uses it.
-#[inline(always)]
-pub(crate) fn log2_floor(lo: u32, carry: bool) -> i32 {
-    let (n, e) = if carry {
-        ((lo >> 1) | 1 << 31, 32i32)
-    } else {
-        let (mut n, mut e) = (lo, 31i32);
-        if n < 1 << 16 {
-            n <<= 16;
-            e -= 16;
-        }
-        if n < 1 << 24 {
-            n <<= 8;
-            e -= 8;
-        }
-        while n < 1 << 31 {
-            n <<= 1;
-            e -= 1;
-        }
-        (n, e)
-    };
-    let [c0a, c0b, c0c, ..] = log2_seg(((n >> 25) & 63) as usize);
-    (e << 20) + u32::from_le_bytes([c0a, c0b, c0c, 0]) as i32
-}
-
-/// Most a segment's polynomial adds to its `c0` (Q.20): above every segment's `c1`
-/// (`tests::log2_floor_is_within_a_segment` checks it).
-pub(crate) const LOG2_SEG_SPAN: i32 = 24_000;
-
 /// `log2(2^32 + lo)` in Q.20 (out of line: rare, and kept apart so that the common path's shifts
 /// stay constant).
 #[cold]
@@ -238,29 +207,6 @@ pub(crate) fn mul_shr(a: i64, b: i64, s: u32) -> i64 {
 
 #[cfg(test)]
 mod tests {
-    #[test]
-    fn log2_floor_is_within_a_segment() {
-        for k in 0..64 {
-            let [_, _, _, c1a, c1b, _] = log2_seg(k);
-            assert!(
-                (u16::from_le_bytes([c1a, c1b]) as i32) + 2 < LOG2_SEG_SPAN,
-                "{k}"
-            );
-        }
-        let mut x = 0x1234_5678u32;
-        for i in 0..200_000u32 {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            let (lo, carry) = (x >> (i % 32), i % 7 == 0);
-            if lo == 0 && !carry {
-                continue;
-            }
-            let (f, l) = (log2_floor(lo, carry), log2_fast(lo, carry));
-            assert!(f <= l && l - f <= LOG2_SEG_SPAN, "{lo} {carry}: {f} {l}");
-        }
-    }
-
     use super::*;
 
     fn exact_log2(x: u64) -> f64 {

@@ -95,8 +95,8 @@ pub use grid::{
     sink_fix, Estimate, Estimator,
 };
 pub use kernel::{
-    log2_segment_table, portable_column, portable_term, ring, ring_around, ring_radius, AnchorTerm,
-    ColumnJob, Portable, TermKernel, SQ_SAT, U_SAT,
+    log2_segment_table, portable_column, portable_term, AnchorTerm, ColumnJob, Portable,
+    TermKernel, SQ_SAT, U_SAT,
 };
 pub use params::{
     distance_x, fit, fit_grid, fit_least_squares, Ar1, Bounds, CalStats, OnlineParams, ParamFit,

@@ -33,9 +33,7 @@ const _: () = {
     assert!(offset_of!(AnchorTerm, rho) == 16);
     assert!(offset_of!(AnchorTerm, table) == 20);
     assert!(offset_of!(AnchorTerm, w) == 22);
-    assert!(offset_of!(AnchorTerm, far) == 23);
-    assert!(offset_of!(AnchorTerm, near) == 27);
-    assert!(size_of::<AnchorTerm>() == 31);
+    assert!(size_of::<AnchorTerm>() == 23);
     assert!(offset_of!(ColumnJob, bound) == 0);
     assert!(offset_of!(ColumnJob, n) == 4);
     assert!(offset_of!(ColumnJob, rows) == 5);
@@ -60,10 +58,8 @@ impl TermKernel for AvrTerm {
     }
 }
 
-/// The first half of `(ρ + max(log2 n, clamp))²` (Q.20, saturated) of `n` = r15:r12 plus
-/// `2^32·T` (the T flag), for the [`AnchorTerm`] at `Z`, up to the segment's `c0` (r5:r3, with
-/// the exponent in r16 and `Z` at the entry's `c1`); [`term_body_rest!`] finishes it into
-/// r15:r12. `n = 0` jumps into the rest directly.
+/// `(ρ + max(log2 n, clamp))²` (Q.20, saturated) of `n` = r15:r12 plus `2^32·T` (the T flag),
+/// into r15:r12, for the [`AnchorTerm`] at `Z`.
 macro_rules! term_body {
     () => {
         concat!(
@@ -133,15 +129,6 @@ macro_rules! term_body {
             "lpm r3, Z+\n",
             "lpm r4, Z+\n",
             "lpm r5, Z+\n",
-        )
-    };
-}
-
-/// The rest of [`term_body!`]: `c1`, `c2` from `Z` (the table entry after `c0`), the quadratic,
-/// clamp, `ρ`, saturation and square.
-macro_rules! term_body_rest {
-    () => {
-        concat!(
             "lpm r6, Z+\n",
             "lpm r7, Z+\n",
             "lpm r8, Z\n",
@@ -304,7 +291,6 @@ pub fn term(lo: u32, carry: bool, rho: i32, lclamp: i32) -> u32 {
             "set",
             "1:",
             term_body!(),
-            term_body_rest!(),
             "clr r1",
             inout("r12") n0,
             inout("r13") n1,
@@ -371,7 +357,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "std Z+1, r13",
             "std Z+2, r14",
             "std Z+3, r15",
-            "adiw r30, 31",
+            "adiw r30, 23",
             "dec r23",
             "brne 8b",
             "clr r22",
@@ -452,43 +438,6 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "set",
             "7:",
             term_body!(),
-            // ---- ring test: log2_floor(d²) = (e << 20) + c0 against far/near ----
-            "movw r6, r30",
-            "movw r30, r24",
-            "mov r10, r16",
-            "lsr r10",
-            "lsr r10",
-            "lsr r10",
-            "lsr r10",
-            "mov r17, r16",
-            "swap r17",
-            "andi r17, 0xF0",
-            "add r17, r5",
-            "adc r10, r2",
-            "ldd r9, Z+23",
-            "cp r3, r9",
-            "ldd r9, Z+24",
-            "cpc r4, r9",
-            "ldd r9, Z+25",
-            "cpc r17, r9",
-            "ldd r9, Z+26",
-            "cpc r10, r9",
-            "brlt 15f",
-            "rjmp 35f",
-            "15:",
-            "ldd r9, Z+27",
-            "cp r9, r3",
-            "ldd r9, Z+28",
-            "cpc r9, r4",
-            "ldd r9, Z+29",
-            "cpc r9, r17",
-            "ldd r9, Z+30",
-            "cpc r9, r10",
-            "brlt 16f",
-            "rjmp 35f",
-            "16:",
-            "movw r30, r6",
-            term_body_rest!(),
             // ---- room −= w·term; at or below 0 the row has reached the bound ----
             "ldd r17, Z+22",
             "31:",
@@ -500,7 +449,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "breq 35f",
             "dec r17",
             "brne 31b",
-            "adiw r30, 31",
+            "adiw r30, 23",
             "dec r23",
             "breq 3f",
             "rjmp 5b",
