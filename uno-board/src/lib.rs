@@ -17,8 +17,8 @@
 //!   [`Serial`], the `loc_proto::line::BootLine` lines, the LED error code and the retry.
 //! * [`libm`]: safe wrappers of avr-libc's `f32` `log10`/`exp`/`sqrt` (for the f32 benchmark in
 //!   `mcu-bench`; the node firmware uses integer arithmetic only).
-//! * [`AvrTerm`]: the sink's position-search cost term in AVR assembly, plugged into
-//!   `loc_core::fixed` through its `TermKernel` trait (bit-exact with the portable term).
+//! * [`AvrTerm`]: the sink's position-search cost term and column loop in AVR assembly, plugged
+//!   into `loc_core::fixed` through its `TermKernel` trait (bit-exact with the portable ones).
 //! * With the default `panic-reset` feature, the `#[panic_handler]`: reset through the watchdog,
 //!   no formatting.
 //!

@@ -61,16 +61,16 @@
 //! # On the ATmega328P
 //!
 //! `cargo bench -p hoploc --bench mcu_estimate` runs the whole sink step (4 anchors × 2
-//! channels in a 10 m room) as firmware in simavr (`mcu-bench`), with the cost term in AVR
-//! assembly ([`TermKernel`], `uno_board::AvrTerm`): calibration statistics of the 6 anchor pairs
+//! channels in a 10 m room) as firmware in simavr (`mcu-bench`), with each search column —
+//! rows × anchors, the early exit at the bound and the column's minimum — in AVR assembly
+//! ([`TermKernel::column`], `uno_board::AvrTerm`): calibration statistics of the 6 anchor pairs
 //! ≈ 24 k cycles, least-squares fit + AR(1) ≈ 15 k, Extended refinement ≈ 6 k, thesis MLE
-//! ≈ 303 k (≈ 380 anchor terms after the early exits), ≈ 348 k in all (21.7 ms): over the
-//! 160 k budget. Most of the remaining per-term cost is the column loop around the kernel
-//! (LLVM's AVR backend spills most of its state there). The windowed MMSE (the sink's,
-//! [`mmse_window`]) is ≈ 536 k (≈ 581 k for the whole step): ≈ 1.8× the thesis MLE, because its
-//! weights need every window cost up to 27 bits of weight below the best, so the early exits
-//! hardly ever fire; the full-lattice [`mmse`] is ≈ 7.9 M. Code ≈ 28.7 KB of flash with both
-//! estimators linked (30.7 KB of the 32 KB in all); stack peak ≈ 1.1 KB.
+//! ≈ 161 k (≈ 380 anchor terms after the early exits, ≈ 250 cycles each with their row's share
+//! of the loop), ≈ 206 k in all (12.9 ms): over the 160 k budget. The windowed MMSE (the
+//! sink's, [`mmse_window`]) is ≈ 371 k (≈ 416 k for the whole step): its weights need every
+//! window cost up to 27 bits of weight below the best, so the early exits hardly ever fire; the
+//! full-lattice [`mmse`] is ≈ 7.9 M. Code ≈ 29.8 KB of flash with both estimators linked
+//! (31.9 KB of the 32 KB in all); stack peak ≈ 1.1 KB.
 //!
 //! ```ignore
 //! // The lean sink step (what a firmware calls; `sink_fix` does the same from a `Measurements`):
