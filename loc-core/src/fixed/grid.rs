@@ -738,71 +738,26 @@ pub fn mmse_with<K: TermKernel>(
     } else {
         Weights::new(cost.k_q16, sigma)
     };
-    let mut cref = first.cost;
-    let mut best = first;
+    let mut post = Posterior::new(wts, first);
     srch.st.init(&cost, Window::COARSE, None);
     let shifts = srch.st.shift;
-    // Σw (< 2^38), Σw·i and Σw·j (< 2^44).
-    let (mut s, mut sx, mut sy) = (0u64, 0u64, 0u64);
     for j0 in (0..=FINE_DIVS).step_by(ROWS) {
         let w = Window::band(j0);
         srch.st.init(&cost, w, Some(&shifts));
         for i in 0..=FINE_DIVS {
-            srch.column(i, cref.saturating_add(wts.span), 0);
-            // This column's Σw and Σw·j (< 2^30, < 2^36).
-            let (mut cs, mut csj) = (0u64, 0u64);
-            for r in 0..w.rows() {
-                srch.evals += 1;
-                let (j, c) = (j0 + r, srch.sums[r]);
-                if c >= cref.saturating_add(wts.span) {
-                    continue;
-                }
-                if c < cref {
-                    let f = wts.rescale(cref - c);
-                    s = scale(s, f);
-                    sx = scale(sx, f);
-                    sy = scale(sy, f);
-                    cs = scale(cs, f);
-                    csj = scale(csj, f);
-                    cref = c;
-                }
-                if c < best.cost {
-                    best = LatticeMin { i, j, cost: c };
-                }
-                let wt = wts.weight(c - cref);
-                cs += wt as u64;
-                csj += (wt * j as u32) as u64; // < 2^26 · 51 < 2^32
-            }
-            s += cs;
-            sx += cs * i as u64;
-            sy += csj;
+            srch.column(i, post.bound(), 0);
+            srch.evals += w.rows();
+            post.add_column(i, j0, &srch.sums[..w.rows()]);
         }
     }
-    let (w, h) = (area.width as u64, area.height as u64);
-    let pos = if s == 0 {
-        area.lattice_mm(best.i, best.j)
-    } else {
-        // mm = 10·side·(Σw·i/Σw)/50 = side·Σw·i / (5·Σw), rounded; side·Σw·i < 2^60.
-        let d = 5 * s;
-        PointMm {
-            x: (((w * sx + d / 2) / d).min(10 * w)) as u32,
-            y: (((h * sy + d / 2) / d).min(10 * h)) as u32,
-        }
-    };
-    let min_cost = if cost.flat {
-        Cost::flat_cost(obs, model)
-    } else {
-        cost.report(best.cost)
-    };
-    Ok(Estimate {
-        pos,
-        lattice: lattice_u8(&best),
-        min_cost: min_cost.saturating_add(obs.const_cost),
-        estimator: Estimator::Mmse { sigma },
-        anchors: obs.len() as u8,
-        total_weight: obs.total_weight(),
-        evaluations: srch.evals as u16,
-    })
+    Ok(post.estimate(
+        obs,
+        model,
+        &cost,
+        area,
+        Estimator::Mmse { sigma },
+        srch.evals,
+    ))
 }
 
 /// Windowed posterior-mean position of `obs` under `model` within `area` with shadowing σ
@@ -853,64 +808,121 @@ pub fn mmse_window_with<K: TermKernel>(
     } else {
         Weights::new(cost.k_q16, sigma)
     };
-    let mut cref = best.cost;
     // Σw (≤ 121·2^26 < 2^33), Σw·i and Σw·j (< 2^39): as in `mmse_with`, with far fewer points.
-    let (mut s, mut sx, mut sy) = (0u64, 0u64, 0u64);
+    let mut post = Posterior::new(wts, best);
     for i in w.i0..=w.i1 {
-        srch.column(i, cref.saturating_add(wts.span), 0);
+        srch.column(i, post.bound(), 0);
+        srch.evals += rows;
+        post.add_column(i, w.j0, &srch.sums[..rows]);
+    }
+    Ok(post.estimate(
+        obs,
+        model,
+        &cost,
+        area,
+        Estimator::MmseWindow { sigma },
+        srch.evals,
+    ))
+}
+
+/// The MMSE searches' posterior sums: weights relative to a reference cost that only ever
+/// decreases (the sums are rescaled when a lower cost appears, see [`Weights`]), and the
+/// smallest cost seen.
+struct Posterior {
+    wts: Weights,
+    cref: u32,
+    best: LatticeMin,
+    /// Σw (< 2^38), Σw·i and Σw·j (< 2^44).
+    s: u64,
+    sx: u64,
+    sy: u64,
+}
+
+impl Posterior {
+    /// Starting from a lattice point whose cost is the first reference (a search's winner).
+    fn new(wts: Weights, start: LatticeMin) -> Posterior {
+        Posterior {
+            wts,
+            cref: start.cost,
+            best: start,
+            s: 0,
+            sx: 0,
+            sy: 0,
+        }
+    }
+
+    /// The bound a column needs: costs from it on weigh nothing.
+    fn bound(&self) -> u32 {
+        self.cref.saturating_add(self.wts.span)
+    }
+
+    /// Adds column `i`'s rows `j0…` with costs `sums`.
+    fn add_column(&mut self, i: usize, j0: usize, sums: &[u32]) {
         // This column's Σw and Σw·j (< 2^30, < 2^36).
         let (mut cs, mut csj) = (0u64, 0u64);
-        for r in 0..rows {
-            srch.evals += 1;
-            let (j, c) = (w.j0 + r, srch.sums[r]);
-            if c >= cref.saturating_add(wts.span) {
+        for (r, &c) in sums.iter().enumerate() {
+            let j = j0 + r;
+            if c >= self.bound() {
                 continue;
             }
-            if c < cref {
-                let f = wts.rescale(cref - c);
-                s = scale(s, f);
-                sx = scale(sx, f);
-                sy = scale(sy, f);
+            if c < self.cref {
+                let f = self.wts.rescale(self.cref - c);
+                self.s = scale(self.s, f);
+                self.sx = scale(self.sx, f);
+                self.sy = scale(self.sy, f);
                 cs = scale(cs, f);
                 csj = scale(csj, f);
-                cref = c;
+                self.cref = c;
             }
-            if c < best.cost {
-                best = LatticeMin { i, j, cost: c };
+            if c < self.best.cost {
+                self.best = LatticeMin { i, j, cost: c };
             }
-            let wt = wts.weight(c - cref);
+            let wt = self.wts.weight(c - self.cref);
             cs += wt as u64;
             csj += (wt * j as u32) as u64; // < 2^26 · 51 < 2^32
         }
-        s += cs;
-        sx += cs * i as u64;
-        sy += csj;
+        self.s += cs;
+        self.sx += cs * i as u64;
+        self.sy += csj;
     }
-    let (aw, ah) = (area.width as u64, area.height as u64);
-    let pos = if s == 0 {
-        area.lattice_mm(best.i, best.j)
-    } else {
-        // mm = side·Σw·i / (5·Σw), rounded, as in `mmse_with`; side·Σw·i < 2^55.
-        let d = 5 * s;
-        PointMm {
-            x: (((aw * sx + d / 2) / d).min(10 * aw)) as u32,
-            y: (((ah * sy + d / 2) / d).min(10 * ah)) as u32,
+
+    /// The estimate: the posterior mean (the smallest cost's lattice point if every weight is
+    /// 0) and the smallest cost.
+    fn estimate(
+        &self,
+        obs: &Observations,
+        model: PathLoss,
+        cost: &Cost,
+        area: AreaCm,
+        estimator: Estimator,
+        evals: usize,
+    ) -> Estimate {
+        let (w, h) = (area.width as u64, area.height as u64);
+        let pos = if self.s == 0 {
+            area.lattice_mm(self.best.i, self.best.j)
+        } else {
+            // mm = 10·side·(Σw·i/Σw)/50 = side·Σw·i / (5·Σw), rounded; side·Σw·i < 2^60.
+            let d = 5 * self.s;
+            PointMm {
+                x: (((w * self.sx + d / 2) / d).min(10 * w)) as u32,
+                y: (((h * self.sy + d / 2) / d).min(10 * h)) as u32,
+            }
+        };
+        let min_cost = if cost.flat {
+            Cost::flat_cost(obs, model)
+        } else {
+            cost.report(self.best.cost)
+        };
+        Estimate {
+            pos,
+            lattice: lattice_u8(&self.best),
+            min_cost: min_cost.saturating_add(obs.const_cost),
+            estimator,
+            anchors: obs.len() as u8,
+            total_weight: obs.total_weight(),
+            evaluations: evals as u16,
         }
-    };
-    let min_cost = if cost.flat {
-        Cost::flat_cost(obs, model)
-    } else {
-        cost.report(best.cost)
-    };
-    Ok(Estimate {
-        pos,
-        lattice: lattice_u8(&best),
-        min_cost: min_cost.saturating_add(obs.const_cost),
-        estimator: Estimator::MmseWindow { sigma },
-        anchors: obs.len() as u8,
-        total_weight: obs.total_weight(),
-        evaluations: srch.evals as u16,
-    })
+    }
 }
 
 /// `obs` located by `estimator`.
