@@ -428,23 +428,29 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
         best
     }
 
+    /// The coarse stage, then the stage set up for the fine window around its winner; returns
+    /// the window and the winner with its cost under the window's shifts (re-evaluated when they
+    /// are finer, so that the window compares like with like).
     #[inline(never)]
-    fn thesis(&mut self) -> LatticeMin {
+    fn fine_window(&mut self) -> (Window, LatticeMin) {
         let best = self.coarse();
         let coarse_shift = self.st.shift;
         let w = Window::around(best.i, best.j, RATIO);
         self.st.init(self.cost, w, None);
-        let rows = w.rows();
-        let all = (1u16 << rows) - 1;
-        let mut fine = best;
+        let mut start = best;
         if self.st.shift != coarse_shift {
-            // Re-evaluate the start with this window's (finer) shifts so that the window compares
-            // like with like.
             let rb = best.j - w.j0;
-            self.column(best.i, INF, all & !(1 << rb));
+            self.column(best.i, INF, ((1u16 << w.rows()) - 1) & !(1 << rb));
             self.evals += 1;
-            fine.cost = self.sums[rb];
+            start.cost = self.sums[rb];
         }
+        (w, start)
+    }
+
+    #[inline(never)]
+    fn thesis(&mut self) -> LatticeMin {
+        let (w, mut fine) = self.fine_window();
+        let rows = w.rows();
         // The coarse rows of the window (j a multiple of RATIO).
         let (mut coarse_rows, mut n_coarse) = (0u16, 0);
         for r in 0..rows {
@@ -641,6 +647,15 @@ struct Weights {
 }
 
 impl Weights {
+    /// The weights of `cost` at σ (Q.8 dB); a flat cost's (α = 0) are all equal.
+    fn for_cost(cost: &Cost, sigma_q8: u16) -> Weights {
+        if cost.flat {
+            Weights::new(0, 1)
+        } else {
+            Weights::new(cost.k_q16, sigma_q8)
+        }
+    }
+
     /// For `K` (Q.16) and σ (Q.8 dB).
     fn new(k_q16: i64, sigma_q8: u16) -> Weights {
         let mut w = Weights {
@@ -733,11 +748,7 @@ pub fn mmse_with<K: TermKernel>(
     let cost = Cost::new(obs, model, area);
     let mut srch = Searcher::<K>::new(&cost);
     let first = srch.thesis();
-    let wts = if cost.flat {
-        Weights::new(0, 1)
-    } else {
-        Weights::new(cost.k_q16, sigma)
-    };
+    let wts = Weights::for_cost(&cost, sigma);
     let mut post = Posterior::new(wts, first);
     srch.st.init(&cost, Window::COARSE, None);
     let shifts = srch.st.shift;
@@ -767,7 +778,7 @@ pub fn mmse_with<K: TermKernel>(
 /// thesis' fine window around it (≤ 11 × 11 points, the 9 coarse ones among them evaluated again
 /// with the window's shifts), weights as in [`mmse`]: at most 243 cost evaluations, as many as
 /// the thesis search, but fewer of them stop early (a weight needs the cost up to 27 bits of
-/// weight above the smallest, not just whether it beats it): ≈ 1.8× the thesis MLE's cycles on
+/// weight above the smallest, not just whether it beats it): ≈ 2.2× the thesis MLE's cycles on
 /// the AVR (module docs). Within 1 cm of the reference on all of `tests/fixed.rs`' 2 074 random
 /// trials (worst 3 mm).
 pub fn mmse_window(
@@ -789,25 +800,11 @@ pub fn mmse_window_with<K: TermKernel>(
     check(obs)?;
     let cost = Cost::new(obs, model, area);
     let mut srch = Searcher::<K>::new(&cost);
-    let coarse = srch.coarse();
-    let coarse_shift = srch.st.shift;
-    let w = Window::around(coarse.i, coarse.j, RATIO);
-    srch.st.init(&cost, w, None);
+    // The coarse winner, as the thesis search starts its window: the first reference cost, and
+    // the point that keeps the smallest cost on a tie.
+    let (w, best) = srch.fine_window();
     let rows = w.rows();
-    // The coarse winner with this window's (finer) shifts, as the thesis search does: the first
-    // reference cost, and the point that keeps the smallest cost on a tie.
-    let mut best = coarse;
-    if srch.st.shift != coarse_shift {
-        let rb = coarse.j - w.j0;
-        srch.column(coarse.i, INF, ((1u16 << rows) - 1) & !(1 << rb));
-        srch.evals += 1;
-        best.cost = srch.sums[rb];
-    }
-    let wts = if cost.flat {
-        Weights::new(0, 1)
-    } else {
-        Weights::new(cost.k_q16, sigma)
-    };
+    let wts = Weights::for_cost(&cost, sigma);
     // Σw (≤ 121·2^26 < 2^33), Σw·i and Σw·j (< 2^39): as in `mmse_with`, with far fewer points.
     let mut post = Posterior::new(wts, best);
     for i in w.i0..=w.i1 {
