@@ -752,11 +752,21 @@ impl Avr {
     /// the function it belongs to (the nearest text symbol at or below the PC): where the time of
     /// a stretch of firmware goes. About ten times slower than `run_until`; a dev tool.
     pub fn profile_until(&mut self, target: u64) -> Profile {
+        self.profile_until_output(target, false)
+    }
+
+    /// [`Avr::profile_until`], stopping early (when `at_output`) right after the instruction
+    /// that writes a UART byte: a firmware's phases split at its marker bytes.
+    pub fn profile_until_output(&mut self, target: u64, at_output: bool) -> Profile {
         let mut by_pc: HashMap<u32, u64> = HashMap::new();
+        let out = self.uart_output().len();
         while self.cycle() < target && self.state().is_alive() {
             let (pc, c) = (self.pc(), self.cycle());
             self.run_until(c + 1);
             *by_pc.entry(pc).or_default() += self.cycle() - c;
+            if at_output && self.uart_output().len() != out {
+                break;
+            }
         }
         let mut text: Vec<(u32, &str)> = self
             .symbols

@@ -130,6 +130,28 @@ impl Cost {
         c
     }
 
+    /// A coarse point (coarse indices) near the likely winner: the anchors' centroid weighted
+    /// by `1/d̂² = 2^ρ` (to a power of two, the strongest anchor's 32 down to 1), snapped to the
+    /// coarse grid. Only a starting bound for [`Searcher::coarse`]; any point would be correct.
+    #[inline(never)]
+    fn guess(&self) -> (usize, usize) {
+        let rho = &self.rho[..self.n];
+        let top = rho.iter().copied().max().unwrap_or(0);
+        // Σw ≤ 2^8; |Σw·x| < 2^29 (lattice units: |x| < 2^21); top − ρ ≤ 2^31 as u32.
+        let (mut sw, mut sx, mut sy) = (0i32, 0i32, 0i32);
+        for (a, &r) in rho.iter().enumerate() {
+            // w = 2^(5 − ⌊top − ρ⌋), or 0.
+            let down = top.wrapping_sub(r) as u32 >> 20;
+            if down <= 5 {
+                let up = 5 - down as u8;
+                sw += 1 << up;
+                sx += self.ax[a] << up;
+                sy += self.ay[a] << up;
+            }
+        }
+        (snap(sx, self.width, sw), snap(sy, self.height, sw))
+    }
+
     /// `C = K²·C'` in Q.8 dB² (saturating) of a cost `c` (Q.20).
     fn report(&self, c: u32) -> u32 {
         if self.flat {
@@ -149,6 +171,19 @@ impl Cost {
         }
         s.min(u32::MAX as u64) as u32
     }
+}
+
+/// The coarse index `c ≤ 10` of the weighted mean `s/sw` (lattice units) along a side of `side`
+/// cm: `(c − ½)·5·side < s/sw ≤ (c + ½)·5·side`, found by steps (no division).
+#[inline(never)]
+fn snap(s: i32, side: i32, sw: i32) -> usize {
+    let t = (RATIO as i32) * side * sw; // < 2^25
+    let (mut c, mut v) = (0, t);
+    while c < COARSE_DIVS && v < 2 * s {
+        c += 1;
+        v += 2 * t;
+    }
+    c
 }
 
 /// A rectangle of fine indices (inclusive), with a row/column step.
@@ -218,14 +253,7 @@ struct Stage {
 impl Stage {
     const fn new() -> Stage {
         Stage {
-            job: ColumnJob {
-                bound: 0,
-                n: 0,
-                rows: 0,
-                min: 0,
-                min_row: 0,
-                anchors: [AnchorTerm::NONE; MAX_ANCHORS],
-            },
+            job: ColumnJob::EMPTY,
             shift: [0; MAX_ANCHORS],
             shifted: false,
             w: Window::COARSE,
@@ -274,9 +302,10 @@ impl Stage {
     }
 
     /// The costs of column `i`'s rows into `sums` (rows whose bit is set in `skip` are not
-    /// evaluated and get [`INF`]). A row's sum stops growing once it reaches `bound` (it is then
-    /// `≥ bound`, which is all a comparison with `bound` needs to know).
-    #[inline(never)]
+    /// evaluated and get [`INF`]). A row whose sum reaches `min(bound, COST_MAX)` is set to it:
+    /// it is then `≥ bound`, which is all a comparison with `bound` needs to know, and with no
+    /// bound (`INF`) it is the cost saturated at [`COST_MAX`].
+    #[inline(always)]
     fn column<K: TermKernel>(
         &mut self,
         cost: &Cost,
@@ -285,7 +314,34 @@ impl Stage {
         skip: u16,
         sums: &mut [u32; ROWS],
     ) {
+        if self.shifted || cost.flat {
+            return self.column_shifted::<K>(cost, i, bound, skip, sums);
+        }
+        let x = cost.width * i as i32;
+        for (t, ax) in self.job.anchors[..cost.n].iter_mut().zip(&cost.ax) {
+            // Below 2^16: the shift is 0.
+            t.adx = (x - ax).unsigned_abs() as u16;
+        }
+        self.job.bound = bound.min(COST_MAX);
+        self.job.skip = skip;
+        K::column(&mut sums[..self.rows], &mut self.job);
+    }
+
+    /// [`Stage::column`] anchor by anchor with shifted squares, or for a flat cost.
+    #[cold]
+    #[inline(never)]
+    fn column_shifted<K: TermKernel>(
+        &mut self,
+        cost: &Cost,
+        i: usize,
+        bound: u32,
+        skip: u16,
+        sums: &mut [u32; ROWS],
+    ) {
         let rows = &mut sums[..self.rows];
+        let bound = bound.min(COST_MAX);
+        let x = cost.width * i as i32;
+        let anchors = &self.job.anchors[..cost.n];
         let mut bit = 1u16;
         for v in rows.iter_mut() {
             *v = if skip & bit != 0 { INF } else { 0 };
@@ -294,38 +350,18 @@ impl Stage {
         if cost.flat {
             return;
         }
-        let x = cost.width * i as i32;
-        let anchors = &mut self.job.anchors[..cost.n];
-        if !self.shifted {
-            for (a, t) in anchors.iter_mut().enumerate() {
-                // Below 2^16: the shift is 0.
-                t.adx = (x - cost.ax[a]).unsigned_abs() as u16;
-            }
-            self.job.bound = bound;
-            K::column(rows, &mut self.job);
-        } else {
-            let dy_step = cost.height * self.w.step as i32;
-            let y0 = cost.height * self.w.j0 as i32;
-            for (a, t) in anchors.iter().enumerate() {
-                let s = self.shift[a];
-                let dx2 = sq_shr(x - cost.ax[a], s);
-                let mut dy = y0 - cost.ay[a];
-                for sum in rows.iter_mut() {
-                    if *sum < bound {
-                        *sum = add_term::<K>(*sum, dx2, sq_shr(dy, s), t.rho, t.lclamp, t.w);
-                    }
-                    dy += dy_step;
+        let dy_step = cost.height * self.w.step as i32;
+        let y0 = cost.height * self.w.j0 as i32;
+        for (a, t) in anchors.iter().enumerate() {
+            let s = self.shift[a];
+            let dx2 = sq_shr(x - cost.ax[a], s);
+            let mut dy = y0 - cost.ay[a];
+            for sum in rows.iter_mut() {
+                if *sum < bound {
+                    let v = add_term::<K>(*sum, dx2, sq_shr(dy, s), t.rho, t.lclamp, t.w);
+                    *sum = v.min(bound);
                 }
-            }
-        }
-        if bound == INF {
-            // Only then can a real cost have saturated at INF ("no cost yet").
-            let mut bit = 1u16;
-            for v in rows.iter_mut() {
-                if skip & bit == 0 {
-                    *v = (*v).min(COST_MAX);
-                }
-                bit <<= 1;
+                dy += dy_step;
             }
         }
     }
@@ -391,16 +427,28 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
 
     /// Evaluates column `i` (rows in `skip`, `skipped` of them, left out) and offers its first
     /// smallest cost to `best`: the same outcome as offering every row in order under the
-    /// strict `<`.
-    fn column_offer(&mut self, i: usize, skip: u16, skipped: usize, best: &mut LatticeMin) {
-        let bound = best.cost;
+    /// strict `<`. With `before` (column `i` comes before `best`'s in the scan order of the
+    /// reference, `i` outer) a tie wins too, as it would have been found first.
+    fn column_offer(
+        &mut self,
+        i: usize,
+        skip: u16,
+        skipped: usize,
+        before: bool,
+        best: &mut LatticeMin,
+    ) {
+        let bound = if before {
+            best.cost.saturating_add(1)
+        } else {
+            best.cost
+        };
         self.column(i, bound, skip);
         let rows = self.st.rows;
         self.evals += rows - skipped;
         let (r, c) = if self.st.shifted || bound == INF || self.cost.flat {
             // The kernel's minimum covers only the unshifted path's completed rows (a flat cost
-            // runs no kernel); with no bound a saturated cost (clamped to COST_MAX) may be the
-            // column's best.
+            // runs no kernel); with no bound a saturated cost (COST_MAX) may be the column's
+            // best.
             let mut m = (0, INF);
             for (r, &c) in self.sums[..rows].iter().enumerate() {
                 if c < m.1 {
@@ -411,19 +459,40 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
         } else {
             (self.st.job.min_row as usize, self.st.job.min)
         };
-        let w = &self.st.w;
-        best.offer(i, w.j0 + r * w.step, c);
+        if c < bound {
+            let w = &self.st.w;
+            *best = LatticeMin {
+                i,
+                j: w.j0 + r * w.step,
+                cost: c,
+            };
+        }
     }
 
-    /// The thesis' coarse stage: the 11 × 11 coarse grid, `i` outer, strict `<`; leaves the stage
-    /// set up for the coarse grid. (Not inlined: the thesis search and the windowed MMSE share
-    /// one copy in flash.)
+    /// The thesis' coarse stage: the 11 × 11 coarse grid, with the reference's outcome (`i`
+    /// outer, strict `<`); leaves the stage set up for the coarse grid. The coarse point nearest
+    /// [`Cost::guess`] is evaluated first: its cost bounds every column's evaluations from the
+    /// start (ties go where the reference's scan puts them). (Not inlined: the thesis search and
+    /// the windowed MMSE share one copy in flash.)
     #[inline(never)]
     fn coarse(&mut self) -> LatticeMin {
+        let (gi, gj) = self.cost.guess();
+        self.coarse_from(gi, gj)
+    }
+
+    /// [`Searcher::coarse`] starting from coarse point `(gi, gj)` (the same result from any).
+    fn coarse_from(&mut self, gi: usize, gj: usize) -> LatticeMin {
         self.st.init(self.cost, Window::COARSE, None);
-        let mut best = LatticeMin::NONE;
+        self.column(gi * RATIO, INF, !(1 << gj));
+        self.evals += 1;
+        let mut best = LatticeMin {
+            i: gi * RATIO,
+            j: gj * RATIO,
+            cost: self.sums[gj],
+        };
         for i in (0..=FINE_DIVS).step_by(RATIO) {
-            self.column_offer(i, 0, 0, &mut best);
+            // Up to the guess's column a tie comes first in the reference's scan.
+            self.column_offer(i, 0, 0, i <= best.i, &mut best);
         }
         best
     }
@@ -466,7 +535,7 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
             } else {
                 (0, 0)
             };
-            self.column_offer(i, skip, skipped, &mut fine);
+            self.column_offer(i, skip, skipped, false, &mut fine);
         }
         fine
     }
@@ -975,4 +1044,87 @@ pub fn sink_fix(
         Err(e) => return Err(e),
     }
     locate(m, refinement, params.current(), area, estimator)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fixed::{Obs, PointCm};
+    use std::vec::Vec;
+
+    /// The reference's coarse scan: every coarse point's whole cost, `i` outer, strict `<`.
+    fn plain_coarse(cost: &Cost) -> LatticeMin {
+        let mut s = Searcher::<Portable>::new(cost);
+        s.st.init(cost, Window::COARSE, None);
+        let mut best = LatticeMin::NONE;
+        for i in (0..=FINE_DIVS).step_by(RATIO) {
+            s.column(i, INF, 0);
+            for r in 0..=COARSE_DIVS {
+                best.offer(i, r * RATIO, s.sums[r]);
+            }
+        }
+        best
+    }
+
+    fn obs(anchors: &[(i16, i16, i32)]) -> Observations {
+        let v: Vec<Obs> = anchors
+            .iter()
+            .map(|&(x, y, z)| Obs {
+                pos: PointCm::new(x, y),
+                z: z << 16,
+                weight: 2,
+            })
+            .collect();
+        Observations::from_slice(&v)
+    }
+
+    #[test]
+    fn the_coarse_stage_finds_the_first_minimum_from_any_start() {
+        // (The flat model below ties every point.)
+        let area = AreaCm::new(1000, 1000);
+        let cases = [
+            // Mirror-symmetric about x = 5 m: every cost has its twin, ties everywhere.
+            obs(&[
+                (0, 0, -62),
+                (1000, 0, -62),
+                (0, 1000, -75),
+                (1000, 1000, -75),
+            ]),
+            obs(&[(0, 0, -50), (1000, 0, -50), (500, 1000, -70)]),
+            // Flat in practice: every anchor equally far from everything.
+            obs(&[
+                (0, 0, -40),
+                (1000, 0, -40),
+                (1000, 1000, -40),
+                (0, 1000, -40),
+            ]),
+            // Generic.
+            obs(&[
+                (0, 0, -64),
+                (1000, 0, -68),
+                (1000, 1000, -66),
+                (0, 1000, -60),
+            ]),
+            obs(&[(-300, 200, -71), (1200, 0, -55), (400, 1500, -80)]),
+        ];
+        let flat = PathLoss {
+            p0: -40 << 16,
+            alpha: 0,
+        };
+        let models = [PathLoss::THESIS, flat];
+        for o in &cases {
+            for &m in &models {
+                let cost = Cost::new(o, m, area);
+                let want = plain_coarse(&cost);
+                for gi in 0..=COARSE_DIVS {
+                    for gj in 0..=COARSE_DIVS {
+                        let mut s = Searcher::<Portable>::new(&cost);
+                        assert_eq!(s.coarse_from(gi, gj), want, "start ({gi}, {gj})");
+                    }
+                }
+                let mut s = Searcher::<Portable>::new(&cost);
+                assert_eq!(s.coarse(), want);
+            }
+        }
+    }
 }

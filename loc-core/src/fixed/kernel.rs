@@ -60,7 +60,8 @@ pub struct AnchorTerm {
 }
 
 impl AnchorTerm {
-    /// No anchor (a placeholder for unused slots).
+    /// No anchor (a placeholder for unused slots; all zero, so that zeroed memory, not a copy
+    /// from flash, initialises it).
     pub const NONE: AnchorTerm = AnchorTerm {
         dx2: 0,
         adx: 0,
@@ -69,12 +70,12 @@ impl AnchorTerm {
         lclamp: 0,
         rho: 0,
         table: core::ptr::null(),
-        w: 1,
+        w: 0,
     };
 }
 
 /// A column of a search window, for [`TermKernel::column`] (on AVR: `bound` at offset 0, `n`
-/// 4, `rows` 5, `min` 6, `min_row` 10, the anchors from 11).
+/// 4, `rows` 5, `min` 6, `min_row` 10, `skip` 11, the anchors from 13).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct ColumnJob {
@@ -88,15 +89,32 @@ pub struct ColumnJob {
     pub min: u32,
     /// …and its first row.
     pub min_row: u8,
+    /// Rows not to evaluate (bit `r` for row `r`, rows from 16 on are all evaluated): they get
+    /// `u32::MAX`. Scratch: kernels may consume it.
+    pub skip: u16,
     /// The anchors, in evaluation order.
     pub anchors: [AnchorTerm; MAX_ANCHORS],
 }
 
-/// The reference of [`TermKernel::column`]. For every row whose sum is below `job.bound`, the
-/// anchors' weighted terms `w·term(dx² + dy², ρ, clamp)` are added in order; a row whose sum
-/// reaches the bound is set to the bound and the rest of its anchors are skipped (its exact
-/// cost no longer matters). Rows not below the bound are left alone. Fills every `dx2`, and
-/// `min`/`min_row` with the first smallest completed sum (what a search offers).
+impl ColumnJob {
+    /// No rows, no anchors.
+    pub const EMPTY: ColumnJob = ColumnJob {
+        bound: 0,
+        n: 0,
+        rows: 0,
+        min: 0,
+        min_row: 0,
+        skip: 0,
+        anchors: [AnchorTerm::NONE; MAX_ANCHORS],
+    };
+}
+
+/// The reference of [`TermKernel::column`]: every row's cost from scratch. Rows in `job.skip`
+/// get `u32::MAX`; for every other row the anchors' weighted terms `w·term(dx² + dy², ρ, clamp)`
+/// are added in order to 0, and a row whose sum reaches `job.bound` is set to the bound and the
+/// rest of its anchors are skipped (its exact cost no longer matters; with the bound at
+/// `u32::MAX − 1` that is the cost saturated there). Fills every `dx2`, and `min`/`min_row`
+/// with the first smallest completed sum below the bound (what a search offers).
 #[inline(always)]
 pub fn portable_column<K: TermKernel>(sums: &mut [u32], job: &mut ColumnJob) {
     let n = (job.n as usize).min(MAX_ANCHORS);
@@ -104,11 +122,15 @@ pub fn portable_column<K: TermKernel>(sums: &mut [u32], job: &mut ColumnJob) {
         a.dx2 = sq16(a.adx as i32);
     }
     (job.min, job.min_row) = (u32::MAX, 0);
+    let mut skip = job.skip;
     for (r, sum) in sums.iter_mut().enumerate() {
-        if *sum >= job.bound {
+        let skipped = skip & 1 != 0;
+        skip >>= 1;
+        if skipped {
+            *sum = u32::MAX;
             continue;
         }
-        let mut s = *sum;
+        let mut s = 0u32;
         for a in &job.anchors[..n] {
             let dy = a.dy0.wrapping_add((r as i32).wrapping_mul(a.step as i32));
             s = add_term::<K>(s, a.dx2, sq16(dy), a.rho, a.lclamp, a.w);
@@ -122,6 +144,7 @@ pub fn portable_column<K: TermKernel>(sums: &mut [u32], job: &mut ColumnJob) {
         }
         *sum = s;
     }
+    job.skip = skip;
 }
 
 /// `sum` plus one anchor's weighted term `w·(ρ + max(log2 d², clamp))²` (Q.20, saturating) for

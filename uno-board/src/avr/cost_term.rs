@@ -39,7 +39,8 @@ const _: () = {
     assert!(offset_of!(ColumnJob, rows) == 5);
     assert!(offset_of!(ColumnJob, min) == 6);
     assert!(offset_of!(ColumnJob, min_row) == 10);
-    assert!(offset_of!(ColumnJob, anchors) == 11);
+    assert!(offset_of!(ColumnJob, skip) == 11);
+    assert!(offset_of!(ColumnJob, anchors) == 13);
 };
 
 /// The AVR kernel for `loc_core::fixed::{mle_with, mmse_with, estimate_with}`.
@@ -311,18 +312,27 @@ pub fn term(lo: u32, carry: bool, rho: i32, lclamp: i32) -> u32 {
 pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
     let n = job.n.min(job.anchors.len() as u8);
     if n == 0 || sums.is_empty() {
-        // The reference fills every dx² (none here) and adds nothing.
+        // No terms: rows not skipped cost 0.
+        (job.min, job.min_row) = (u32::MAX, 0);
+        for (r, s) in sums.iter_mut().enumerate() {
+            let skipped = job.skip & 1 != 0;
+            job.skip >>= 1;
+            *s = if skipped { u32::MAX } else { 0 };
+            if !skipped && job.bound > 0 && job.min == u32::MAX {
+                (job.min, job.min_row) = (0, r as u8);
+            }
+        }
         return;
     }
     // The assembly reads both from the job.
     job.n = n;
     job.rows = sums.len().min(255) as u8;
-    // SAFETY: X walks the first `rows` (1 to 255) sums, each read and written at most once in
-    // place; Z points at `job` (its address also kept on the stack, popped before the end):
-    // the loop reads its bound and its first `n` (1 to 8) anchors and writes their `dx2`;
-    // `lpm` reads 6 bytes of the log2 table per term as in [`term`]. Only the declared
+    // SAFETY: X walks the first `rows` (1 to 255) sums, each written once; Z points at `job`
+    // (its address also kept on the stack, popped before the end): the loop reads its bound,
+    // its skip mask (shifting it in place) and its first `n` (1 to 8) anchors and writes their
+    // `dx2`; `lpm` reads 6 bytes of the log2 table per term as in [`term`]. Only the declared
     // registers, r0, r1 (left at 0), the flags and those two stack bytes are written (and the
-    // job's `min`, `min_row` and `dx2` fields).
+    // job's `min`, `min_row`, `skip` and `dx2` fields).
     unsafe {
         asm!(
             "clr r2",
@@ -337,7 +347,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "std Z+10, r2",
             // ---- dx² of every anchor, from |dx| ----
             "ldd r23, Z+4",
-            "adiw r30, 11",
+            "adiw r30, 13",
             "8:",
             "ldd r16, Z+4",
             "ldd r17, Z+5",
@@ -361,35 +371,32 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "dec r23",
             "brne 8b",
             "clr r22",
-            // ---- row r22: room = bound − sum; rows not below the bound are left alone ----
+            // ---- row r22: skipped (the next bit of `skip`) → u32::MAX; else room = bound ----
             "1:",
             "pop r30",
             "pop r31",
             "push r31",
             "push r30",
-            "ld r18, X+",
-            "ld r19, X+",
-            "ld r20, X+",
-            "ld r21, X+",
-            "ldd r16, Z+0",
-            "sub r16, r18",
-            "mov r18, r16",
-            "ldd r16, Z+1",
-            "sbc r16, r19",
-            "mov r19, r16",
-            "ldd r16, Z+2",
-            "sbc r16, r20",
-            "mov r20, r16",
-            "ldd r16, Z+3",
-            "sbc r16, r21",
-            "mov r21, r16",
-            "brcs 39f",
-            "brne 2f",
-            "39:",
+            "ldd r16, Z+11",
+            "ldd r17, Z+12",
+            "lsr r17",
+            "ror r16",
+            "std Z+11, r16",
+            "std Z+12, r17",
+            "brcc 2f",
+            "ldi r16, 0xFF",
+            "st X+, r16",
+            "st X+, r16",
+            "st X+, r16",
+            "st X+, r16",
             "rjmp 37f",
             "2:",
+            "ldd r18, Z+0",
+            "ldd r19, Z+1",
+            "ldd r20, Z+2",
+            "ldd r21, Z+3",
             "ldd r23, Z+4",
-            "adiw r30, 11",
+            "adiw r30, 13",
             // ---- anchor at Z: dy = dy0 + r·step (24 bits; |dy| < 2^16) ----
             "5:",
             "ldd r16, Z+10",
@@ -487,7 +494,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "std Z+9, r21",
             "std Z+10, r22",
             "rjmp 36f",
-            // ---- reached: the row is left at the bound ----
+            // ---- reached: the row is set to the bound ----
             "35:",
             "pop r30",
             "pop r31",
@@ -498,11 +505,10 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "ldd r20, Z+2",
             "ldd r21, Z+3",
             "36:",
-            "st -X, r21",
-            "st -X, r20",
-            "st -X, r19",
-            "st -X, r18",
-            "adiw r26, 4",
+            "st X+, r18",
+            "st X+, r19",
+            "st X+, r20",
+            "st X+, r21",
             // ---- next row ----
             "37:",
             "inc r22",
