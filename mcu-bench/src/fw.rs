@@ -104,8 +104,8 @@ fn kernel_inputs(i: u32, r: &mut u32) -> (u32, bool, i32, i32) {
 }
 
 /// One pseudo-random [`loc_core::fixed::ColumnJob`] (1 to 8 anchors, 1 to 11 rows, some
-/// skipped) and garbage in its sums (the kernel must overwrite them): every row's `|dy|` stays
-/// below `2^16`, as the searches guarantee.
+/// skipped) and garbage in its sums (the kernel must overwrite them): the column's `|dx|` and
+/// every row's `|dy|` stay below `2^16`, as the searches guarantee.
 fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::ColumnJob) -> usize {
     use loc_core::fixed::AnchorTerm;
     let mut next = || {
@@ -125,14 +125,20 @@ fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::C
     };
     job.n = n;
     job.rows = rows as u8;
+    let x = next();
+    job.col = (x % 11) as u8;
+    job.xstep = (x >> 8) as u16 % 6_000;
+    let dx_col = job.col as i32 * job.xstep as i32;
     for t in job.anchors[..n as usize].iter_mut() {
         let (c, d, e) = (next(), next(), next());
+        // The column's dx anywhere within ±65 535.
+        let dx = (e % 131_071) as i32 - 65_535;
         let step = 1 + c % (65_535 / span.max(1));
         // Row 0 anywhere such that the last row is still within ±65 535.
         let room = 131_070 - step * span;
         *t = AnchorTerm {
             dx2: d,
-            adx: e as u16,
+            dx0: dx - dx_col,
             dy0: -65_535 + (d % (room + 1)) as i32,
             step: step as u16,
             lclamp: 11_836_024 - ((c % 5) << 20) as i32,

@@ -271,6 +271,9 @@ impl Stage {
         self.shifted = false;
         let step = cost.height * w.step as i32;
         let y0 = cost.height * w.j0 as i32;
+        let x0 = cost.width * w.i0 as i32;
+        // Below 2^16 whenever the path is unshifted (it spans at most the window).
+        self.job.xstep = (cost.width * w.step as i32) as u16;
         for a in 0..cost.n {
             let s = match shifts {
                 Some(s) => s[a],
@@ -289,9 +292,8 @@ impl Stage {
             let wt = cost.w[a];
             self.job.anchors[a] = AnchorTerm {
                 dx2: 0,
-                adx: 0,
+                dx0: x0 - cost.ax[a],
                 dy0: y0 - cost.ay[a],
-                // Below 2^16 whenever the path is unshifted (it spans at most the window).
                 step: step as u16,
                 lclamp: LOG2_CLAMP - sh,
                 rho: cost.rho[a] + sh,
@@ -317,11 +319,8 @@ impl Stage {
         if self.shifted || cost.flat {
             return self.column_shifted::<K>(cost, i, bound, skip, sums);
         }
-        let x = cost.width * i as i32;
-        for (t, ax) in self.job.anchors[..cost.n].iter_mut().zip(&cost.ax) {
-            // Below 2^16: the shift is 0.
-            t.adx = (x - ax).unsigned_abs() as u16;
-        }
+        let c = i - self.w.i0;
+        self.job.col = if self.w.step == 1 { c } else { c / RATIO } as u8;
         self.job.bound = bound.min(COST_MAX);
         self.job.skip = skip;
         K::column(&mut sums[..self.rows], &mut self.job);

@@ -33,18 +33,18 @@ pub trait TermKernel {
     }
 }
 
-/// One anchor of a [`ColumnJob`]: the unshifted case, where `|dx|` and every row's `|dy|` are
-/// below `2^16` lattice units (13.1 m).
+/// One anchor of a [`ColumnJob`]: the unshifted case, where every column's `|dx|` and every
+/// row's `|dy|` are below `2^16` lattice units (13.1 m).
 ///
 /// `repr(C)`: assembly kernels read it by offset (on AVR, where nothing is padded: `dx2` 0,
-/// `adx` 4, `dy0` 6, `step` 10, `lclamp` 12, `rho` 16, `table` 20, `w` 22; 23 bytes).
+/// `dx0` 4, `dy0` 8, `step` 12, `lclamp` 14, `rho` 18, `table` 22, `w` 24; 25 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct AnchorTerm {
-    /// `dx²` of the column: scratch, the kernel computes it from `adx`.
+    /// `dx²` of the column: scratch, the kernel computes it.
     pub dx2: u32,
-    /// `|dx|` of the column, lattice units.
-    pub adx: u16,
+    /// `dx` of the window's column 0, lattice units; column `c`'s is `dx0 + c·xstep`.
+    pub dx0: i32,
     /// `dy` of row 0, lattice units; row `r`'s is `dy0 + r·step` (`|dy| < 2^16` on every row).
     pub dy0: i32,
     /// Row step, lattice units.
@@ -64,7 +64,7 @@ impl AnchorTerm {
     /// from flash, initialises it).
     pub const NONE: AnchorTerm = AnchorTerm {
         dx2: 0,
-        adx: 0,
+        dx0: 0,
         dy0: 0,
         step: 0,
         lclamp: 0,
@@ -75,7 +75,7 @@ impl AnchorTerm {
 }
 
 /// A column of a search window, for [`TermKernel::column`] (on AVR: `bound` at offset 0, `n`
-/// 4, `rows` 5, `min` 6, `min_row` 10, `skip` 11, the anchors from 13).
+/// 4, `rows` 5, `min` 6, `min_row` 10, `skip` 11, `col` 13, `xstep` 14, the anchors from 16).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct ColumnJob {
@@ -92,6 +92,10 @@ pub struct ColumnJob {
     /// Rows not to evaluate (bit `r` for row `r`, rows from 16 on are all evaluated): they get
     /// `u32::MAX`. Scratch: kernels may consume it.
     pub skip: u16,
+    /// The column, counted from the window's first.
+    pub col: u8,
+    /// Column step, lattice units.
+    pub xstep: u16,
     /// The anchors, in evaluation order.
     pub anchors: [AnchorTerm; MAX_ANCHORS],
 }
@@ -105,11 +109,13 @@ impl ColumnJob {
         min: 0,
         min_row: 0,
         skip: 0,
+        col: 0,
+        xstep: 0,
         anchors: [AnchorTerm::NONE; MAX_ANCHORS],
     };
 }
 
-/// The reference of [`TermKernel::column`]: every row's cost from scratch. Rows in `job.skip`
+/// The reference of [`TermKernel::column`]: every row's cost from scratch, column `col`. Rows in `job.skip`
 /// get `u32::MAX`; for every other row the anchors' weighted terms `w·term(dx² + dy², ρ, clamp)`
 /// are added in order to 0, and a row whose sum reaches `job.bound` is set to the bound and the
 /// rest of its anchors are skipped (its exact cost no longer matters; with the bound at
@@ -118,8 +124,9 @@ impl ColumnJob {
 #[inline(always)]
 pub fn portable_column<K: TermKernel>(sums: &mut [u32], job: &mut ColumnJob) {
     let n = (job.n as usize).min(MAX_ANCHORS);
+    let dx = job.col as i32 * job.xstep as i32;
     for a in &mut job.anchors[..n] {
-        a.dx2 = sq16(a.adx as i32);
+        a.dx2 = sq16(a.dx0.wrapping_add(dx));
     }
     (job.min, job.min_row) = (u32::MAX, 0);
     let mut skip = job.skip;

@@ -17,7 +17,7 @@
 //! from r25:r24 after the table reads); r2 is a zero register, r3–r11, r16, r17 scratch; r0/r1
 //! for `mul` (r1 cleared at the end, as the ABI requires). The column loop adds: X walks the
 //! sums, r21:r18 the room left below the bound, r22 the row, r23 the anchors left, and the job's
-//! address on the stack.
+//! address in Y (r29:r28, saved on the stack).
 
 use core::arch::asm;
 use core::mem::{offset_of, size_of};
@@ -26,21 +26,23 @@ use loc_core::fixed::{log2_segment_table, AnchorTerm, ColumnJob, TermKernel};
 // The offsets the assembly reads (AVR has no padding).
 const _: () = {
     assert!(offset_of!(AnchorTerm, dx2) == 0);
-    assert!(offset_of!(AnchorTerm, adx) == 4);
-    assert!(offset_of!(AnchorTerm, dy0) == 6);
-    assert!(offset_of!(AnchorTerm, step) == 10);
-    assert!(offset_of!(AnchorTerm, lclamp) == 12);
-    assert!(offset_of!(AnchorTerm, rho) == 16);
-    assert!(offset_of!(AnchorTerm, table) == 20);
-    assert!(offset_of!(AnchorTerm, w) == 22);
-    assert!(size_of::<AnchorTerm>() == 23);
+    assert!(offset_of!(AnchorTerm, dx0) == 4);
+    assert!(offset_of!(AnchorTerm, dy0) == 8);
+    assert!(offset_of!(AnchorTerm, step) == 12);
+    assert!(offset_of!(AnchorTerm, lclamp) == 14);
+    assert!(offset_of!(AnchorTerm, rho) == 18);
+    assert!(offset_of!(AnchorTerm, table) == 22);
+    assert!(offset_of!(AnchorTerm, w) == 24);
+    assert!(size_of::<AnchorTerm>() == 25);
     assert!(offset_of!(ColumnJob, bound) == 0);
     assert!(offset_of!(ColumnJob, n) == 4);
     assert!(offset_of!(ColumnJob, rows) == 5);
     assert!(offset_of!(ColumnJob, min) == 6);
     assert!(offset_of!(ColumnJob, min_row) == 10);
     assert!(offset_of!(ColumnJob, skip) == 11);
-    assert!(offset_of!(ColumnJob, anchors) == 13);
+    assert!(offset_of!(ColumnJob, col) == 13);
+    assert!(offset_of!(ColumnJob, xstep) == 14);
+    assert!(offset_of!(ColumnJob, anchors) == 16);
 };
 
 /// The AVR kernel for `loc_core::fixed::{mle_with, mmse_with, estimate_with}`.
@@ -118,8 +120,8 @@ macro_rules! term_body {
             "ror r13\n",
             // n3 = 64 + k: Z = table + 6·n3 − 384 (the job pointer waits in r25:r24).
             "movw r24, r30\n",
-            "ldd r6, Z+20\n",
-            "ldd r7, Z+21\n",
+            "ldd r6, Z+22\n",
+            "ldd r7, Z+23\n",
             "movw r30, r6\n",
             "ldi r17, 6\n",
             "mul r15, r17\n",
@@ -173,10 +175,10 @@ macro_rules! term_body {
             "adc r16, r2\n",
             // ---- l = max(log, clamp) (signed) ----
             "20:\n",
-            "ldd r6, Z+12\n",
-            "ldd r7, Z+13\n",
-            "ldd r8, Z+14\n",
-            "ldd r9, Z+15\n",
+            "ldd r6, Z+14\n",
+            "ldd r7, Z+15\n",
+            "ldd r8, Z+16\n",
+            "ldd r9, Z+17\n",
             "cp r3, r6\n",
             "cpc r4, r7\n",
             "cpc r5, r8\n",
@@ -188,10 +190,10 @@ macro_rules! term_body {
             "mov r16, r9\n",
             // ---- u = |ρ + l| ----
             "21:\n",
-            "ldd r6, Z+16\n",
-            "ldd r7, Z+17\n",
-            "ldd r8, Z+18\n",
-            "ldd r9, Z+19\n",
+            "ldd r6, Z+18\n",
+            "ldd r7, Z+19\n",
+            "ldd r8, Z+20\n",
+            "ldd r9, Z+21\n",
             "add r3, r6\n",
             "adc r4, r7\n",
             "adc r5, r8\n",
@@ -279,7 +281,7 @@ pub fn term(lo: u32, carry: bool, rho: i32, lclamp: i32) -> u32 {
         ..AnchorTerm::NONE
     };
     let [mut n0, mut n1, mut n2, mut n3] = lo.to_le_bytes();
-    // SAFETY: the assembly reads `t` (23 bytes, at the offsets asserted above) through Z and
+    // SAFETY: the assembly reads `t` (25 bytes, at the offsets asserted above) through Z and
     // 6 bytes of the log2 table (64 × 6 bytes in flash, index < 64 by construction) with `lpm`;
     // it writes only the registers declared here, r0, and r1 (left at 0 as the ABI requires) and
     // the flags.
@@ -328,16 +330,18 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
     job.n = n;
     job.rows = sums.len().min(255) as u8;
     // SAFETY: X walks the first `rows` (1 to 255) sums, each written once; Z points at `job`
-    // (its address also kept on the stack, popped before the end): the loop reads its bound,
+    // (its address also kept in Y, whose value is saved on the stack and restored before the
+    // end; nothing here uses the frame): the loop reads its bound,
     // its skip mask (shifting it in place) and its first `n` (1 to 8) anchors and writes their
     // `dx2`; `lpm` reads 6 bytes of the log2 table per term as in [`term`]. Only the declared
-    // registers, r0, r1 (left at 0), the flags and those two stack bytes are written (and the
+    // registers, r0, r1 (left at 0), the flags, Y (restored) and two stack bytes are written (and the
     // job's `min`, `min_row`, `skip` and `dx2` fields).
     unsafe {
         asm!(
             "clr r2",
-            "push r31",
-            "push r30",
+            "push r28",
+            "push r29",
+            "movw r28, r30",
             // ---- no minimum yet ----
             "ldi r16, 0xFF",
             "std Z+6, r16",
@@ -345,12 +349,31 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "std Z+8, r16",
             "std Z+9, r16",
             "std Z+10, r2",
-            // ---- dx² of every anchor, from |dx| ----
+            // ---- dx² of every anchor: dx = dx0 + col·xstep (24 bits; |dx| < 2^16) ----
             "ldd r23, Z+4",
-            "adiw r30, 13",
+            "ldd r22, Z+13",
+            "ldd r24, Z+14",
+            "ldd r25, Z+15",
+            "adiw r30, 16",
             "8:",
-            "ldd r16, Z+4",
-            "ldd r17, Z+5",
+            "mul r22, r24",
+            "movw r16, r0",
+            "mul r22, r25",
+            "add r17, r0",
+            "clr r3",
+            "adc r3, r1",
+            "ldd r4, Z+4",
+            "add r16, r4",
+            "ldd r4, Z+5",
+            "adc r17, r4",
+            "ldd r4, Z+6",
+            "adc r3, r4",
+            "sbrs r3, 7",
+            "rjmp 9f",
+            "com r17",
+            "neg r16",
+            "sbci r17, 0xFF",
+            "9:",
             "mul r16, r16",
             "movw r12, r0",
             "mul r17, r17",
@@ -367,16 +390,13 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "std Z+1, r13",
             "std Z+2, r14",
             "std Z+3, r15",
-            "adiw r30, 23",
+            "adiw r30, 25",
             "dec r23",
             "brne 8b",
             "clr r22",
             // ---- row r22: skipped (the next bit of `skip`) → u32::MAX; else room = bound ----
             "1:",
-            "pop r30",
-            "pop r31",
-            "push r31",
-            "push r30",
+            "movw r30, r28",
             "ldd r16, Z+11",
             "ldd r17, Z+12",
             "lsr r17",
@@ -396,22 +416,22 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "ldd r20, Z+2",
             "ldd r21, Z+3",
             "ldd r23, Z+4",
-            "adiw r30, 13",
+            "adiw r30, 16",
             // ---- anchor at Z: dy = dy0 + r·step (24 bits; |dy| < 2^16) ----
             "5:",
-            "ldd r16, Z+10",
+            "ldd r16, Z+12",
             "mul r22, r16",
             "movw r16, r0",
-            "ldd r3, Z+11",
+            "ldd r3, Z+13",
             "mul r22, r3",
             "add r17, r0",
             "clr r3",
             "adc r3, r1",
-            "ldd r4, Z+6",
-            "add r16, r4",
-            "ldd r4, Z+7",
-            "adc r17, r4",
             "ldd r4, Z+8",
+            "add r16, r4",
+            "ldd r4, Z+9",
+            "adc r17, r4",
+            "ldd r4, Z+10",
             "adc r3, r4",
             "sbrs r3, 7",
             "rjmp 6f",
@@ -446,7 +466,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "7:",
             term_body!(),
             // ---- room −= w·term; at or below 0 the row has reached the bound ----
-            "ldd r17, Z+22",
+            "ldd r17, Z+24",
             "31:",
             "sub r18, r12",
             "sbc r19, r13",
@@ -456,16 +476,13 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "breq 35f",
             "dec r17",
             "brne 31b",
-            "adiw r30, 23",
+            "adiw r30, 25",
             "dec r23",
             "breq 3f",
             "rjmp 5b",
             // ---- every anchor added: sum = bound − room ----
             "3:",
-            "pop r30",
-            "pop r31",
-            "push r31",
-            "push r30",
+            "movw r30, r28",
             "ldd r16, Z+0",
             "sub r16, r18",
             "mov r18, r16",
@@ -496,10 +513,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "rjmp 36f",
             // ---- reached: the row is set to the bound ----
             "35:",
-            "pop r30",
-            "pop r31",
-            "push r31",
-            "push r30",
+            "movw r30, r28",
             "ldd r18, Z+0",
             "ldd r19, Z+1",
             "ldd r20, Z+2",
@@ -517,8 +531,8 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "brsh 38f",
             "rjmp 1b",
             "38:",
-            "pop r30",
-            "pop r31",
+            "pop r29",
+            "pop r28",
             "clr r1",
             inout("X") sums.as_mut_ptr() => _,
             inout("Z") &mut *job as *mut ColumnJob => _,
