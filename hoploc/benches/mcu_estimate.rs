@@ -3,8 +3,9 @@
 //! the estimator's flash and SRAM. See the mcu-bench crate for the firmwares.
 //!
 //! `cargo bench -p hoploc --bench mcu_estimate` builds them (`cargo fw-bench`), runs each in
-//! simavr, and prints the table and a verdict per budget (≤ 160 000 cycles; ≥ 25× fewer than
-//! f32). A missed budget prints FAIL but does not fail the run; results that disagree with the
+//! simavr, and prints the table and a verdict per budget of the MLE estimate, which is what
+//! SPEC §8 budgets (≤ 160 000 cycles; ≥ 25× fewer than f32); the MMSE variant's figures are
+//! printed next to them. A missed budget prints FAIL but does not fail the run; results that disagree with the
 //! host (est-fixed against `loc_core::fixed`, est-f32 against the same f32 code on the host, the
 //! f32 MLE against the fixed MLE) exit non-zero, because then the figures would not be of the
 //! algorithm they claim to be.
@@ -148,7 +149,7 @@ fn bench() -> Result<bool, String> {
             ms(tl)
         );
         println!();
-        totals.push((tag, tf, tl));
+        totals.push((variant, tag, tf, tl));
     }
 
     println!("estimator footprint (over est-none; both variants linked)");
@@ -221,7 +222,18 @@ fn bench() -> Result<bool, String> {
     }
     println!();
 
-    for (tag, tf, tl) in totals {
+    // SPEC §8 budgets the estimate with the coarse/fine MLE; the MMSE variant is measured
+    // against the same figures but not held to them.
+    for (variant, tag, tf, tl) in totals {
+        let ratio = tl as f64 / tf.max(1) as f64;
+        if variant != Variant::Mle {
+            println!(
+                "{tag} estimate (measured, not budgeted): {} cycles ({:.2} ms), {ratio:.1}× fewer than f32",
+                thousands(tf),
+                ms(tf)
+            );
+            continue;
+        }
         println!(
             "{}: {tag} estimate ≤ {} cycles: {} cycles ({:.2} ms)",
             verdict(tf <= CYCLE_BUDGET),
@@ -229,7 +241,6 @@ fn bench() -> Result<bool, String> {
             thousands(tf),
             ms(tf)
         );
-        let ratio = tl as f64 / tf.max(1) as f64;
         println!(
             "{}: {tag} estimate ≥ {MIN_RATIO}× fewer cycles than f32: {ratio:.1}×",
             verdict(ratio >= MIN_RATIO)
