@@ -270,20 +270,20 @@ impl Stage {
         self.job.rows = self.rows as u8;
         self.shifted = false;
         let step = cost.height * w.step as i32;
-        let y0 = cost.height * w.j0 as i32;
-        let x0 = cost.width * w.i0 as i32;
+        let (x0, x1) = (cost.width * w.i0 as i32, cost.width * w.i1 as i32);
+        let (y0, y1) = (cost.height * w.j0 as i32, cost.height * w.j1 as i32);
         // Below 2^16 whenever the path is unshifted (it spans at most the window).
         self.job.xstep = (cost.width * w.step as i32) as u16;
+        let table = log2_segment_table();
         for a in 0..cost.n {
             let s = match shifts {
                 Some(s) => s[a],
                 None => {
-                    let far = |lo: usize, hi: usize, side: i32, p: i32| {
-                        let d0 = (side * lo as i32 - p).unsigned_abs();
-                        d0.max((side * hi as i32 - p).unsigned_abs())
+                    let far = |lo: i32, hi: i32, p: i32| {
+                        (lo - p).unsigned_abs().max((hi - p).unsigned_abs())
                     };
-                    let dx = far(w.i0, w.i1, cost.width, cost.ax[a]);
-                    square_shift(dx.max(far(w.j0, w.j1, cost.height, cost.ay[a])))
+                    let dx = far(x0, x1, cost.ax[a]);
+                    square_shift(dx.max(far(y0, y1, cost.ay[a])))
                 }
             };
             self.shift[a] = s;
@@ -297,7 +297,7 @@ impl Stage {
                 step: step as u16,
                 lclamp: LOG2_CLAMP - sh,
                 rho: cost.rho[a] + sh,
-                table: log2_segment_table(),
+                table,
                 w: if (1..=3).contains(&wt) { wt } else { 4 },
             };
         }
@@ -521,20 +521,23 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
         let rows = w.rows();
         // The coarse rows of the window (j a multiple of RATIO).
         let (mut coarse_rows, mut n_coarse) = (0u16, 0);
-        for r in 0..rows {
-            if (w.j0 + r).is_multiple_of(RATIO) {
-                coarse_rows |= 1 << r;
-                n_coarse += 1;
-            }
+        let mut r = (RATIO - w.j0 % RATIO) % RATIO;
+        while r < rows {
+            coarse_rows |= 1 << r;
+            n_coarse += 1;
+            r += RATIO;
         }
+        // i mod RATIO.
+        let mut phase = w.i0 % RATIO;
         for i in w.i0..=w.i1 {
             // Coarse points cannot beat the coarse winner the window starts from.
-            let (skip, skipped) = if i % RATIO == 0 {
+            let (skip, skipped) = if phase == 0 {
                 (coarse_rows, n_coarse)
             } else {
                 (0, 0)
             };
             self.column_offer(i, skip, skipped, false, &mut fine);
+            phase = if phase == RATIO - 1 { 0 } else { phase + 1 };
         }
         fine
     }
