@@ -602,3 +602,296 @@ impl OnlineParams {
         self.sigma = f.sigma.or(self.sigma);
     }
 }
+
+#[cfg(test)]
+#[path = "params_old.rs"]
+mod old;
+
+#[cfg(test)]
+mod tests {
+    //! The fast path against [`old`], the implementation it replaced: every public result must be
+    //! bit-identical, on random and extreme inputs.
+    use super::*;
+    use crate::fixed::{ALPHA, DB};
+    use std::{vec, vec::Vec};
+
+    /// xorshift64*.
+    struct Rng(u64);
+
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 ^= self.0 >> 12;
+            self.0 ^= self.0 << 25;
+            self.0 ^= self.0 >> 27;
+            self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+        }
+
+        fn below(&mut self, n: u64) -> u64 {
+            self.next() % n
+        }
+
+        fn pick<T: Copy>(&mut self, v: &[T]) -> T {
+            v[self.below(v.len() as u64) as usize]
+        }
+
+        /// A value in `[lo, hi]`.
+        fn range(&mut self, lo: i64, hi: i64) -> i64 {
+            lo + self.below((hi - lo + 1) as u64) as i64
+        }
+
+        /// Mostly plausible, sometimes anything, sometimes an edge.
+        fn i32_around(&mut self, typical: (i64, i64), limit: i64) -> i32 {
+            match self.below(8) {
+                0 => self.next() as i32,
+                1 => self.pick(&[i32::MIN, i32::MAX, 0, -1, 1]),
+                2 => {
+                    self.pick(&[-limit, limit, -limit - 1, limit + 1, -limit + 1, limit - 1]) as i32
+                }
+                3 => self.range(-limit - 2, limit + 2) as i32,
+                _ => self.range(typical.0, typical.1) as i32,
+            }
+        }
+    }
+
+    fn point(r: &mut Rng) -> PointCm {
+        match r.below(6) {
+            0 => PointCm::new(r.next() as i16, r.next() as i16),
+            1 => PointCm::new(
+                r.pick(&[i16::MIN, i16::MAX, 0, -1, 1]),
+                r.pick(&[i16::MIN, i16::MAX, 0, -1, 1]),
+            ),
+            2 => PointCm::new(r.range(-3, 3) as i16, r.range(-3, 3) as i16),
+            _ => PointCm::new(r.range(-200, 2200) as i16, r.range(-200, 2200) as i16),
+        }
+    }
+
+    fn bytes(r: &mut Rng) -> Vec<Option<u8>> {
+        let len = match r.below(10) {
+            0 => r.below(300) as usize,
+            1 => 0,
+            _ => r.range(1, 8) as usize,
+        };
+        let style = r.below(5);
+        let base = r.next() as u8;
+        (0..len)
+            .map(|_| {
+                if r.below(6) == 0 {
+                    return None;
+                }
+                Some(match style {
+                    0 => r.next() as u8,
+                    1 => r.pick(&[0, 255]),
+                    2 => base,
+                    3 => 255,
+                    _ => base.wrapping_add(r.below(7) as u8).max(30),
+                })
+            })
+            .collect()
+    }
+
+    fn x_value(r: &mut Rng, pool: &[i32]) -> i32 {
+        const X_MAX: i64 = 32 << 18;
+        match r.below(8) {
+            0 => r.next() as i32,
+            1 => r.pick(&[i32::MIN, i32::MAX, 0, -X_MAX as i32, X_MAX as i32]),
+            2 => r.range(-X_MAX - 5, X_MAX + 5) as i32,
+            // Nearly equal distances: α barely identifiable.
+            3 | 4 if !pool.is_empty() => r.pick(pool).wrapping_add(r.range(-40, 40) as i32),
+            _ => r.range(-30 << 18, 20 << 18) as i32,
+        }
+    }
+
+    /// Random statistics, built in both implementations side by side (each push compared).
+    fn stats_pair(r: &mut Rng) -> (CalStats, old::CalStats) {
+        let (mut s, mut o) = (CalStats::new(), old::CalStats::default());
+        let mut pool = Vec::new();
+        let pushes = match r.below(6) {
+            0 => r.range(0, 3),
+            1 => r.range(40, 120),
+            _ => r.range(1, 30),
+        };
+        if r.below(4) == 0 {
+            // A room: anchors up to 20 m apart, bytes from P0 −40 dBm, α 2…5, ±6 dB noise.
+            let anchors: Vec<PointCm> = (0..r.range(2, 8))
+                .map(|_| PointCm::new(r.range(0, 2000) as i16, r.range(0, 2000) as i16))
+                .collect();
+            let alpha = r.range(20, 50) as f64 / 10.0;
+            for (i, &a) in anchors.iter().enumerate() {
+                for &c in &anchors[i + 1..] {
+                    let d = libm::hypot((a.x - c.x) as f64, (a.y - c.y) as f64).max(1.0) / 100.0;
+                    let b: Vec<Option<u8>> = (0..r.range(1, 8))
+                        .map(|_| {
+                            let noise = r.range(-600, 600) as f64 / 100.0;
+                            let dbm = -40.0 - 10.0 * alpha * libm::log10(d) + noise;
+                            (r.below(10) != 0).then_some((-dbm).round().clamp(0.0, 255.0) as u8)
+                        })
+                        .collect();
+                    assert_eq!(s.push_pair(a, c, &b), o.push_pair(a, c, &b));
+                }
+            }
+            return (s, o);
+        }
+        let extreme = r.below(8) == 0;
+        for _ in 0..pushes {
+            let mut b = bytes(r);
+            if extreme {
+                b = vec![Some(r.pick(&[0, 255])); r.range(1, 64) as usize];
+            }
+            let got = if r.below(2) == 0 && !extreme {
+                let (a, c) = (point(r), point(r));
+                (s.push_pair(a, c, &b), o.push_pair(a, c, &b))
+            } else {
+                let x = if extreme {
+                    r.pick(&[-(32 << 18), 32 << 18, i32::MIN, i32::MAX, (32 << 18) - 1])
+                } else {
+                    x_value(r, &pool)
+                };
+                pool.push(x);
+                (s.push_at(x, &b), o.push_at(x, &b))
+            };
+            assert_eq!(got.0, got.1, "push");
+            assert_eq!(s.len(), o.len());
+        }
+        (s, o)
+    }
+
+    fn model(r: &mut Rng) -> PathLoss {
+        PathLoss {
+            p0: r.i32_around((-90 * DB as i64, -10 * DB as i64), P0_LIMIT as i64),
+            alpha: r.i32_around((ALPHA as i64, 6 * ALPHA as i64), ALPHA_LIMIT as i64),
+        }
+    }
+
+    fn bounds(r: &mut Rng) -> Bounds {
+        match r.below(4) {
+            0 => Bounds::THESIS,
+            1 => {
+                let (a, p) = (model(r), model(r));
+                Bounds {
+                    alpha_min: a.alpha,
+                    alpha_max: p.alpha,
+                    p0_min: a.p0,
+                    p0_max: p.p0,
+                }
+            }
+            2 => {
+                let a = r.range(0, 8 * ALPHA as i64) as i32;
+                let p = r.range(-100 * DB as i64, 0) as i32;
+                Bounds {
+                    alpha_min: a,
+                    alpha_max: a + r.range(0, 2 * ALPHA as i64) as i32,
+                    p0_min: p,
+                    p0_max: p + r.range(0, 10 * DB as i64) as i32,
+                }
+            }
+            _ => Bounds {
+                alpha_min: r.pick(&[i32::MIN, 0, ALPHA, ALPHA_LIMIT]),
+                alpha_max: r.pick(&[i32::MAX, 0, 5 * ALPHA, -ALPHA_LIMIT]),
+                p0_min: r.pick(&[i32::MIN, 0, -60 * DB, P0_LIMIT]),
+                p0_max: r.pick(&[i32::MAX, 0, -20 * DB, -P0_LIMIT]),
+            },
+        }
+    }
+
+    fn same_fit(new: &Result<ParamFit, LocError>, old: &Result<old::ParamFit, LocError>) -> bool {
+        match (new, old) {
+            (Ok(f), Ok(o)) => {
+                (f.model, f.sse, f.n, f.fitted, f.sigma) == (o.model, o.sse, o.n, o.fitted, o.sigma)
+            }
+            (Err(e), Err(g)) => e == g,
+            _ => false,
+        }
+    }
+
+    const MODES: [ParamMode; 3] = [ParamMode::Fixed, ParamMode::P0Only, ParamMode::P0AndAlpha];
+    const METHODS: [FitMethod; 2] = [FitMethod::LeastSquares, FitMethod::Grid];
+
+    #[test]
+    fn distance_x_is_unchanged() {
+        let mut r = Rng(0x1234_5678_9ABC_DEF1);
+        for dx in -40i16..=40 {
+            for dy in -40i16..=40 {
+                let (a, b) = (PointCm::new(0, 0), PointCm::new(dx, dy));
+                assert_eq!(distance_x(a, b), old::distance_x(a, b), "{dx} {dy}");
+            }
+        }
+        for _ in 0..200_000 {
+            let (a, b) = (point(&mut r), point(&mut r));
+            assert_eq!(distance_x(a, b), old::distance_x(a, b), "{a:?} {b:?}");
+        }
+    }
+
+    #[test]
+    fn fits_are_unchanged() {
+        let mut r = Rng(0x9E37_79B9_7F4A_7C15);
+        for case in 0..20_000 {
+            let (s, o) = stats_pair(&mut r);
+            for _ in 0..4 {
+                let m = model(&mut r);
+                assert_eq!(s.sse(m), o.sse(m), "case {case}: sse at {m:?} of {o:?}");
+            }
+            for mode in MODES {
+                for method in METHODS {
+                    let (prior, b) = (model(&mut r), bounds(&mut r));
+                    let new = fit(&s, mode, method, prior, &b);
+                    let old = old::fit(&o, mode, method, prior, &b);
+                    assert!(
+                        same_fit(&new, &old),
+                        "case {case}: {mode:?} {method:?} {prior:?} {b:?} of {o:?}:\n{new:?}\n{old:?}"
+                    );
+                    let direct = match method {
+                        FitMethod::LeastSquares => fit_least_squares(&s, mode, prior, &b),
+                        FitMethod::Grid => fit_grid(&s, mode, prior, &b),
+                    };
+                    assert_eq!(direct, new);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn ar1_is_unchanged() {
+        let mut r = Rng(0xD1B5_4A32_D192_ED03);
+        for _ in 0..20_000 {
+            let (a, b) = (
+                r.i32_around((-(1 << 16), 1 << 16), 4 << 16),
+                r.i32_around((-(1 << 16), 1 << 16), 4 << 16),
+            );
+            let mut s = Ar1::new(a, b);
+            let mut y = None;
+            for _ in 0..r.range(1, 6) {
+                let x = r.i32_around((-(90 << 16), 6 << 24), 1 << 30);
+                let want = old::ar1_update(s.a, s.b, y, x);
+                y = Some(want);
+                assert_eq!(s.update(x), want, "{s:?} {x}");
+                assert_eq!(s.value(), y);
+            }
+        }
+    }
+
+    #[test]
+    fn online_params_are_unchanged() {
+        let mut r = Rng(0x8BAD_F00D_DEAD_BEEF);
+        for _ in 0..400 {
+            let (mode, method) = (r.pick(&MODES), r.pick(&METHODS));
+            let (b, prior) = (bounds(&mut r), model(&mut r));
+            let (pa, pb) = (r.range(0, 1 << 16) as i32, r.range(0, 1 << 16) as i32);
+            let (aa, ab) = (r.range(0, 1 << 16) as i32, r.range(0, 1 << 16) as i32);
+            let mut on = OnlineParams::with_smoothers(
+                mode,
+                method,
+                b,
+                prior,
+                Ar1::new(pa, pb),
+                Ar1::new(aa, ab),
+            );
+            let mut o = old::OnlineParams::new(mode, method, b, prior, (pa, pb), (aa, ab));
+            for _ in 0..r.range(1, 5) {
+                let (s, so) = stats_pair(&mut r);
+                assert!(same_fit(&on.update(&s), &o.update(&so)));
+                assert_eq!(on.current(), o.current());
+                assert_eq!(on.sigma(), o.sigma);
+            }
+        }
+    }
+}
