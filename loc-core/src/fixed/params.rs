@@ -266,33 +266,36 @@ pub struct ParamFit {
     pub n: u16,
     /// Parameters fitted (0, 1 or 2).
     pub fitted: u8,
-    /// Shadowing σ, Q.8 dB (saturating at 255.99 dB): `sqrt(sse / (n − fitted))`, `None` when
-    /// `n ≤ fitted`.
-    pub sigma: Option<u16>,
 }
 
 impl ParamFit {
     #[inline(never)]
     fn new(stats: &CalStats, model: PathLoss, fitted: u8) -> ParamFit {
-        let sse = stats.sse(model);
-        let dof = stats.n.saturating_sub(fitted as u16) as u32;
-        // σ² Q.16 = sse/dof; σ ≥ 256 dB saturates.
-        let sigma = (dof > 0).then(|| {
-            let v = sse / dof as u64;
-            if v > u32::MAX as u64 {
-                u16::MAX
-            } else {
-                isqrt_u32(v as u32).min(u16::MAX as u32) as u16
-            }
-        });
         ParamFit {
             model,
-            sse,
+            sse: stats.sse(model),
             n: stats.n,
             fitted,
-            sigma,
         }
     }
+
+    /// Shadowing σ, Q.8 dB (saturating at 255.99 dB): `sqrt(sse / (n − fitted))`, `None` when
+    /// `n ≤ fitted`. Computed on demand (one division and one square root).
+    pub fn sigma(&self) -> Option<u16> {
+        sigma_of(self.sse, self.n.saturating_sub(self.fitted as u16))
+    }
+}
+
+/// `sqrt(sse/dof)` in Q.8 dB from `sse` in Q.16 dB², saturating; `None` for `dof = 0`.
+fn sigma_of(sse: u64, dof: u16) -> Option<u16> {
+    (dof > 0).then(|| {
+        let v = sse / dof as u64;
+        if v > u32::MAX as u64 {
+            u16::MAX
+        } else {
+            isqrt_u32(v as u32).min(u16::MAX as u32) as u16
+        }
+    })
 }
 
 /// Fits the model to `stats` in `mode` with `method` within `bounds`: the same rules as
@@ -536,7 +539,9 @@ pub struct OnlineParams {
     prior: PathLoss,
     p0: Ar1,
     alpha: Ar1,
-    sigma: Option<u16>,
+    /// Residual sum and degrees of freedom of the last fit with `n > fitted`: its σ, computed
+    /// only when asked for.
+    spread: Option<(u64, u16)>,
 }
 
 impl OnlineParams {
@@ -561,7 +566,7 @@ impl OnlineParams {
             prior: prior.sane(),
             p0,
             alpha,
-            sigma: None,
+            spread: None,
         }
     }
 
@@ -574,9 +579,10 @@ impl OnlineParams {
         .sane()
     }
 
-    /// σ of the last successful fit (Q.8 dB), for an MMSE with estimated σ.
+    /// σ of the last successful fit that had one (Q.8 dB, [`ParamFit::sigma`]), for an MMSE with
+    /// estimated σ.
     pub fn sigma(&self) -> Option<u16> {
-        self.sigma
+        self.spread.and_then(|(sse, dof)| sigma_of(sse, dof))
     }
 
     /// Fits `stats` and feeds the smoothers; returns the raw fit. On error the state is unchanged.
@@ -599,7 +605,10 @@ impl OnlineParams {
                 self.alpha.update(f.model.alpha);
             }
         }
-        self.sigma = f.sigma.or(self.sigma);
+        let dof = f.n.saturating_sub(f.fitted as u16);
+        if dof > 0 {
+            self.spread = Some((f.sse, dof));
+        }
     }
 }
 
@@ -796,7 +805,8 @@ mod tests {
     fn same_fit(new: &Result<ParamFit, LocError>, old: &Result<old::ParamFit, LocError>) -> bool {
         match (new, old) {
             (Ok(f), Ok(o)) => {
-                (f.model, f.sse, f.n, f.fitted, f.sigma) == (o.model, o.sse, o.n, o.fitted, o.sigma)
+                (f.model, f.sse, f.n, f.fitted, f.sigma())
+                    == (o.model, o.sse, o.n, o.fitted, o.sigma)
             }
             (Err(e), Err(g)) => e == g,
             _ => false,
