@@ -115,6 +115,22 @@ impl CalStats {
     /// beyond [`MAX_SAMPLES`]).
     #[inline(never)]
     pub fn push_at(&mut self, x: i32, bytes: &[Option<u8>]) -> usize {
+        self.push_x(x, bytes)
+    }
+
+    /// Adds the samples `bytes` of the anchor pair `a`, `b` (skipped, returning 0, when the
+    /// anchors coincide).
+    #[inline(never)]
+    pub fn push_pair(&mut self, a: PointCm, b: PointCm, bytes: &[Option<u8>]) -> usize {
+        match distance_x(a, b) {
+            Some(x) => self.push_x(x, bytes),
+            None => 0,
+        }
+    }
+
+    /// [`CalStats::push_at`] (inlined into both entry points; a firmware links one of them).
+    #[inline(always)]
+    fn push_x(&mut self, x: i32, bytes: &[Option<u8>]) -> usize {
         let room = MAX_SAMPLES - self.n;
         let (mut k, mut s, mut s2) = (0u16, 0u16, 0u32);
         for &b in bytes.iter().flatten() {
@@ -136,26 +152,18 @@ impl CalStats {
         let (h, l) = ((ax >> 16) as u8, ax as u16);
         let x2 = ((m8(h, h) as u64) << 32 | (l as u32 * l as u32) as u64)
             + ((mul8_16(h, l) as u64) << 17);
-        // k·x² by k additions (a second pass over the same samples: the count stays unknown to
-        // the optimiser, which would turn a counted loop into a 64-bit multiply).
-        let mut kx2 = 0;
+        // k·|x| and k·x² by k additions (a second pass over the same samples: the count stays
+        // unknown to the optimiser, which would turn a counted loop into 64-bit multiplies).
+        let (mut kx, mut kx2) = (0, 0);
         for _ in bytes.iter().flatten().take(k as usize) {
+            kx += ax;
             kx2 += x2;
         }
         self.sxx += kx2;
         let side = (x < 0) as usize;
-        self.sx[side] += k as u32 * ax;
+        self.sx[side] += kx;
         self.sxb[side] += ((mul8_16(h, s) as u64) << 16) + (l as u32 * s as u32) as u64;
         k as usize
-    }
-
-    /// Adds the samples `bytes` of the anchor pair `a`, `b` (skipped, returning 0, when the
-    /// anchors coincide).
-    pub fn push_pair(&mut self, a: PointCm, b: PointCm, bytes: &[Option<u8>]) -> usize {
-        match distance_x(a, b) {
-            Some(x) => self.push_at(x, bytes),
-            None => 0,
-        }
     }
 
     /// All anchor-to-anchor samples of `m` (`i ≠ j`, channels in use), or only channel `channel`:
