@@ -353,11 +353,12 @@ pub struct ParamFit {
 }
 
 impl ParamFit {
+    /// The fit of `model`, which is within the limits (a sane prior, or clamped to sane bounds).
     #[inline(never)]
     fn new(stats: &CalStats, model: PathLoss, fitted: u8) -> ParamFit {
         ParamFit {
             model,
-            sse: stats.sse(model),
+            sse: stats.sse_at(model.p0, model.alpha),
             n: stats.n,
             fitted,
         }
