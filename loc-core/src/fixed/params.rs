@@ -7,8 +7,15 @@
 //! are exact rational functions of the samples: the least-squares α is one long division
 //! (`(n·Σxz − Σx·Σz) / (n·Σx² − (Σx)²)`, 42 fraction bits), P0 another, and the box-constrained
 //! optimum follows the reference's four-edge rule. Results: P0 Q.16 dB, α Q.24, residual sum
-//! Q.16 dB², σ Q.8 dB. At most [`MAX_SAMPLES`] samples (8 anchors × 7 × 4 channels = 224 fit),
-//! which keeps every product inside `i64`.
+//! Q.16 dB², σ Q.8 dB (on demand). At most [`MAX_SAMPLES`] samples (8 anchors × 7 × 4 channels =
+//! 224 fit), which keeps every product inside `i64`.
+//!
+//! On AVR a 64-bit multiply is a ≈ 350-cycle library call, a 64-bit division ≈ 1.2 k and a
+//! variable 64-bit shift a loop of 1-bit shifts: a pair's x takes one 64-bit product, its sums
+//! only 8 × 8 and 16 × 16 ones (the byte sums in 16/32 bits, the x sums by the sign of x, `k·x²`
+//! by additions), and an unconstrained fit divides once in 64 bits (α, with the reference's
+//! rounding) and once in 32 (P0). `tests` holds every result to the previous all-`i64`
+//! implementation (`params_old.rs`).
 
 use super::math::{clamp_i32, clamp_i64, isqrt_u32, log2_u33, m8, mul8_16, mul_shr, sq_u16};
 use super::{Measurements, PathLoss, PointCm, ALPHA, ALPHA_LIMIT, DB, P0_LIMIT};
