@@ -254,13 +254,13 @@ impl CalStats {
 
     /// Whether the samples span enough distinct distances to determine α, from `dxx` =
     /// [`CalStats::dxx`]: the reference's `Σ(x − x̄)² > 10⁻⁹·n`, i.e.
-    /// `dxx > ⌊n²·2^36/10⁹⌋` (`68.7·n²`: one division only when within `n²` of it).
+    /// `dxx > ⌊n²·2^36/10⁹⌋` (`68.7·n²`: a division only between `64·n²` and `128·n²`).
     fn alpha_identifiable(&self, dxx: u64) -> bool {
         let n2 = self.n as u32 * self.n as u32;
-        if dxx <= (68 * n2) as u64 {
+        if dxx <= (n2 << 6) as u64 {
             return false;
         }
-        dxx >= (69 * n2) as u64 || dxx > ((n2 as u64) << 36) / 1_000_000_000
+        dxx >= (n2 << 7) as u64 || dxx > ((n2 as u64) << 36) / 1_000_000_000
     }
 
     /// Best P0 (Q.16) for α (Q.24), unconstrained: `(Σz − α·Σx)/n`, rounded; saturated at
@@ -1019,6 +1019,40 @@ mod tests {
                             }
                         }
                     }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn identifiability_threshold_is_unchanged() {
+        // Two distances Δ apart (Q.18): n·Σx² − (Σx)² = k1·k2·Δ² crosses ⌊n²·2^36/10⁹⌋.
+        for (k1, k2) in [
+            (1, 1),
+            (1, 2),
+            (2, 3),
+            (5, 1),
+            (28, 100),
+            (128, 128),
+            (1, 255),
+        ] {
+            for delta in 0..400 {
+                let (mut s, mut o) = (CalStats::new(), old::CalStats::default());
+                let x = -(7 << 18) + 12_345;
+                for (k, x) in [(k1, x), (k2, x + delta)] {
+                    let bytes = vec![Some(70); k];
+                    assert_eq!(s.push_at(x, &bytes), o.push_at(x, &bytes));
+                }
+                let dxx = s.dxx();
+                assert_eq!(dxx, (k1 * k2) as u64 * (delta * delta) as u64);
+                let n = (k1 + k2) as i64;
+                let want = dxx as i64 > ((n * n) << 36) / 1_000_000_000;
+                assert_eq!(s.alpha_identifiable(dxx), want, "{k1} {k2} {delta}");
+                for method in METHODS {
+                    let prior = PathLoss::THESIS;
+                    let new = fit(&s, ParamMode::P0AndAlpha, method, prior, &Bounds::THESIS);
+                    let old = old::fit(&o, ParamMode::P0AndAlpha, method, prior, &Bounds::THESIS);
+                    assert!(same_fit(&new, &old), "{k1} {k2} {delta}");
                 }
             }
         }
