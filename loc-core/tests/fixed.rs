@@ -310,7 +310,7 @@ fn fits_agree_with_the_reference() {
                 (alpha_of(f.model) - r.model.alpha).abs(),
                 (p0_of(f.model) - r.model.p0).abs(),
             );
-            let ds = (f.sigma.unwrap() as f64 / 256.0 - r.sigma.unwrap()).abs();
+            let ds = (f.sigma().unwrap() as f64 / 256.0 - r.sigma.unwrap()).abs();
             let dsse = (f.sse as f64 / 65536.0 - r.sse).abs();
             match method {
                 FitMethod::LeastSquares => {

@@ -64,13 +64,14 @@
 //! channels in a 10 m room) as firmware in simavr (`mcu-bench`), with each search column —
 //! rows × anchors, the early exit at the bound and the column's minimum — in AVR assembly
 //! ([`TermKernel::column`], `uno_board::AvrTerm`): calibration statistics of the 6 anchor pairs
-//! ≈ 24 k cycles, least-squares fit + AR(1) ≈ 15 k, Extended refinement ≈ 6 k, thesis MLE
-//! ≈ 162 k (≈ 380 anchor terms after the early exits, ≈ 250 cycles each with their row's share
-//! of the loop), ≈ 206 k in all (12.9 ms): over the 160 k budget. The windowed MMSE (the
-//! sink's, [`mmse_window`]) is ≈ 356 k (≈ 401 k for the whole step): its weights need every
-//! window cost up to 27 bits of weight below the best, so the early exits hardly ever fire; the
-//! full-lattice [`mmse`] is ≈ 7.9 M. Code ≈ 29.6 KB of flash with both estimators linked
-//! (31.6 KB of the 32 KB in all); stack peak ≈ 1.0 KB.
+//! ≈ 13 k cycles (≈ 2.2 k per pair: the log, x, the sums), least-squares fit + AR(1) ≈ 9 k (two
+//! divisions, nine 64-bit products), Extended refinement ≈ 6 k, thesis MLE ≈ 162 k (≈ 380 anchor
+//! terms after the early exits, ≈ 250 cycles each with their row's share of the loop), ≈ 190 k
+//! in all (11.9 ms): over the 160 k budget. The windowed MMSE (the sink's, [`mmse_window`]) is
+//! ≈ 356 k (≈ 384 k for the whole step): its weights need every window cost up to 27 bits of
+//! weight below the best, so the early exits hardly ever fire; the full-lattice [`mmse`] is
+//! ≈ 7.9 M. Code ≈ 29.2 KB of flash with both estimators linked (31.2 KB of the 32 KB in all);
+//! stack peak ≈ 1.0 KB.
 //!
 //! ```ignore
 //! // The lean sink step (what a firmware calls; `sink_fix` does the same from a `Measurements`):

@@ -7,13 +7,21 @@
 //! are exact rational functions of the samples: the least-squares α is one long division
 //! (`(n·Σxz − Σx·Σz) / (n·Σx² − (Σx)²)`, 42 fraction bits), P0 another, and the box-constrained
 //! optimum follows the reference's four-edge rule. Results: P0 Q.16 dB, α Q.24, residual sum
-//! Q.16 dB², σ Q.8 dB. At most [`MAX_SAMPLES`] samples (8 anchors × 7 × 4 channels = 224 fit),
-//! which keeps every product inside `i64`.
+//! Q.16 dB², σ Q.8 dB (on demand). At most [`MAX_SAMPLES`] samples (8 anchors × 7 × 4 channels =
+//! 224 fit), which keeps every product inside `i64`.
+//!
+//! On AVR a 64-bit multiply is a ≈ 350-cycle library call, a 64-bit division ≈ 1.2 k and a
+//! variable 64-bit shift a loop of 1-bit shifts: a pair's x takes one 64-bit product, its sums
+//! only 8 × 8 and 16 × 16 ones (the byte sums in 16/32 bits, the x sums by the sign of x, `k·x²`
+//! by additions), and an unconstrained fit divides once in 64 bits (α, with the reference's
+//! rounding) and once in 32 (P0). `tests` holds every result to the previous all-`i64`
+//! implementation (`params_old.rs`).
 
-use super::math::{clamp_i32, clamp_i64, isqrt_u32, log2_u33, square};
+use super::math::{clamp_i32, clamp_i64, isqrt_u32, log2_u33, m8, mul8_16, mul_shr, sq_u16};
 use super::{Measurements, PathLoss, PointCm, ALPHA, ALPHA_LIMIT, DB, P0_LIMIT};
 use crate::params::{FitMethod, ParamMode};
 use crate::{LocError, MAX_CHANNELS};
+use core::ops::ControlFlow;
 
 /// Most samples a [`CalStats`] takes.
 pub const MAX_SAMPLES: u16 = 256;
@@ -27,14 +35,13 @@ const LOG2_M2_IN_CM2: i64 = 13933176;
 /// anchors (the reference skips distances below 1 cm, and positions are whole cm).
 pub fn distance_x(a: PointCm, b: PointCm) -> Option<i32> {
     // Each square < 2^32 (|Δ| ≤ 65535): their sum is a 33-bit value.
-    let dx2 = square(a.x as i32 - b.x as i32) as u32;
-    let (lo, carry) = dx2.overflowing_add(square(a.y as i32 - b.y as i32) as u32);
+    let (lo, carry) = sq_u16(a.x.abs_diff(b.x)).overflowing_add(sq_u16(a.y.abs_diff(b.y)));
     if lo == 0 && !carry {
         return None;
     }
     // −5·log10(d²/1 m²) = −5·log10(2)·(log2 d² − log2 1 m²): Q.30 × Q.20 → Q.18.
     let l = log2_u33(lo, carry) as i64 - LOG2_M2_IN_CM2;
-    Some(-super::math::mul_shr(FIVE_LOG10_2_Q30, l, 32) as i32)
+    Some(-mul_shr(FIVE_LOG10_2_Q30, l, 32) as i32)
 }
 
 /// Allowed parameter range (inclusive), fixed point. Reversed bounds are used as if sorted; values
@@ -80,20 +87,21 @@ fn sorted(a: i32, b: i32, limit: i32) -> (i32, i32) {
     (a.min(b), a.max(b))
 }
 
-/// Sufficient statistics of calibration samples, as exact integer sums.
+/// Sufficient statistics of calibration samples, as exact integer sums (`z = −b` for the RSSI
+/// byte `b`, so the byte sums are kept; the x sums apart for negative and positive x).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct CalStats {
     n: u16,
-    /// Σx, Q.18.
-    sx: i64,
-    /// Σz, dB.
-    sz: i64,
+    /// Σb (= −Σz), at most 255 · [`MAX_SAMPLES`].
+    sb: u16,
+    /// Σb² (= Σz²).
+    sbb: u32,
+    /// Σ|x| over the samples with x ≥ 0, then with x < 0, Q.18 (each below 2^32).
+    sx: [u32; 2],
     /// Σx², Q.36.
-    sxx: i64,
-    /// Σxz, Q.18.
-    sxz: i64,
-    /// Σz², dB².
-    szz: i64,
+    sxx: u64,
+    /// Σ|x|·b over the samples with x ≥ 0, then with x < 0, Q.18.
+    sxb: [u64; 2],
 }
 
 impl CalStats {
@@ -101,11 +109,11 @@ impl CalStats {
     pub const fn new() -> CalStats {
         CalStats {
             n: 0,
-            sx: 0,
-            sz: 0,
+            sb: 0,
+            sbb: 0,
+            sx: [0; 2],
             sxx: 0,
-            sxz: 0,
-            szz: 0,
+            sxb: [0; 2],
         }
     }
 
@@ -114,37 +122,56 @@ impl CalStats {
     /// beyond [`MAX_SAMPLES`]).
     #[inline(never)]
     pub fn push_at(&mut self, x: i32, bytes: &[Option<u8>]) -> usize {
-        let x = clamp_i32(x, -(32 << 18), 32 << 18);
-        let (mut k, mut s, mut s2) = (0u16, 0i32, 0i32);
-        for &b in bytes.iter().flatten() {
-            if self.n + k >= MAX_SAMPLES {
-                break;
-            }
-            let z = -(b as i32);
-            k += 1;
-            s += z;
-            s2 += z * z;
-        }
-        self.n += k;
-        // Σx² gains k·x²: x² once (< 2^46), then k additions (k is the channel count here).
-        let x2 = square(x) as i64;
-        for _ in 0..k {
-            self.sx += x as i64;
-            self.sxx += x2;
-        }
-        self.sz += s as i64;
-        self.sxz += x as i64 * s as i64;
-        self.szz += s2 as i64;
-        k as usize
+        self.push_x(clamp_i32(x, -(32 << 18), 32 << 18), bytes)
     }
 
     /// Adds the samples `bytes` of the anchor pair `a`, `b` (skipped, returning 0, when the
     /// anchors coincide).
+    #[inline(never)]
     pub fn push_pair(&mut self, a: PointCm, b: PointCm, bytes: &[Option<u8>]) -> usize {
         match distance_x(a, b) {
-            Some(x) => self.push_at(x, bytes),
+            Some(x) => self.push_x(x, bytes),
             None => 0,
         }
+    }
+
+    /// [`CalStats::push_at`] for `|x| ≤ 2^23` ([`distance_x`] stays within ±30 dB), inlined into
+    /// both entry points (a firmware links one of them).
+    #[inline(always)]
+    fn push_x(&mut self, x: i32, bytes: &[Option<u8>]) -> usize {
+        let room = MAX_SAMPLES - self.n;
+        let (mut k, mut s, mut s2) = (0u16, 0u16, 0u32);
+        for &b in bytes.iter().flatten() {
+            if k == room {
+                break;
+            }
+            k += 1;
+            s += b as u16;
+            s2 += m8(b, b) as u32;
+        }
+        if k == 0 {
+            return 0;
+        }
+        self.n += k;
+        self.sb += s;
+        self.sbb += s2;
+        // |x| ≤ 2^23 as h·2^16 + l; x² = h²·2^32 + 2hl·2^16 + l² (< 2^47).
+        let ax = x.unsigned_abs();
+        let (h, l) = ((ax >> 16) as u8, ax as u16);
+        let x2 = ((m8(h, h) as u64) << 32 | (l as u32 * l as u32) as u64)
+            + ((mul8_16(h, l) as u64) << 17);
+        // k·|x| and k·x² by k additions (a second pass over the same samples: the count stays
+        // unknown to the optimiser, which would turn a counted loop into 64-bit multiplies).
+        let (mut kx, mut kx2) = (0, 0);
+        for _ in bytes.iter().flatten().take(k as usize) {
+            kx += ax;
+            kx2 += x2;
+        }
+        self.sxx += kx2;
+        let side = (x < 0) as usize;
+        self.sx[side] += kx;
+        self.sxb[side] += ((mul8_16(h, s) as u64) << 16) + (l as u32 * s as u32) as u64;
+        k as usize
     }
 
     /// All anchor-to-anchor samples of `m` (`i ≠ j`, channels in use), or only channel `channel`:
@@ -191,63 +218,127 @@ impl CalStats {
 
     /// The residual sum at `(p0 Q.16, alpha Q.24)` (both within the limits), Q.16 dB².
     ///
-    /// `Σz² − 2·P0·Σz − 2α·Σxz + n·P0² + 2·P0·α·Σx + α²·Σx²`, each term in Q.32 (α rounded to
-    /// Q.16 here: only candidates are compared with it); every term stays below 2^61.
+    /// `Σz² − 2·P0·Σz − 2α·Σxz + n·P0² + 2·P0·α·Σx + α²·Σx²` in Q.32, with α rounded to Q.16
+    /// (only candidates are compared with it) and `P0·Σx`, `α·Σx²` rounded down to Q.16 (the
+    /// Q.32 terms of the definition, each below 2^61, regrouped into three products).
     #[inline(never)]
     fn sse_at(&self, p0: i32, alpha: i32) -> u64 {
         let (p, a) = (p0 as i64, (alpha as i64 + 128) >> 8);
-        let n = self.n as i64;
-        let p_sx = (p * self.sx) >> 18; // Q.16
-        let a_sxx = (a * (self.sxx >> 20)) >> 16; // Q.16
-        let q32 = (self.szz << 32) - ((p * self.sz) << 17) - ((a * self.sxz) >> 1)
-            + n * p * p
-            + 2 * p_sx * a
-            + a_sxx * a;
+        // P0·Σx and α·Σx², Q.16.
+        let p_sx = (p * self.sx()) >> 18;
+        let a_sxx = (a * (self.sxx >> 20) as i64) >> 16;
+        // Σz² − 2·P0·Σz + n·P0² = Σb² + P0·(2·Σb + n·P0).
+        let w = ((self.sb as i64) << 17) + mul_n(self.n, p0);
+        // 2·P0·α·Σx + α²·Σx² − 2α·Σxz = α·(2·Σxb + 4·P0Σx + 2·αΣx²) / 2, the half rounded up as
+        // the definition's rounded-down −2α·Σxz term.
+        let v = self.sxb() + 4 * p_sx + 2 * a_sxx;
+        let q32 = ((self.sbb as i64) << 32) + p * w + ((a * v + 1) >> 1);
         (q32.max(0) >> 16) as u64
     }
 
-    /// `n·Σx² − (Σx)²`, Q.36: `n²` times the variance of x.
-    fn dxx(&self) -> i64 {
-        self.n as i64 * self.sxx - self.sx * self.sx
+    /// Σx, Q.18.
+    fn sx(&self) -> i64 {
+        self.sx[0] as i64 - self.sx[1] as i64
     }
 
-    /// Whether the samples span enough distinct distances to determine α: the reference's
-    /// `Σ(x − x̄)² > 10⁻⁹·n`.
-    fn alpha_identifiable(&self) -> bool {
-        let n = self.n as i64;
-        self.dxx() > ((n * n) << 36) / 1_000_000_000
+    /// Σx·b (= −Σxz), Q.18.
+    fn sxb(&self) -> i64 {
+        self.sxb[0] as i64 - self.sxb[1] as i64
     }
 
-    /// Best P0 (Q.16) for α (Q.24), unconstrained: `(Σz − α·Σx)/n`, rounded.
+    /// `n·Σx² − (Σx)²`, Q.36: `n²` times the variance of x (never negative).
+    fn dxx(&self) -> u64 {
+        let sx = self.sx().unsigned_abs();
+        self.n as u64 * self.sxx - sx * sx
+    }
+
+    /// Whether the samples span enough distinct distances to determine α, from `dxx` =
+    /// [`CalStats::dxx`]: the reference's `Σ(x − x̄)² > 10⁻⁹·n`, i.e.
+    /// `dxx > ⌊n²·2^36/10⁹⌋` (`68.7·n²`: a division only between `64·n²` and `128·n²`).
+    fn alpha_identifiable(&self, dxx: u64) -> bool {
+        let n2 = self.n as u32 * self.n as u32;
+        if dxx <= (n2 << 6) as u64 {
+            return false;
+        }
+        dxx >= (n2 << 7) as u64 || dxx > ((n2 as u64) << 36) / 1_000_000_000
+    }
+
+    /// Best P0 (Q.16) for α (Q.24), unconstrained: `(Σz − α·Σx)/n`, rounded; saturated at
+    /// `±2^26`, beyond every P0 bound.
     #[inline(never)]
-    fn p0_for(&self, alpha: i32) -> i64 {
-        let num = (self.sz << 16) - ((alpha as i64 * self.sx + (1 << 25)) >> 26);
-        div_q(num, (self.n as i64).max(1), 0)
+    fn p0_for(&self, alpha: i32) -> i32 {
+        let num = -((self.sb as i64) << 16) - ((alpha as i64 * self.sx() + (1 << 25)) >> 26);
+        div_n(num, self.n.max(1))
     }
 
-    /// Best α (Q.24) for P0 (Q.16), unconstrained: `(Σxz − P0·Σx)/Σx²`; `None` if `Σx² = 0`.
+    /// Best α (Q.24) for P0 (Q.16), unconstrained: `(Σxz − P0·Σx)/Σx²`, clamped to
+    /// ±[`ALPHA_LIMIT`]; `None` if `Σx² = 0`.
     #[inline(never)]
-    fn alpha_for(&self, p0: i32) -> Option<i64> {
-        let num = self.sxz - ((p0 as i64 * self.sx) >> 16); // Q.18
-        (self.sxx > 0).then(|| div_q(num, self.sxx, 42))
+    fn alpha_for(&self, p0: i32) -> Option<i32> {
+        let num = -self.sxb() - ((p0 as i64 * self.sx()) >> 16); // Q.18
+        (self.sxx > 0).then(|| div_alpha(num, self.sxx))
     }
 }
 
-/// `num·2^q/den` rounded, for `den > 0`, saturating at `±2^40` (far beyond any bound).
-///
-/// One library 64-bit division: the numerator is shifted left as far as it can go and the
-/// divisor right by the rest of `q` (the divisor keeps at least 20 significant bits in every use
-/// here).
+/// `n·v` for `n ≤ 256`, from two 32-bit products.
+fn mul_n(n: u16, v: i32) -> i64 {
+    let (h, l) = ((v >> 16) * n as i32, (v & 0xFFFF) as u32 * n as u32);
+    ((h as i64) << 16) + l as i64
+}
+
+/// `num·2^42/den` rounded as the reference computed it, clamped to ±[`ALPHA_LIMIT`], for
+/// `den ≥ 1`: `|num|` is shifted left up to bit 61 (at most 42 places), `den` right by the rest of
+/// the 42, then one division with a quotient below 2^29. The shifts go by bytes, then by bits (on
+/// AVR a variable 64-bit shift is a loop of 1-bit shifts).
 #[inline(never)]
-fn div_q(num: i64, den: i64, q: u32) -> i64 {
-    const SAT: u64 = 1 << 40;
-    let (n, d) = (num.unsigned_abs(), den.max(1) as u64);
-    let a = q.min(n.leading_zeros().saturating_sub(2));
-    let d = d >> (q - a);
-    if d == 0 {
-        return if num < 0 { -(SAT as i64) } else { SAT as i64 };
+fn div_alpha(num: i64, den: u64) -> i32 {
+    const Q: u32 = ALPHA_LIMIT.trailing_zeros();
+    let mut u = num.unsigned_abs();
+    // `r`: the right shift left for the divisor, 42 minus the left shift of `u`.
+    let mut r = 42u8;
+    while r >= 8 && u >> 54 == 0 {
+        u <<= 8;
+        r -= 8;
     }
-    let v = (((n << a) + d / 2) / d).min(SAT) as i64;
+    while r >= 1 && u >> 61 == 0 {
+        u <<= 1;
+        r -= 1;
+    }
+    let mut d = den;
+    while r >= 8 {
+        d >>= 8;
+        r -= 8;
+    }
+    while r >= 1 {
+        d >>= 1;
+        r -= 1;
+    }
+    // u < 2^62 (|num| < 2^62 here) and d/2 < 2^62: no overflow. The quotient is needed below
+    // 2^29 only.
+    let u = u + d / 2;
+    let v = if d == 0 || u >> Q >= d {
+        ALPHA_LIMIT
+    } else {
+        (u / d) as i32
+    };
+    if num < 0 {
+        -v
+    } else {
+        v
+    }
+}
+
+/// `num/n` rounded (`n ∈ [1, 256]`), saturated at `±2^26` (beyond every P0 bound): a 32-bit
+/// division unless `|num|` needs more bits.
+#[inline(never)]
+fn div_n(num: i64, n: u16) -> i32 {
+    const SAT: u32 = 1 << 26;
+    let u = num.unsigned_abs() + (n / 2) as u64;
+    let v = if u >> 32 == 0 {
+        (u as u32 / n as u32).min(SAT)
+    } else {
+        (u / n as u64).min(SAT as u64) as u32
+    } as i32;
     if num < 0 {
         -v
     } else {
@@ -266,33 +357,37 @@ pub struct ParamFit {
     pub n: u16,
     /// Parameters fitted (0, 1 or 2).
     pub fitted: u8,
-    /// Shadowing σ, Q.8 dB (saturating at 255.99 dB): `sqrt(sse / (n − fitted))`, `None` when
-    /// `n ≤ fitted`.
-    pub sigma: Option<u16>,
 }
 
 impl ParamFit {
+    /// The fit of `model`, which is within the limits (a sane prior, or clamped to sane bounds).
     #[inline(never)]
     fn new(stats: &CalStats, model: PathLoss, fitted: u8) -> ParamFit {
-        let sse = stats.sse(model);
-        let dof = stats.n.saturating_sub(fitted as u16) as u32;
-        // σ² Q.16 = sse/dof; σ ≥ 256 dB saturates.
-        let sigma = (dof > 0).then(|| {
-            let v = sse / dof as u64;
-            if v > u32::MAX as u64 {
-                u16::MAX
-            } else {
-                isqrt_u32(v as u32).min(u16::MAX as u32) as u16
-            }
-        });
         ParamFit {
             model,
-            sse,
+            sse: stats.sse_at(model.p0, model.alpha),
             n: stats.n,
             fitted,
-            sigma,
         }
     }
+
+    /// Shadowing σ, Q.8 dB (saturating at 255.99 dB): `sqrt(sse / (n − fitted))`, `None` when
+    /// `n ≤ fitted`. Computed on demand (one division and one square root).
+    pub fn sigma(&self) -> Option<u16> {
+        sigma_of(self.sse, self.n.saturating_sub(self.fitted as u16))
+    }
+}
+
+/// `sqrt(sse/dof)` in Q.8 dB from `sse` in Q.16 dB², saturating; `None` for `dof = 0`.
+fn sigma_of(sse: u64, dof: u16) -> Option<u16> {
+    (dof > 0).then(|| {
+        let v = sse / dof as u64;
+        if v > u32::MAX as u64 {
+            u16::MAX
+        } else {
+            isqrt_u32(v as u32).min(u16::MAX as u32) as u16
+        }
+    })
 }
 
 /// Fits the model to `stats` in `mode` with `method` within `bounds`: the same rules as
@@ -320,10 +415,11 @@ pub fn fit_least_squares(
     prior: PathLoss,
     bounds: &Bounds,
 ) -> Result<ParamFit, LocError> {
-    if let Some(r) = fit_one_or_none(stats, mode, FitMethod::LeastSquares, prior, bounds) {
-        return r;
-    }
-    let model = box_least_squares(stats, bounds.alpha(), bounds.p0());
+    let dxx = match fit_one_or_none(stats, mode, FitMethod::LeastSquares, prior, bounds) {
+        ControlFlow::Break(r) => return r,
+        ControlFlow::Continue(dxx) => dxx,
+    };
+    let model = box_least_squares(stats, dxx, bounds.alpha(), bounds.p0());
     Ok(ParamFit::new(stats, model, 2))
 }
 
@@ -336,7 +432,7 @@ pub fn fit_grid(
     prior: PathLoss,
     bounds: &Bounds,
 ) -> Result<ParamFit, LocError> {
-    if let Some(r) = fit_one_or_none(stats, mode, FitMethod::Grid, prior, bounds) {
+    if let ControlFlow::Break(r) = fit_one_or_none(stats, mode, FitMethod::Grid, prior, bounds) {
         return r;
     }
     let ((a_lo, a_hi), (p_lo, p_hi)) = (bounds.alpha(), bounds.p0());
@@ -353,23 +449,26 @@ pub fn fit_grid(
 }
 
 /// The cases both methods share: nothing fitted ([`ParamMode::Fixed`]), no samples, or P0 alone
-/// ([`ParamMode::P0Only`], or α not identifiable). `None`: fit both.
+/// ([`ParamMode::P0Only`], or α not identifiable). `Continue(n·Σx² − (Σx)²)`: fit both.
 fn fit_one_or_none(
     stats: &CalStats,
     mode: ParamMode,
     method: FitMethod,
     prior: PathLoss,
     bounds: &Bounds,
-) -> Option<Result<ParamFit, LocError>> {
+) -> ControlFlow<Result<ParamFit, LocError>, u64> {
     let prior = prior.sane();
     if mode == ParamMode::Fixed {
-        return Some(Ok(ParamFit::new(stats, prior, 0)));
+        return ControlFlow::Break(Ok(ParamFit::new(stats, prior, 0)));
     }
     if stats.is_empty() {
-        return Some(Err(LocError::NoCalibrationData));
+        return ControlFlow::Break(Err(LocError::NoCalibrationData));
     }
-    if mode == ParamMode::P0AndAlpha && stats.alpha_identifiable() {
-        return None;
+    if mode == ParamMode::P0AndAlpha {
+        let dxx = stats.dxx();
+        if stats.alpha_identifiable(dxx) {
+            return ControlFlow::Continue(dxx);
+        }
     }
     let ((a_lo, a_hi), (p_lo, p_hi)) = (bounds.alpha(), bounds.p0());
     let grid = method == FitMethod::Grid;
@@ -383,9 +482,9 @@ fn fit_one_or_none(
     let p0 = if grid {
         grid_p0(p0, p_lo, p_hi)
     } else {
-        clamp_i64(p0, p_lo as i64, p_hi as i64) as i32
+        clamp_i32(p0, p_lo, p_hi)
     };
-    Some(Ok(ParamFit::new(stats, PathLoss { p0, alpha }, 1)))
+    ControlFlow::Break(Ok(ParamFit::new(stats, PathLoss { p0, alpha }, 1)))
 }
 
 /// Whole 0.1 steps of α from `lo` to `hi`. The tolerance (10 units of `10·(hi − lo)` in Q.24)
@@ -407,31 +506,29 @@ fn grid_alpha(alpha: i32, lo: i32, hi: i32) -> i32 {
     alpha_grid(lo, hi, clamp_i64(k, 0, alpha_steps(lo, hi) as i64) as u32)
 }
 
-/// The P0 grid value (0.5 dB steps from `lo`) nearest to `p0` (clamped to the grid).
-fn grid_p0(p0: i64, lo: i32, hi: i32) -> i32 {
-    let steps = (hi as i64 - lo as i64) >> 15;
-    let k = clamp_i64((p0 - lo as i64 + (1 << 14)) >> 15, 0, steps);
-    (lo as i64 + (k << 15)) as i32
+/// The P0 grid value (0.5 dB steps from `lo`) nearest to `p0` (`|p0| ≤ 2^26`; clamped to the
+/// grid).
+fn grid_p0(p0: i32, lo: i32, hi: i32) -> i32 {
+    let steps = (hi - lo) >> 15;
+    let k = clamp_i32((p0 - lo + (1 << 14)) >> 15, 0, steps);
+    lo + (k << 15)
 }
 
-/// The exact least-squares minimiser on the bounds box (as [`crate::params`]'s).
+/// The exact least-squares minimiser on the bounds box (as [`crate::params`]'s), `dxx` =
+/// [`CalStats::dxx`] (positive).
 #[inline(never)]
 fn box_least_squares(
     stats: &CalStats,
+    dxx: u64,
     (a_lo, a_hi): (i32, i32),
     (p_lo, p_hi): (i32, i32),
 ) -> PathLoss {
-    let n = stats.n as i64;
     // α = (n·Σxz − Σx·Σz) / (n·Σx² − (Σx)²): Q.18 / Q.36 → Q.24 takes 2^42.
-    let num = n * stats.sxz - stats.sx * stats.sz;
-    let alpha = div_q(num, stats.dxx(), 42);
-    let alpha = clamp_i64(alpha, -(ALPHA_LIMIT as i64), ALPHA_LIMIT as i64) as i32;
+    let num = stats.sx() * stats.sb as i64 - stats.n as i64 * stats.sxb();
+    let alpha = div_alpha(num, dxx);
     let p0 = stats.p0_for(alpha);
-    if (a_lo..=a_hi).contains(&alpha) && (p_lo as i64..=p_hi as i64).contains(&p0) {
-        return PathLoss {
-            p0: p0 as i32,
-            alpha,
-        };
+    if (a_lo..=a_hi).contains(&alpha) && (p_lo..=p_hi).contains(&p0) {
+        return PathLoss { p0, alpha };
     }
     let mut best = PathLoss { p0: 0, alpha: 0 };
     let mut best_sse = u64::MAX;
@@ -440,15 +537,15 @@ fn box_least_squares(
             // α on an edge, the best P0 for it clamped; then P0 on an edge, the best α clamped.
             0 | 1 => {
                 let alpha = if edge == 0 { a_lo } else { a_hi };
-                let p0 = clamp_i64(stats.p0_for(alpha), p_lo as i64, p_hi as i64) as i32;
+                let p0 = clamp_i32(stats.p0_for(alpha), p_lo, p_hi);
                 PathLoss { p0, alpha }
             }
             _ => {
                 let p0 = if edge == 2 { p_lo } else { p_hi };
-                let a = stats.alpha_for(p0).unwrap_or(a_lo as i64);
+                let a = stats.alpha_for(p0).unwrap_or(a_lo);
                 PathLoss {
                     p0,
-                    alpha: clamp_i64(a, a_lo as i64, a_hi as i64) as i32,
+                    alpha: clamp_i32(a, a_lo, a_hi),
                 }
             }
         };
@@ -502,10 +599,7 @@ impl Ar1 {
     /// Feeds `x`, returns the new output (rounded; saturating at the `i32` range).
     pub fn update(&mut self, x: i32) -> i32 {
         let y = match self.y {
-            Some(prev) => {
-                let v = (self.a as i64 * prev as i64 + self.b as i64 * x as i64 + (1 << 15)) >> 16;
-                clamp_i64(v, i32::MIN as i64, i32::MAX as i64) as i32
-            }
+            Some(prev) => weigh(self.a, prev, self.b, x),
             None => x,
         };
         self.y = Some(y);
@@ -523,6 +617,21 @@ impl Ar1 {
     }
 }
 
+/// `(a·p + b·x)/2^16` rounded, saturated to `i32`. With both weights in `[0, 2^16)` (the usual
+/// smoothers) from 32-bit products of the 16-bit halves of `p` and `x`.
+#[inline(never)]
+fn weigh(a: i32, p: i32, b: i32, x: i32) -> i32 {
+    let v = if (a | b) as u32 >> 16 == 0 {
+        // a·p = a·(p >> 16)·2^16 + a·(p & 0xFFFF): each part fits 32 bits.
+        let hi = (a * (p >> 16)) as i64 + (b * (x >> 16)) as i64;
+        let lo = (a as u32 * (p as u32 & 0xFFFF)) as u64 + (b as u32 * (x as u32 & 0xFFFF)) as u64;
+        hi + ((lo + (1 << 15)) >> 16) as i64
+    } else {
+        (a as i64 * p as i64 + b as i64 * x as i64 + (1 << 15)) >> 16
+    };
+    clamp_i64(v, i32::MIN as i64, i32::MAX as i64) as i32
+}
+
 /// Online parameter estimation: a fit per round, smoothed per parameter by [`Ar1`] (as
 /// [`crate::params::OnlineParams`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -536,7 +645,9 @@ pub struct OnlineParams {
     prior: PathLoss,
     p0: Ar1,
     alpha: Ar1,
-    sigma: Option<u16>,
+    /// Residual sum and degrees of freedom of the last fit with `n > fitted`: its σ, computed
+    /// only when asked for.
+    spread: Option<(u64, u16)>,
 }
 
 impl OnlineParams {
@@ -561,7 +672,7 @@ impl OnlineParams {
             prior: prior.sane(),
             p0,
             alpha,
-            sigma: None,
+            spread: None,
         }
     }
 
@@ -574,9 +685,10 @@ impl OnlineParams {
         .sane()
     }
 
-    /// σ of the last successful fit (Q.8 dB), for an MMSE with estimated σ.
+    /// σ of the last successful fit that had one (Q.8 dB, [`ParamFit::sigma`]), for an MMSE with
+    /// estimated σ.
     pub fn sigma(&self) -> Option<u16> {
-        self.sigma
+        self.spread.and_then(|(sse, dof)| sigma_of(sse, dof))
     }
 
     /// Fits `stats` and feeds the smoothers; returns the raw fit. On error the state is unchanged.
@@ -599,6 +711,398 @@ impl OnlineParams {
                 self.alpha.update(f.model.alpha);
             }
         }
-        self.sigma = f.sigma.or(self.sigma);
+        let dof = f.n.saturating_sub(f.fitted as u16);
+        if dof > 0 {
+            self.spread = Some((f.sse, dof));
+        }
+    }
+}
+
+#[cfg(test)]
+#[path = "params_old.rs"]
+mod old;
+
+#[cfg(test)]
+mod tests {
+    //! The fast path against [`old`], the implementation it replaced: every public result must be
+    //! bit-identical, on random and extreme inputs.
+    use super::*;
+    use crate::fixed::{ALPHA, DB};
+    use std::{vec, vec::Vec};
+
+    /// xorshift64*.
+    struct Rng(u64);
+
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 ^= self.0 >> 12;
+            self.0 ^= self.0 << 25;
+            self.0 ^= self.0 >> 27;
+            self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+        }
+
+        fn below(&mut self, n: u64) -> u64 {
+            self.next() % n
+        }
+
+        fn pick<T: Copy>(&mut self, v: &[T]) -> T {
+            v[self.below(v.len() as u64) as usize]
+        }
+
+        /// A value in `[lo, hi]`.
+        fn range(&mut self, lo: i64, hi: i64) -> i64 {
+            lo + self.below((hi - lo + 1) as u64) as i64
+        }
+
+        /// Mostly plausible, sometimes anything, sometimes an edge.
+        fn i32_around(&mut self, typical: (i64, i64), limit: i64) -> i32 {
+            match self.below(8) {
+                0 => self.next() as i32,
+                1 => self.pick(&[i32::MIN, i32::MAX, 0, -1, 1]),
+                2 => {
+                    self.pick(&[-limit, limit, -limit - 1, limit + 1, -limit + 1, limit - 1]) as i32
+                }
+                3 => self.range(-limit - 2, limit + 2) as i32,
+                _ => self.range(typical.0, typical.1) as i32,
+            }
+        }
+    }
+
+    fn point(r: &mut Rng) -> PointCm {
+        match r.below(6) {
+            0 => PointCm::new(r.next() as i16, r.next() as i16),
+            1 => PointCm::new(
+                r.pick(&[i16::MIN, i16::MAX, 0, -1, 1]),
+                r.pick(&[i16::MIN, i16::MAX, 0, -1, 1]),
+            ),
+            2 => PointCm::new(r.range(-3, 3) as i16, r.range(-3, 3) as i16),
+            _ => PointCm::new(r.range(-200, 2200) as i16, r.range(-200, 2200) as i16),
+        }
+    }
+
+    fn bytes(r: &mut Rng) -> Vec<Option<u8>> {
+        let len = match r.below(10) {
+            0 => r.below(300) as usize,
+            1 => 0,
+            _ => r.range(1, 8) as usize,
+        };
+        let style = r.below(5);
+        let base = r.next() as u8;
+        (0..len)
+            .map(|_| {
+                if r.below(6) == 0 {
+                    return None;
+                }
+                Some(match style {
+                    0 => r.next() as u8,
+                    1 => r.pick(&[0, 255]),
+                    2 => base,
+                    3 => 255,
+                    _ => base.wrapping_add(r.below(7) as u8).max(30),
+                })
+            })
+            .collect()
+    }
+
+    fn x_value(r: &mut Rng, pool: &[i32]) -> i32 {
+        const X_MAX: i64 = 32 << 18;
+        match r.below(8) {
+            0 => r.next() as i32,
+            1 => r.pick(&[i32::MIN, i32::MAX, 0, -X_MAX as i32, X_MAX as i32]),
+            2 => r.range(-X_MAX - 5, X_MAX + 5) as i32,
+            // Nearly equal distances: α barely identifiable.
+            3 | 4 if !pool.is_empty() => r.pick(pool).wrapping_add(r.range(-40, 40) as i32),
+            _ => r.range(-30 << 18, 20 << 18) as i32,
+        }
+    }
+
+    /// Random statistics, built in both implementations side by side (each push compared).
+    fn stats_pair(r: &mut Rng) -> (CalStats, old::CalStats) {
+        let (mut s, mut o) = (CalStats::new(), old::CalStats::default());
+        let mut pool = Vec::new();
+        let pushes = match r.below(6) {
+            0 => r.range(0, 3),
+            1 => r.range(40, 120),
+            _ => r.range(1, 30),
+        };
+        if r.below(4) == 0 {
+            // A room: anchors up to 20 m apart, bytes from P0 −40 dBm, α 2…5, ±6 dB noise.
+            let anchors: Vec<PointCm> = (0..r.range(2, 8))
+                .map(|_| PointCm::new(r.range(0, 2000) as i16, r.range(0, 2000) as i16))
+                .collect();
+            let alpha = r.range(20, 50) as f64 / 10.0;
+            for (i, &a) in anchors.iter().enumerate() {
+                for &c in &anchors[i + 1..] {
+                    let d = libm::hypot((a.x - c.x) as f64, (a.y - c.y) as f64).max(1.0) / 100.0;
+                    let b: Vec<Option<u8>> = (0..r.range(1, 8))
+                        .map(|_| {
+                            let noise = r.range(-600, 600) as f64 / 100.0;
+                            let dbm = -40.0 - 10.0 * alpha * libm::log10(d) + noise;
+                            (r.below(10) != 0).then_some((-dbm).round().clamp(0.0, 255.0) as u8)
+                        })
+                        .collect();
+                    assert_eq!(s.push_pair(a, c, &b), o.push_pair(a, c, &b));
+                }
+            }
+            return (s, o);
+        }
+        let extreme = r.below(8) == 0;
+        for _ in 0..pushes {
+            let mut b = bytes(r);
+            if extreme {
+                b = vec![Some(r.pick(&[0, 255])); r.range(1, 64) as usize];
+            }
+            let got = if r.below(2) == 0 && !extreme {
+                let (a, c) = (point(r), point(r));
+                (s.push_pair(a, c, &b), o.push_pair(a, c, &b))
+            } else {
+                let x = if extreme {
+                    r.pick(&[-(32 << 18), 32 << 18, i32::MIN, i32::MAX, (32 << 18) - 1])
+                } else {
+                    x_value(r, &pool)
+                };
+                pool.push(x);
+                (s.push_at(x, &b), o.push_at(x, &b))
+            };
+            assert_eq!(got.0, got.1, "push");
+            assert_eq!(s.len(), o.len());
+        }
+        (s, o)
+    }
+
+    fn model(r: &mut Rng) -> PathLoss {
+        PathLoss {
+            p0: r.i32_around((-90 * DB as i64, -10 * DB as i64), P0_LIMIT as i64),
+            alpha: r.i32_around((ALPHA as i64, 6 * ALPHA as i64), ALPHA_LIMIT as i64),
+        }
+    }
+
+    fn bounds(r: &mut Rng) -> Bounds {
+        match r.below(4) {
+            0 => Bounds::THESIS,
+            1 => {
+                let (a, p) = (model(r), model(r));
+                Bounds {
+                    alpha_min: a.alpha,
+                    alpha_max: p.alpha,
+                    p0_min: a.p0,
+                    p0_max: p.p0,
+                }
+            }
+            2 => {
+                let a = r.range(0, 8 * ALPHA as i64) as i32;
+                let p = r.range(-100 * DB as i64, 0) as i32;
+                Bounds {
+                    alpha_min: a,
+                    alpha_max: a + r.range(0, 2 * ALPHA as i64) as i32,
+                    p0_min: p,
+                    p0_max: p + r.range(0, 10 * DB as i64) as i32,
+                }
+            }
+            _ => Bounds {
+                alpha_min: r.pick(&[i32::MIN, 0, ALPHA, ALPHA_LIMIT]),
+                alpha_max: r.pick(&[i32::MAX, 0, 5 * ALPHA, -ALPHA_LIMIT]),
+                p0_min: r.pick(&[i32::MIN, 0, -60 * DB, P0_LIMIT]),
+                p0_max: r.pick(&[i32::MAX, 0, -20 * DB, -P0_LIMIT]),
+            },
+        }
+    }
+
+    fn same_fit(new: &Result<ParamFit, LocError>, old: &Result<old::ParamFit, LocError>) -> bool {
+        match (new, old) {
+            (Ok(f), Ok(o)) => {
+                (f.model, f.sse, f.n, f.fitted, f.sigma())
+                    == (o.model, o.sse, o.n, o.fitted, o.sigma)
+            }
+            (Err(e), Err(g)) => e == g,
+            _ => false,
+        }
+    }
+
+    const MODES: [ParamMode; 3] = [ParamMode::Fixed, ParamMode::P0Only, ParamMode::P0AndAlpha];
+    const METHODS: [FitMethod; 2] = [FitMethod::LeastSquares, FitMethod::Grid];
+
+    #[test]
+    fn distance_x_is_unchanged() {
+        let mut r = Rng(0x1234_5678_9ABC_DEF1);
+        for dx in -40i16..=40 {
+            for dy in -40i16..=40 {
+                let (a, b) = (PointCm::new(0, 0), PointCm::new(dx, dy));
+                assert_eq!(distance_x(a, b), old::distance_x(a, b), "{dx} {dy}");
+            }
+        }
+        for _ in 0..200_000 {
+            let (a, b) = (point(&mut r), point(&mut r));
+            assert_eq!(distance_x(a, b), old::distance_x(a, b), "{a:?} {b:?}");
+        }
+        // push_pair skips the ±32 dB clamp: the extremes are 1 cm (+20 dB) and the diagonal of
+        // the i16 square (−29.7 dB).
+        let (near, far) = (
+            distance_x(PointCm::new(0, 0), PointCm::new(0, 1)).unwrap(),
+            distance_x(
+                PointCm::new(i16::MIN, i16::MIN),
+                PointCm::new(i16::MAX, i16::MAX),
+            )
+            .unwrap(),
+        );
+        assert!(near < 21 << 18 && far > -30 << 18, "{near} {far}");
+    }
+
+    #[test]
+    fn fits_are_unchanged() {
+        let mut r = Rng(0x9E37_79B9_7F4A_7C15);
+        for case in 0..20_000 {
+            let (s, o) = stats_pair(&mut r);
+            for _ in 0..4 {
+                let m = model(&mut r);
+                assert_eq!(s.sse(m), o.sse(m), "case {case}: sse at {m:?} of {o:?}");
+            }
+            for mode in MODES {
+                for method in METHODS {
+                    let (prior, b) = (model(&mut r), bounds(&mut r));
+                    let new = fit(&s, mode, method, prior, &b);
+                    let old = old::fit(&o, mode, method, prior, &b);
+                    assert!(
+                        same_fit(&new, &old),
+                        "case {case}: {mode:?} {method:?} {prior:?} {b:?} of {o:?}:\n{new:?}\n{old:?}"
+                    );
+                    let direct = match method {
+                        FitMethod::LeastSquares => fit_least_squares(&s, mode, prior, &b),
+                        FitMethod::Grid => fit_grid(&s, mode, prior, &b),
+                    };
+                    assert_eq!(direct, new);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn extreme_sums_are_unchanged() {
+        const X: i32 = 32 << 18;
+        let mut r = Rng(0x5151_5151_A5A5_A5A5);
+        for xs in [
+            &[X][..],
+            &[-X],
+            &[X, -X],
+            &[-X, X - 1],
+            &[X, X - 1],
+            &[X, 0],
+            &[1, -1],
+            &[i32::MAX, i32::MIN],
+        ] {
+            for b in [0, 1, 254, 255] {
+                for split in [1usize, 2, 128, 255, 256, 300] {
+                    let (mut s, mut o) = (CalStats::new(), old::CalStats::default());
+                    let mut left = 300;
+                    let mut i = 0;
+                    while left > 0 {
+                        let len = split.min(left);
+                        let bytes = vec![Some(b); len];
+                        let x = xs[i % xs.len()];
+                        assert_eq!(s.push_at(x, &bytes), o.push_at(x, &bytes));
+                        left -= len;
+                        i += 1;
+                    }
+                    assert_eq!(s.len(), MAX_SAMPLES as usize);
+                    for mode in MODES {
+                        for method in METHODS {
+                            for _ in 0..3 {
+                                let (prior, bounds) = (model(&mut r), bounds(&mut r));
+                                let new = fit(&s, mode, method, prior, &bounds);
+                                let old = old::fit(&o, mode, method, prior, &bounds);
+                                assert!(
+                                    same_fit(&new, &old),
+                                    "{xs:?} {b} {split}: {new:?} {old:?}"
+                                );
+                                let m = model(&mut r);
+                                assert_eq!(s.sse(m), o.sse(m));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn identifiability_threshold_is_unchanged() {
+        // Two distances Δ apart (Q.18): n·Σx² − (Σx)² = k1·k2·Δ² crosses ⌊n²·2^36/10⁹⌋.
+        for (k1, k2) in [
+            (1, 1),
+            (1, 2),
+            (2, 3),
+            (5, 1),
+            (28, 100),
+            (128, 128),
+            (1, 255),
+        ] {
+            for delta in 0..400 {
+                let (mut s, mut o) = (CalStats::new(), old::CalStats::default());
+                let x = -(7 << 18) + 12_345;
+                for (k, x) in [(k1, x), (k2, x + delta)] {
+                    let bytes = vec![Some(70); k];
+                    assert_eq!(s.push_at(x, &bytes), o.push_at(x, &bytes));
+                }
+                let dxx = s.dxx();
+                assert_eq!(dxx, (k1 * k2) as u64 * (delta * delta) as u64);
+                let n = (k1 + k2) as i64;
+                let want = dxx as i64 > ((n * n) << 36) / 1_000_000_000;
+                assert_eq!(s.alpha_identifiable(dxx), want, "{k1} {k2} {delta}");
+                for method in METHODS {
+                    let prior = PathLoss::THESIS;
+                    let new = fit(&s, ParamMode::P0AndAlpha, method, prior, &Bounds::THESIS);
+                    let old = old::fit(&o, ParamMode::P0AndAlpha, method, prior, &Bounds::THESIS);
+                    assert!(same_fit(&new, &old), "{k1} {k2} {delta}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn ar1_is_unchanged() {
+        let mut r = Rng(0xD1B5_4A32_D192_ED03);
+        for _ in 0..20_000 {
+            let a = r.i32_around((-(1 << 16), 1 << 16), 4 << 16);
+            let b = match r.below(3) {
+                // The usual smoothers: complementary weights.
+                0 => (1i32 << 16).wrapping_sub(a),
+                _ => r.i32_around((-(1 << 16), 1 << 16), 4 << 16),
+            };
+            let mut s = Ar1::new(a, b);
+            let mut y = None;
+            for _ in 0..r.range(1, 6) {
+                let x = r.i32_around((-(90 << 16), 6 << 24), 1 << 30);
+                let want = old::ar1_update(s.a, s.b, y, x);
+                y = Some(want);
+                assert_eq!(s.update(x), want, "{s:?} {x}");
+                assert_eq!(s.value(), y);
+            }
+        }
+    }
+
+    #[test]
+    fn online_params_are_unchanged() {
+        let mut r = Rng(0x8BAD_F00D_DEAD_BEEF);
+        for _ in 0..400 {
+            let (mode, method) = (r.pick(&MODES), r.pick(&METHODS));
+            let (b, prior) = (bounds(&mut r), model(&mut r));
+            let (pa, pb) = (r.range(0, 1 << 16) as i32, r.range(0, 1 << 16) as i32);
+            let (aa, ab) = (r.range(0, 1 << 16) as i32, r.range(0, 1 << 16) as i32);
+            let mut on = OnlineParams::with_smoothers(
+                mode,
+                method,
+                b,
+                prior,
+                Ar1::new(pa, pb),
+                Ar1::new(aa, ab),
+            );
+            let mut o = old::OnlineParams::new(mode, method, b, prior, (pa, pb), (aa, ab));
+            for _ in 0..r.range(1, 5) {
+                let (s, so) = stats_pair(&mut r);
+                assert!(same_fit(&on.update(&s), &o.update(&so)));
+                assert_eq!(on.current(), o.current());
+                assert_eq!(on.sigma(), o.sigma);
+            }
+        }
     }
 }
