@@ -11,7 +11,7 @@
 //!   coarse winner the window starts from, so under a strict `<` they can never win. (The
 //!   windowed MMSE evaluates them again, with the window's shifts: they need their weights.)
 
-use super::kernel::{add_term, log2_segment_table, AnchorTerm, ColumnJob, Portable, TermKernel};
+use super::kernel::{add_term, log2_segment_table, ColumnJob, Portable, TermKernel};
 use super::math::{clamp_i64, exp2_neg_q26, sq_shr, square_shift};
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
@@ -126,6 +126,18 @@ impl Cost {
             // (z − P0) Q.16 (|·| < 2^26) × 1/K Q.32 → Q.48 → Q.20.
             let r = ((o.z as i64 - model.p0 as i64) * inv_k) >> 28;
             c.rho[a] = clamp_i64(r - LOG2_M2, -(1 << 30), 1 << 30) as i32;
+            // Strongest anchor (largest ρ, nearest by its RSSI) first: its term grows fastest
+            // away from the winner, so evaluations stop after fewer terms (≈ 10 % fewer on
+            // random rooms). A completed cost is the same sum in any order, and one that
+            // reaches its bound is set to the bound, so no result depends on the order.
+            let mut b = a;
+            while b > 0 && c.rho[b] > c.rho[b - 1] {
+                c.ax.swap(b, b - 1);
+                c.ay.swap(b, b - 1);
+                c.w.swap(b, b - 1);
+                c.rho.swap(b, b - 1);
+                b -= 1;
+            }
         }
         c
     }
@@ -135,19 +147,21 @@ impl Cost {
     /// coarse grid. Only a starting bound for [`Searcher::coarse`]; any point would be correct.
     #[inline(never)]
     fn guess(&self) -> (usize, usize) {
+        // ρ is sorted, largest first (see `Cost::new`).
         let rho = &self.rho[..self.n];
-        let top = rho.iter().copied().max().unwrap_or(0);
+        let top = rho.first().copied().unwrap_or(0);
         // Σw ≤ 2^8; |Σw·x| < 2^29 (lattice units: |x| < 2^21); top − ρ ≤ 2^31 as u32.
         let (mut sw, mut sx, mut sy) = (0i32, 0i32, 0i32);
         for (a, &r) in rho.iter().enumerate() {
             // w = 2^(5 − ⌊top − ρ⌋), or 0.
             let down = top.wrapping_sub(r) as u32 >> 20;
-            if down <= 5 {
-                let up = 5 - down as u8;
-                sw += 1 << up;
-                sx += self.ax[a] << up;
-                sy += self.ay[a] << up;
+            if down > 5 {
+                break;
             }
+            let up = 5 - down as u8;
+            sw += 1 << up;
+            sx += self.ax[a] << up;
+            sy += self.ay[a] << up;
         }
         (snap(sx, self.width, sw), snap(sy, self.height, sw))
     }
@@ -290,16 +304,15 @@ impl Stage {
             self.shifted |= s != 0;
             let sh = (s as i32) << 20;
             let wt = cost.w[a];
-            self.job.anchors[a] = AnchorTerm {
-                dx2: 0,
-                dx0: x0 - cost.ax[a],
-                dy0: y0 - cost.ay[a],
-                step: step as u16,
-                lclamp: LOG2_CLAMP - sh,
-                rho: cost.rho[a] + sh,
-                table,
-                w: if (1..=3).contains(&wt) { wt } else { 4 },
-            };
+            // Field by field: a whole-struct store goes through a copy on AVR.
+            let t = &mut self.job.anchors[a];
+            t.dx0 = x0 - cost.ax[a];
+            t.dy0 = y0 - cost.ay[a];
+            t.step = step as u16;
+            t.lclamp = LOG2_CLAMP - sh;
+            t.rho = cost.rho[a] + sh;
+            t.table = table;
+            t.w = if (1..=3).contains(&wt) { wt } else { 4 };
         }
     }
 
@@ -320,7 +333,12 @@ impl Stage {
             return self.column_shifted::<K>(cost, i, bound, skip, sums);
         }
         let c = i - self.w.i0;
-        self.job.col = if self.w.step == 1 { c } else { c / RATIO } as u8;
+        // c ≤ 50: an 8-bit division (by a constant: a multiply).
+        self.job.col = if self.w.step == 1 {
+            c as u8
+        } else {
+            c as u8 / RATIO as u8
+        };
         self.job.bound = bound.min(COST_MAX);
         self.job.skip = skip;
         K::column(&mut sums[..self.rows], &mut self.job);
