@@ -806,7 +806,8 @@ impl Weights {
     }
 }
 
-/// `x · f / 2^26` for `x < 2^52`, `f ≤ 2^26`.
+/// `x · f / 2^26` for `x < 2^52`, `f ≤ 2^26`. (Out of line: five call sites of 64-bit code.)
+#[inline(never)]
 fn scale(x: u64, f: u32) -> u64 {
     (x >> 26) * f as u64 + (((x & ((1 << 26) - 1)) * f as u64) >> 26)
 }
