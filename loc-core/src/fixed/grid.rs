@@ -2,11 +2,14 @@
 //!
 //! Costs are `C' = C/K²` in Q.20 log2² units, `u32`, saturating at [`COST_MAX`]; see the module
 //! docs of [`crate::fixed`]. The searches mirror [`crate::grid::search_lattice`] step by step
-//! (same scan order, same strict `<`, same multi-start ranking, descent and budget), so they make
-//! the same decisions whenever the costs order the same way. Two exact shortcuts:
+//! (same outcome as the same scan order, same strict `<`, same multi-start ranking, descent and
+//! budget), so they make the same decisions whenever the costs order the same way. Exact
+//! shortcuts:
 //!
 //! * a cost evaluation stops as soon as its partial sum reaches the value it must beat (the terms
-//!   are non-negative, so the comparison's outcome is already known);
+//!   are non-negative, so the comparison's outcome is already known); the anchors are summed
+//!   strongest first, whose term grows fastest, and the coarse stage starts from the cost of a
+//!   guessed coarse point, so that this happens early (ties still go where the scan puts them);
 //! * the thesis' fine window skips the coarse points inside it: they cost at least as much as the
 //!   coarse winner the window starts from, so under a strict `<` they can never win. (The
 //!   windowed MMSE evaluates them again, with the window's shifts: they need their weights.)
@@ -868,7 +871,7 @@ pub fn mmse_with<K: TermKernel>(
 /// thesis' fine window around it (≤ 11 × 11 points, the 9 coarse ones among them evaluated again
 /// with the window's shifts), weights as in [`mmse`]: at most 243 cost evaluations, as many as
 /// the thesis search, but fewer of them stop early (a weight needs the cost up to 27 bits of
-/// weight above the smallest, not just whether it beats it): ≈ 2.2× the thesis MLE's cycles on
+/// weight above the smallest, not just whether it beats it): ≈ 2.5× the thesis MLE's cycles on
 /// the AVR (module docs). Within 1 cm of the reference on all of `tests/fixed.rs`' 2 074 random
 /// trials (worst 3 mm).
 pub fn mmse_window(

@@ -65,13 +65,13 @@
 //! rows × anchors, the early exit at the bound and the column's minimum — in AVR assembly
 //! ([`TermKernel::column`], `uno_board::AvrTerm`): calibration statistics of the 6 anchor pairs
 //! ≈ 13 k cycles (≈ 2.2 k per pair: the log, x, the sums), least-squares fit + AR(1) ≈ 9 k (two
-//! divisions, nine 64-bit products), Extended refinement ≈ 6 k, thesis MLE ≈ 162 k (≈ 380 anchor
-//! terms after the early exits, ≈ 250 cycles each with their row's share of the loop), ≈ 190 k
-//! in all (11.9 ms): over the 160 k budget. The windowed MMSE (the sink's, [`mmse_window`]) is
-//! ≈ 356 k (≈ 384 k for the whole step): its weights need every window cost up to 27 bits of
-//! weight below the best, so the early exits hardly ever fire; the full-lattice [`mmse`] is
-//! ≈ 7.9 M. Code ≈ 29.2 KB of flash with both estimators linked (31.2 KB of the 32 KB in all);
-//! stack peak ≈ 1.0 KB.
+//! divisions, nine 64-bit products), Extended refinement ≈ 6 k, thesis MLE ≈ 129 k (312 anchor
+//! terms of the 932 a full evaluation takes, ≈ 300 cycles each with their row's share of the
+//! loop), ≈ 157 k in all (9.8 ms, 25.2× fewer than the same algorithm in f32): within the 160 k
+//! budget. The windowed MMSE (the sink's, [`mmse_window`]) is ≈ 326 k (≈ 355 k for the whole
+//! step): its weights need every window cost up to 27 bits of weight below the best, so the
+//! early exits hardly ever fire; the full-lattice [`mmse`] is ≈ 7.9 M. Code ≈ 30 KB of flash
+//! with both estimators linked (32.1 KB of the 32 KB in all); stack peak ≈ 1.1 KB.
 //!
 //! ```ignore
 //! // The lean sink step (what a firmware calls; `sink_fix` does the same from a `Measurements`):
