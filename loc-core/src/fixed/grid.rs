@@ -194,7 +194,8 @@ impl Cost {
 /// cm: `(c − ½)·5·side < s/sw ≤ (c + ½)·5·side`, found by steps (no division).
 #[inline(never)]
 fn snap(s: i32, side: i32, sw: i32) -> usize {
-    let t = (RATIO as i32) * side * sw; // < 2^25
+    // t < 5·2^16·2^8 < 2^27, so v ≤ 21·t < 2^31.
+    let t = (RATIO as i32) * side * sw;
     let (mut c, mut v) = (0, t);
     while c < COARSE_DIVS && v < 2 * s {
         c += 1;
