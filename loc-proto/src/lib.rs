@@ -2,6 +2,7 @@
 //! person, with an encoder for the firmware and a parser for the host tools.
 //!
 //! * [`line`]: the text lines every node writes on its UART at boot ([`line::BootLine`]).
+//! * [`schedule`]: the TDMA superframe, when each anchor beacons and each agent reports.
 //!
 //! Beacon and report messages, the sink's estimate lines, provisioning frames and the node config
 //! layout join this crate with the node firmware.
@@ -14,6 +15,7 @@ extern crate std;
 
 pub mod line;
 mod role;
+pub mod schedule;
 
 pub use role::Role;
 

@@ -1,0 +1,310 @@
+//! The TDMA superframe (SPEC §4): when each anchor beacons, on which channel, and when each agent
+//! reports — the timing every node derives from the same config, defined once.
+//!
+//! A superframe is, for each channel of the channel list in order, a *channel phase* of `N`
+//! slots (slot `k` belongs to anchor `k + 1`), then the *report window*: one sub-slot per agent
+//! (agent `a` has sub-slot `a − 1`) on the sink channel. Every slot starts with a guard time in
+//! which nobody transmits (the radios switch channel at phase boundaries); a node transmits at
+//! the end of the guard.
+//!
+//! ```text
+//! | ch 1: A1 A2 … AN | ch 2: A1 A2 … AN | … | report: ag1 ag2 … agM |
+//!   each slot: [guard | transmit window ...]
+//! ```
+//!
+//! Times are microseconds from the start of the superframe (`u32`): the thesis' 250 ms channel
+//! phases with 4 anchors are 62.5 ms slots, which whole milliseconds cannot express.
+
+/// A superframe layout. Build it with [`Schedule::new`], which checks it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Schedule {
+    anchors: u8,
+    channels: u8,
+    agents: u8,
+    slot_us: u32,
+    report_slot_us: u32,
+    guard_us: u32,
+}
+
+/// Why a layout was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ScheduleError {
+    /// Anchors outside 1…8.
+    Anchors(u8),
+    /// Channels outside 1…4.
+    Channels(u8),
+    /// Agents outside 0…16.
+    Agents(u8),
+    /// A slot not longer than the guard time (nothing could be sent), or shorter than 1 ms.
+    SlotTooShort,
+    /// The superframe would not fit `u32` microseconds (over ~71 minutes).
+    TooLong,
+}
+
+/// Where in the superframe a time falls.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Phase {
+    /// Channel phase `channel` (index into the channel list), anchor `anchor`'s slot (1-based).
+    Beacon {
+        /// Index into the channel list.
+        channel: u8,
+        /// The anchor owning the slot, 1…N.
+        anchor: u8,
+        /// Within the slot's guard time: nobody transmits.
+        guard: bool,
+    },
+    /// The report window, agent `agent`'s sub-slot (1-based).
+    Report {
+        /// The agent owning the sub-slot, 1…M.
+        agent: u8,
+        /// Within the sub-slot's guard time.
+        guard: bool,
+    },
+}
+
+impl Schedule {
+    /// `anchors` (1…8) beacon slots per channel phase for `channels` (1…4) channels, slots of
+    /// `slot_us`; then `agents` (0…16) report sub-slots of `report_slot_us`; each slot begins
+    /// with `guard_us` of silence.
+    pub const fn new(
+        anchors: u8,
+        channels: u8,
+        slot_us: u32,
+        agents: u8,
+        report_slot_us: u32,
+        guard_us: u32,
+    ) -> Result<Schedule, ScheduleError> {
+        if anchors < 1 || anchors > 8 {
+            return Err(ScheduleError::Anchors(anchors));
+        }
+        if channels < 1 || channels > 4 {
+            return Err(ScheduleError::Channels(channels));
+        }
+        if agents > 16 {
+            return Err(ScheduleError::Agents(agents));
+        }
+        if slot_us <= guard_us || slot_us < 1000 || (agents > 0 && report_slot_us <= guard_us) {
+            return Err(ScheduleError::SlotTooShort);
+        }
+        let s = Schedule {
+            anchors,
+            channels,
+            agents,
+            slot_us,
+            report_slot_us,
+            guard_us,
+        };
+        // Beacon part ≤ 32 slots; report part ≤ 16 sub-slots: widen to check.
+        let total = (anchors as u64 * channels as u64) * slot_us as u64
+            + agents as u64 * report_slot_us as u64;
+        if total > u32::MAX as u64 {
+            return Err(ScheduleError::TooLong);
+        }
+        Ok(s)
+    }
+
+    /// Anchors per channel phase.
+    pub const fn anchors(&self) -> u8 {
+        self.anchors
+    }
+
+    /// Channels in the list.
+    pub const fn channels(&self) -> u8 {
+        self.channels
+    }
+
+    /// Report sub-slots.
+    pub const fn agents(&self) -> u8 {
+        self.agents
+    }
+
+    /// One channel phase, µs.
+    pub const fn channel_phase_us(&self) -> u32 {
+        self.anchors as u32 * self.slot_us
+    }
+
+    /// Start of the report window, µs.
+    pub const fn report_start_us(&self) -> u32 {
+        self.channels as u32 * self.channel_phase_us()
+    }
+
+    /// The whole superframe, µs.
+    pub const fn superframe_us(&self) -> u32 {
+        self.report_start_us() + self.agents as u32 * self.report_slot_us
+    }
+
+    /// When anchor `anchor` (1…N) transmits in channel phase `channel` (index): the end of its
+    /// slot's guard, µs. `None` for an anchor or channel outside the layout.
+    pub const fn beacon_at_us(&self, channel: u8, anchor: u8) -> Option<u32> {
+        if channel >= self.channels || anchor < 1 || anchor > self.anchors {
+            return None;
+        }
+        let slot = channel as u32 * self.anchors as u32 + (anchor - 1) as u32;
+        Some(slot * self.slot_us + self.guard_us)
+    }
+
+    /// When agent `agent` (1…M) sends its report: the end of its sub-slot's guard, µs.
+    pub const fn report_at_us(&self, agent: u8) -> Option<u32> {
+        if agent < 1 || agent > self.agents {
+            return None;
+        }
+        Some(self.report_start_us() + (agent - 1) as u32 * self.report_slot_us + self.guard_us)
+    }
+
+    /// Start of channel phase `channel` (index), µs: when every node switches to it.
+    pub const fn channel_start_us(&self, channel: u8) -> Option<u32> {
+        if channel >= self.channels {
+            return None;
+        }
+        Some(channel as u32 * self.channel_phase_us())
+    }
+
+    /// The phase at `t_us` into the superframe (taken modulo the superframe).
+    pub const fn phase_at(&self, t_us: u32) -> Phase {
+        let t = t_us % self.superframe_us();
+        let report = self.report_start_us();
+        if t < report {
+            let slot = t / self.slot_us;
+            let into = t - slot * self.slot_us;
+            Phase::Beacon {
+                channel: (slot / self.anchors as u32) as u8,
+                anchor: (slot % self.anchors as u32) as u8 + 1,
+                guard: into < self.guard_us,
+            }
+        } else {
+            let sub = (t - report) / self.report_slot_us;
+            let into = t - report - sub * self.report_slot_us;
+            Phase::Report {
+                agent: sub as u8 + 1,
+                guard: into < self.guard_us,
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The thesis: 4 anchors, channels [1, 12], 250 ms channel phases; one agent.
+    fn thesis() -> Schedule {
+        Schedule::new(4, 2, 62_500, 1, 50_000, 2_000).unwrap()
+    }
+
+    #[test]
+    fn the_thesis_layout() {
+        let s = thesis();
+        assert_eq!(s.channel_phase_us(), 250_000);
+        assert_eq!(s.report_start_us(), 500_000);
+        assert_eq!(s.superframe_us(), 550_000);
+        assert_eq!(s.beacon_at_us(0, 1), Some(2_000));
+        assert_eq!(s.beacon_at_us(0, 4), Some(189_500));
+        assert_eq!(s.beacon_at_us(1, 1), Some(252_000));
+        assert_eq!(s.channel_start_us(1), Some(250_000));
+        assert_eq!(s.report_at_us(1), Some(502_000));
+        assert_eq!(s.beacon_at_us(2, 1), None);
+        assert_eq!(s.beacon_at_us(0, 5), None);
+        assert_eq!(s.beacon_at_us(0, 0), None);
+        assert_eq!(s.report_at_us(2), None);
+    }
+
+    #[test]
+    fn every_transmit_time_falls_in_its_own_slot_outside_the_guard() {
+        for (n, c, m) in [(1u8, 1u8, 0u8), (3, 4, 2), (8, 4, 16), (4, 2, 1)] {
+            let s = Schedule::new(n, c, 25_000, m, 10_000, 1_500).unwrap();
+            let mut seen = 0;
+            for ch in 0..c {
+                for a in 1..=n {
+                    let t = s.beacon_at_us(ch, a).unwrap();
+                    let want = Phase::Beacon {
+                        channel: ch,
+                        anchor: a,
+                        guard: false,
+                    };
+                    assert_eq!(s.phase_at(t), want);
+                    // The slot's first microsecond is guard time; its last still its own.
+                    let start = t - 1_500;
+                    assert_eq!(
+                        s.phase_at(start),
+                        Phase::Beacon {
+                            channel: ch,
+                            anchor: a,
+                            guard: true
+                        }
+                    );
+                    assert_eq!(s.phase_at(start + 25_000 - 1), want);
+                    seen += 1;
+                }
+            }
+            for a in 1..=m {
+                let t = s.report_at_us(a).unwrap();
+                assert_eq!(
+                    s.phase_at(t),
+                    Phase::Report {
+                        agent: a,
+                        guard: false
+                    }
+                );
+                assert_eq!(
+                    s.phase_at(t - 1),
+                    Phase::Report {
+                        agent: a,
+                        guard: true
+                    }
+                );
+            }
+            assert_eq!(seen, n as usize * c as usize);
+            // Time wraps at the superframe.
+            assert_eq!(s.phase_at(s.superframe_us()), s.phase_at(0));
+        }
+    }
+
+    #[test]
+    fn no_two_slots_overlap() {
+        let s = Schedule::new(8, 4, 3_000, 16, 2_000, 500).unwrap();
+        let mut starts: std::vec::Vec<u32> = (0..4)
+            .flat_map(|c| (1..=8).map(move |a| (c, a)))
+            .map(|(c, a)| s.beacon_at_us(c, a).unwrap())
+            .chain((1..=16).map(|a| s.report_at_us(a).unwrap()))
+            .collect();
+        starts.sort_unstable();
+        for w in starts.windows(2) {
+            assert!(w[1] - w[0] >= 2_000, "{w:?}");
+        }
+        assert!(*starts.last().unwrap() < s.superframe_us());
+    }
+
+    #[test]
+    fn bad_layouts_are_refused() {
+        assert_eq!(
+            Schedule::new(0, 2, 62_500, 1, 50_000, 2_000),
+            Err(ScheduleError::Anchors(0))
+        );
+        assert_eq!(
+            Schedule::new(9, 2, 62_500, 1, 50_000, 2_000),
+            Err(ScheduleError::Anchors(9))
+        );
+        assert_eq!(
+            Schedule::new(4, 5, 62_500, 1, 50_000, 2_000),
+            Err(ScheduleError::Channels(5))
+        );
+        assert_eq!(
+            Schedule::new(4, 2, 62_500, 17, 50_000, 2_000),
+            Err(ScheduleError::Agents(17))
+        );
+        assert_eq!(
+            Schedule::new(4, 2, 2_000, 1, 50_000, 2_000),
+            Err(ScheduleError::SlotTooShort)
+        );
+        assert_eq!(
+            Schedule::new(4, 2, 62_500, 1, 2_000, 2_000),
+            Err(ScheduleError::SlotTooShort)
+        );
+        assert_eq!(
+            Schedule::new(8, 4, u32::MAX / 16, 0, 0, 0),
+            Err(ScheduleError::TooLong)
+        );
+        // No agents: the report sub-slot length does not matter.
+        assert!(Schedule::new(4, 1, 25_000, 0, 0, 1_000).is_ok());
+    }
+}
