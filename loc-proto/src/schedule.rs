@@ -118,6 +118,16 @@ impl Schedule {
         self.agents
     }
 
+    /// A beacon slot, µs.
+    pub const fn slot_us(&self) -> u32 {
+        self.slot_us
+    }
+
+    /// The guard time at the start of every slot, µs.
+    pub const fn guard_us(&self) -> u32 {
+        self.guard_us
+    }
+
     /// One channel phase, µs.
     pub const fn channel_phase_us(&self) -> u32 {
         self.anchors as u32 * self.slot_us
