@@ -25,15 +25,13 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-use loc_proto::schedule::Schedule;
+pub use loc_proto::schedule::SILENT_SUPERFRAMES;
+use loc_proto::schedule::{Schedule, Timeline};
 
 /// Most anchors in a testbed.
 pub const MAX_ANCHORS: usize = 8;
 /// Most channels in the list.
 pub const MAX_CHANNELS: usize = 4;
-/// Superframes without a beacon after which an anchor is taken as gone (for the master choice).
-pub const SILENT_SUPERFRAMES: u8 = 3;
-
 /// What the anchor asks its shell to do.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Action {
@@ -80,20 +78,14 @@ pub enum Mode {
 #[derive(Clone, Debug)]
 pub struct Anchor {
     id: u8,
-    sched: Schedule,
-    /// Time from a beacon's transmit time (its slot's guard end) to its reception here, µs.
-    latency_us: u32,
+    tl: Timeline,
     mode: Mode,
     /// The listening channel has been asked for.
     tuned: bool,
-    sf_start: u32,
-    seq: u16,
     /// Next event of the superframe: `2·c` switch to channel `c`, `2·c + 1` beacon on it.
     next_ev: u8,
     /// Channels beaconed on in this superframe (bit per channel index).
     sent: u8,
-    /// Superframes since each anchor was last heard (index id − 1), saturating.
-    quiet: [u8; MAX_ANCHORS],
     cur: [[u8; MAX_ANCHORS]; MAX_CHANNELS],
     prev: [[u8; MAX_ANCHORS]; MAX_CHANNELS],
 }
@@ -105,17 +97,13 @@ impl Anchor {
         let listen = sched.superframe_us().saturating_mul(1 + id as u32);
         Anchor {
             id,
-            sched,
-            latency_us,
+            tl: Timeline::new(sched, latency_us, id, now_us),
             mode: Mode::Listening {
                 until_us: now_us.wrapping_add(listen),
             },
             tuned: false,
-            sf_start: now_us,
-            seq: 0,
             next_ev: 0,
             sent: 0,
-            quiet: [u8::MAX; MAX_ANCHORS],
             cur: [[0; MAX_ANCHORS]; MAX_CHANNELS],
             prev: [[0; MAX_ANCHORS]; MAX_CHANNELS],
         }
@@ -133,49 +121,41 @@ impl Anchor {
 
     /// The current superframe sequence.
     pub fn seq(&self) -> u16 {
-        self.seq
+        self.tl.seq()
     }
 
-    /// The time master: the lowest id heard in the last [`SILENT_SUPERFRAMES`] superframes, or
-    /// this anchor.
+    /// The time master ([`Timeline::master`]).
     pub fn master(&self) -> u8 {
-        let n = (self.sched.anchors() as usize).min(MAX_ANCHORS);
-        (1..=n as u8)
-            .find(|&j| j == self.id || self.quiet[j as usize - 1] < SILENT_SUPERFRAMES)
-            .unwrap_or(self.id)
+        self.tl.master()
     }
 
     /// The RSSI bytes (−dBm, 0: not heard) this anchor measured from anchors 1…N on the channel
     /// at index `channel` in the previous superframe: what its beacons carry.
     pub fn relay(&self, channel: u8) -> &[u8] {
-        let n = (self.sched.anchors() as usize).min(MAX_ANCHORS);
+        let n = (self.tl.schedule().anchors() as usize).min(MAX_ANCHORS);
         match self.prev.get(channel as usize) {
-            Some(row) if channel < self.sched.channels() => &row[..n],
+            Some(row) if channel < self.tl.schedule().channels() => &row[..n],
             _ => &[],
         }
     }
 
     /// Time of event `k` of the superframe, µs from its start.
     fn event_time(&self, k: u8) -> Option<u32> {
-        let c = k / 2;
+        let (c, s) = (k / 2, self.tl.schedule());
         if k & 1 == 0 {
-            self.sched.channel_start_us(c)
+            s.channel_start_us(c)
         } else {
-            self.sched.beacon_at_us(c, self.id)
+            s.beacon_at_us(c, self.id)
         }
     }
 
-    /// Closes the superframe: relays roll, silence counts grow.
+    /// Closes the superframe: relays and the timeline roll.
     fn end_superframe(&mut self) {
-        self.sf_start = self.sf_start.wrapping_add(self.sched.superframe_us());
-        self.seq = self.seq.wrapping_add(1);
+        self.tl.roll();
         self.next_ev = 0;
         self.sent = 0;
         self.prev = self.cur;
         self.cur = [[0; MAX_ANCHORS]; MAX_CHANNELS];
-        for q in &mut self.quiet {
-            *q = q.saturating_add(1);
-        }
     }
 
     /// What to do at local time `now_us`: call it often (at least once per guard time) and
@@ -191,13 +171,13 @@ impl Anchor {
             }
             // Nobody heard: our own timeline, from now.
             self.mode = Mode::Running;
-            self.sf_start = now_us;
+            self.tl.restart(now_us, 0);
             self.next_ev = 0;
             self.sent = 0;
         }
-        let sf = self.sched.superframe_us();
+        let sf = self.tl.schedule().superframe_us();
         loop {
-            let t = now_us.wrapping_sub(self.sf_start);
+            let t = self.tl.elapsed_us(now_us);
             if t >= sf {
                 self.end_superframe();
                 continue;
@@ -213,10 +193,10 @@ impl Anchor {
                 return Some(Action::SetChannel(c));
             }
             // Our slot: once, and only less than a guard time late.
-            if self.sent & (1 << c) == 0 && t - time < self.sched.guard_us().max(1) {
+            if self.sent & (1 << c) == 0 && t - time < self.tl.schedule().guard_us().max(1) {
                 self.sent |= 1 << c;
                 return Some(Action::SendBeacon {
-                    seq: self.seq,
+                    seq: self.tl.seq(),
                     channel: c,
                 });
             }
@@ -225,36 +205,29 @@ impl Anchor {
 
     /// A beacon was received.
     pub fn on_beacon(&mut self, b: Heard) {
-        let n = self.sched.anchors();
-        if b.from == 0 || b.from > n || b.from == self.id || b.channel >= self.sched.channels() {
+        if !self.tl.plausible(b.from, b.channel) {
             return;
         }
-        self.quiet[b.from as usize - 1] = 0;
+        self.tl.heard(b.from);
         if let Mode::Listening { .. } = self.mode {
             self.align(b);
             self.mode = Mode::Running;
-        } else if b.from == self.master() {
+        } else if b.from == self.tl.master() {
             self.align(b);
         }
         self.cur[b.channel as usize][b.from as usize - 1] = b.rssi;
     }
 
-    /// Takes `b`'s sender's timeline: its transmit time in the schedule, less the latency.
+    /// Takes `b`'s sender's timeline ([`Timeline::align`]).
     fn align(&mut self, b: Heard) {
-        let Some(tx) = self.sched.beacon_at_us(b.channel, b.from) else {
-            return;
-        };
-        let start = b.at_us.wrapping_sub(self.latency_us).wrapping_sub(tx);
-        let t = b.at_us.wrapping_sub(start);
-        if b.seq != self.seq {
+        if self.tl.align(b.from, b.seq, b.channel, b.at_us) {
             // A different superframe (first sync, or after a gap): its events from scratch.
             self.prev = self.cur;
             self.cur = [[0; MAX_ANCHORS]; MAX_CHANNELS];
             self.sent = 0;
         }
-        self.seq = b.seq;
-        self.sf_start = start;
         // Events up to now are past (beacons already sent stay marked in `sent`).
+        let t = self.tl.elapsed_us(b.at_us);
         self.next_ev = 0;
         while self.event_time(self.next_ev).is_some_and(|e| e <= t) {
             self.next_ev += 1;

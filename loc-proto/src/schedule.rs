@@ -192,6 +192,110 @@ impl Schedule {
     }
 }
 
+/// Superframes without a beacon after which an anchor is taken as gone (for the master choice).
+pub const SILENT_SUPERFRAMES: u8 = 3;
+
+/// A node's copy of the testbed's timeline: where superframe `seq` starts on the local clock,
+/// and who the time master is (SPEC §4). Anchors and agents follow it the same way: the master
+/// is the lowest anchor id heard in the last [`SILENT_SUPERFRAMES`] superframes (or the node
+/// itself, for an anchor, if lower), and each of the master's beacons re-aligns the timeline:
+/// its transmit time in the schedule, less the radio latency, is taken as exact.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Timeline {
+    sched: Schedule,
+    latency_us: u32,
+    /// This node's anchor id, 0 for an agent or sink.
+    own: u8,
+    sf_start: u32,
+    seq: u16,
+    /// Superframes since each anchor was last heard (index id − 1), saturating.
+    quiet: [u8; 8],
+}
+
+impl Timeline {
+    /// A timeline for node `own` (its anchor id, 0 if it is not an anchor) starting at local
+    /// time `start_us`; beacons arrive `latency_us` after their transmit time.
+    pub const fn new(sched: Schedule, latency_us: u32, own: u8, start_us: u32) -> Timeline {
+        Timeline {
+            sched,
+            latency_us,
+            own,
+            sf_start: start_us,
+            seq: 0,
+            quiet: [u8::MAX; 8],
+        }
+    }
+
+    /// The schedule.
+    pub const fn schedule(&self) -> &Schedule {
+        &self.sched
+    }
+
+    /// The current superframe sequence.
+    pub const fn seq(&self) -> u16 {
+        self.seq
+    }
+
+    /// Starts superframe `seq` at local time `start_us`.
+    pub fn restart(&mut self, start_us: u32, seq: u16) {
+        self.sf_start = start_us;
+        self.seq = seq;
+    }
+
+    /// Time into the current superframe at local time `now_us` (≥ the superframe's length when
+    /// it is over: then [`Timeline::roll`]).
+    pub const fn elapsed_us(&self, now_us: u32) -> u32 {
+        now_us.wrapping_sub(self.sf_start)
+    }
+
+    /// Ends the current superframe: the next one starts where it ends; silence counts grow.
+    pub fn roll(&mut self) {
+        self.sf_start = self.sf_start.wrapping_add(self.sched.superframe_us());
+        self.seq = self.seq.wrapping_add(1);
+        for q in &mut self.quiet {
+            *q = q.saturating_add(1);
+        }
+    }
+
+    /// The time master: the lowest anchor id heard in the last [`SILENT_SUPERFRAMES`]
+    /// superframes, or this node if it is an anchor with a lower id; 0 if none.
+    pub fn master(&self) -> u8 {
+        let n = self.sched.anchors().min(8);
+        let mut j = 1;
+        while j <= n {
+            if j == self.own || self.quiet[j as usize - 1] < SILENT_SUPERFRAMES {
+                return j;
+            }
+            j += 1;
+        }
+        self.own
+    }
+
+    /// Whether anchor `id`'s beacon at this `channel` index can be from this testbed.
+    pub const fn plausible(&self, id: u8, channel: u8) -> bool {
+        id >= 1 && id <= self.sched.anchors() && id != self.own && channel < self.sched.channels()
+    }
+
+    /// Anchor `from` was heard. Call before [`Timeline::align`].
+    pub fn heard(&mut self, from: u8) {
+        if (1..=8).contains(&from) {
+            self.quiet[from as usize - 1] = 0;
+        }
+    }
+
+    /// Takes the timeline of `from`'s beacon of superframe `seq` on channel index `channel`,
+    /// received at local time `at_us`. Returns whether the sequence changed.
+    pub fn align(&mut self, from: u8, seq: u16, channel: u8, at_us: u32) -> bool {
+        let Some(tx) = self.sched.beacon_at_us(channel, from) else {
+            return false;
+        };
+        self.sf_start = at_us.wrapping_sub(self.latency_us).wrapping_sub(tx);
+        let changed = seq != self.seq;
+        self.seq = seq;
+        changed
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -316,5 +420,37 @@ mod tests {
         );
         // No agents: the report sub-slot length does not matter.
         assert!(Schedule::new(4, 1, 25_000, 0, 0, 1_000).is_ok());
+    }
+
+    #[test]
+    fn a_timeline_aligns_on_a_beacon_and_picks_the_lowest_live_anchor_as_master() {
+        let s = thesis();
+        let mut tl = Timeline::new(s, 3_000, 3, 0);
+        assert_eq!(tl.master(), 3, "an anchor alone is its own master");
+        assert_eq!(
+            Timeline::new(s, 3_000, 0, 0).master(),
+            0,
+            "an agent alone has none"
+        );
+        // Anchor 2's beacon on channel 1 sent at 252 ms + 62.5 ms into superframe 7.
+        tl.heard(2);
+        assert!(tl.align(2, 7, 1, 1_000_000));
+        assert_eq!(tl.seq(), 7);
+        let tx = s.beacon_at_us(1, 2).unwrap();
+        assert_eq!(tl.elapsed_us(1_000_000), tx + 3_000);
+        assert_eq!(tl.master(), 2);
+        assert!(!tl.align(2, 7, 1, 1_000_000));
+        // Anchor 2 silent for SILENT_SUPERFRAMES superframes: anchor 3 is master again.
+        for _ in 0..SILENT_SUPERFRAMES {
+            assert_eq!(tl.master(), 2);
+            tl.roll();
+        }
+        assert_eq!(tl.master(), 3);
+        assert_eq!(tl.seq(), 7 + SILENT_SUPERFRAMES as u16);
+        // Anchor 1 heard: it is master; impossible senders are not plausible.
+        tl.heard(1);
+        assert_eq!(tl.master(), 1);
+        assert!(!tl.plausible(3, 0) && !tl.plausible(0, 0) && !tl.plausible(5, 0));
+        assert!(!tl.plausible(1, 2) && tl.plausible(4, 1));
     }
 }
