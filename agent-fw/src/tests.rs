@@ -1,0 +1,231 @@
+//! Agents among real anchor state machines ([`anchor_fw::Anchor`]) in an ideal medium on the
+//! host: a beacon reaches every node tuned to its channel `LATENCY` after it is sent. The agents'
+//! clocks are offset and run 0.3 % slow (anchor clocks are exact here; anchor-fw's own tests
+//! drift them).
+
+use super::*;
+use anchor_fw::{Action as AnchorAction, Anchor, Heard as AnchorHeard};
+
+/// 4 anchors, two channels, 25 ms slots with a 2 ms guard, two agent sub-slots of 20 ms.
+fn sched() -> Schedule {
+    Schedule::new(4, 2, 25_000, 2, 20_000, 2_000).unwrap()
+}
+
+const LATENCY: u32 = 3_000;
+const STEP: u64 = 100;
+const POS: [[i16; 2]; 4] = [[0, 0], [1000, 0], [1000, 1000], [0, 1000]];
+
+/// A report sent: (global time, agent, seq, what it carried).
+type Sent = (u64, u8, u16, Collected);
+
+/// An agent's local clock at global time `t`: offset, 3000 ppm slow.
+fn local(t: u64, off: u32) -> u32 {
+    ((t - t * 3 / 1000) as u32).wrapping_add(off)
+}
+
+struct Sim {
+    t: u64,
+    anchors: Vec<(Anchor, Option<u8>, bool)>,
+    agents: Vec<(Agent, Option<Tune>, u32)>,
+    /// (delivery time, from, seq, channel).
+    air: Vec<(u64, u8, u16, u8)>,
+    /// Agents waiting for a TX status: (due, agent index).
+    status: Vec<(u64, usize)>,
+    reports: Vec<Sent>,
+}
+
+impl Sim {
+    fn new(agent_offsets: &[u32]) -> Sim {
+        let s = sched();
+        Sim {
+            t: 0,
+            anchors: (1..=4)
+                .map(|id| (Anchor::new(id, s, LATENCY, 0), None, true))
+                .collect(),
+            agents: agent_offsets
+                .iter()
+                .enumerate()
+                .map(|(k, &off)| (Agent::new(k as u8 + 1, s, LATENCY, off), None, off))
+                .collect(),
+            air: Vec::new(),
+            status: Vec::new(),
+            reports: Vec::new(),
+        }
+    }
+
+    fn run(&mut self, until: u64) {
+        while self.t < until {
+            let due: Vec<_> = self.air.iter().copied().filter(|d| d.0 <= self.t).collect();
+            self.air.retain(|d| d.0 > self.t);
+            for (_, from, seq, ch) in due {
+                let rssi = 50 + from;
+                let relay = [60, 61, 62, 63];
+                for (a, tuned, alive) in &mut self.anchors {
+                    if *alive && *tuned == Some(ch) && a.id() != from {
+                        a.on_beacon(AnchorHeard {
+                            from,
+                            seq,
+                            channel: ch,
+                            rssi,
+                            at_us: self.t as u32,
+                        });
+                    }
+                }
+                for (g, tuned, off) in &mut self.agents {
+                    if *tuned == Some(Tune::List(ch)) {
+                        g.on_beacon(Heard {
+                            from,
+                            seq,
+                            channel: ch,
+                            rssi,
+                            at_us: local(self.t, *off),
+                            pos: POS[from as usize - 1],
+                            relay: &relay,
+                        });
+                    }
+                }
+            }
+            let done: Vec<_> = self
+                .status
+                .iter()
+                .copied()
+                .filter(|d| d.0 <= self.t)
+                .collect();
+            self.status.retain(|d| d.0 > self.t);
+            for (_, k) in done {
+                if let Some(Action::Tune(to)) = self.agents[k].0.on_tx_status(true) {
+                    self.agents[k].1 = Some(to);
+                }
+            }
+            for (a, tuned, _) in self.anchors.iter_mut().filter(|a| a.2) {
+                while let Some(act) = a.poll(self.t as u32) {
+                    match act {
+                        AnchorAction::SetChannel(c) => *tuned = Some(c),
+                        AnchorAction::SendBeacon { seq, channel } => {
+                            self.air
+                                .push((self.t + LATENCY as u64, a.id(), seq, channel))
+                        }
+                    }
+                }
+            }
+            for (k, (g, tuned, off)) in self.agents.iter_mut().enumerate() {
+                while let Some(act) = g.poll(local(self.t, *off)) {
+                    match act {
+                        Action::Tune(to) => *tuned = Some(to),
+                        Action::SendReport { seq } => {
+                            assert_eq!(
+                                *tuned,
+                                Some(Tune::Sink),
+                                "agent {} reports off the sink channel",
+                                k + 1
+                            );
+                            self.reports.push((self.t, k as u8 + 1, seq, *g.report()));
+                            self.status.push((self.t + 2_000, k));
+                        }
+                    }
+                }
+            }
+            self.t += STEP;
+        }
+    }
+}
+
+#[test]
+fn an_agent_waits_for_a_beacon_before_anything() {
+    let mut g = Agent::new(1, sched(), LATENCY, 0);
+    assert_eq!(g.poll(0), Some(Action::Tune(Tune::List(0))));
+    for t in (0..5_000_000).step_by(1000) {
+        assert_eq!(g.poll(t), None);
+    }
+    assert!(!g.synced());
+}
+
+#[test]
+fn agents_report_every_superframe_in_their_sub_slots() {
+    let s = sched();
+    let sf = s.superframe_us() as u64;
+    let mut sim = Sim::new(&[12_345, 999_999]);
+    sim.run(12 * sf);
+    // Anchor 1's channel-0 beacons give each superframe's global start.
+    let late = 7 * sf;
+    let reports: Vec<_> = sim.reports.iter().filter(|r| r.0 > late).collect();
+    assert!(reports.len() >= 8, "{}", reports.len());
+    for agent in [1u8, 2] {
+        let mine: Vec<_> = reports.iter().filter(|r| r.1 == agent).collect();
+        assert!(mine.len() >= 4);
+        // One per superframe, consecutive sequences, one superframe apart.
+        for w in mine.windows(2) {
+            assert_eq!(w[1].2, w[0].2 + 1);
+            assert!(
+                w[1].0.abs_diff(w[0].0 + sf) <= 1_000,
+                "{} {}",
+                w[0].0,
+                w[1].0
+            );
+        }
+        for r in &mine {
+            let c = &r.3;
+            assert_eq!(c.seq, r.2);
+            for ch in 0..2 {
+                assert_eq!(&c.rssi[ch][..4], &[51, 52, 53, 54], "agent {agent} ch {ch}");
+                for a in 0..4 {
+                    assert_eq!(&c.relay[ch][a][..4], &[60, 61, 62, 63]);
+                }
+            }
+            assert_eq!(c.pos[..4], POS.map(Some));
+            assert_eq!(c.pos[4], None);
+        }
+    }
+    // Agent 2's report is one sub-slot after agent 1's, within the timing error.
+    let a1 = reports.iter().find(|r| r.1 == 1).unwrap();
+    let a2 = reports.iter().find(|r| r.1 == 2 && r.2 == a1.2).unwrap();
+    assert!(a2.0.abs_diff(a1.0 + 20_000) <= 1_000, "{} {}", a1.0, a2.0);
+    // Both back on the channel list after their TX status.
+    for (g, tuned, _) in &sim.agents {
+        assert!(g.synced());
+        assert!(matches!(tuned, Some(Tune::List(_))));
+    }
+}
+
+#[test]
+fn a_silent_anchor_is_marked_not_heard() {
+    let sf = sched().superframe_us() as u64;
+    let mut sim = Sim::new(&[0]);
+    sim.anchors[2].2 = false; // anchor 3 off
+    sim.run(12 * sf);
+    let last = sim.reports.last().unwrap();
+    for ch in 0..2 {
+        assert_eq!(&last.3.rssi[ch][..4], &[51, 52, 0, 54]);
+        assert_eq!(last.3.relay[ch][2], [0; MAX_ANCHORS]);
+    }
+    assert_eq!(last.3.pos[2], None);
+}
+
+#[test]
+fn impossible_beacons_are_ignored() {
+    let mut g = Agent::new(1, sched(), LATENCY, 0);
+    for (from, channel) in [(0, 0), (5, 0), (1, 2)] {
+        g.on_beacon(Heard {
+            from,
+            seq: 3,
+            channel,
+            rssi: 50,
+            at_us: 0,
+            pos: [0, 0],
+            relay: &[],
+        });
+        assert!(!g.synced());
+    }
+    // A relay longer than the anchors does not overflow.
+    g.on_beacon(Heard {
+        from: 1,
+        seq: 3,
+        channel: 0,
+        rssi: 50,
+        at_us: 0,
+        pos: [0, 0],
+        relay: &[1; 20],
+    });
+    assert!(g.synced());
+    assert_eq!(g.collecting().relay[0][0], [1; MAX_ANCHORS]);
+}
