@@ -1,0 +1,148 @@
+//! The sink on noise-free reports from the path-loss model (P0 = −40 dBm, α = 3).
+
+use super::*;
+use loc_core::fixed::{PointCm, Portable};
+
+const ANCHORS: [(i16, i16); 4] = [(0, 0), (1000, 0), (1000, 1000), (0, 1000)];
+
+/// The RSSI byte (−dBm, rounded) at `d_cm` under P0 = −40 dBm, α = 3.
+fn byte(d_cm: f64) -> u8 {
+    let p = -40.0 - 30.0 * (d_cm / 100.0).max(0.01).log10();
+    (-p).round() as u8
+}
+
+fn dist(a: (i16, i16), b: (f64, f64)) -> f64 {
+    ((a.0 as f64 - b.0).powi(2) + (a.1 as f64 - b.1).powi(2)).sqrt()
+}
+
+/// A report of an agent at `at` (cm), two channels, every anchor heard unless in `missing`.
+fn report(at: (f64, f64), missing: &[usize]) -> Measurements {
+    let pos: Vec<PointCm> = ANCHORS.iter().map(|&(x, y)| PointCm::new(x, y)).collect();
+    let mut m = Measurements::new(&pos, 2);
+    for (i, &a) in ANCHORS.iter().enumerate() {
+        if missing.contains(&i) {
+            continue;
+        }
+        for c in 0..2 {
+            m.rssi[i][c] = Some(byte(dist(a, at)));
+        }
+        for (j, &b) in ANCHORS.iter().enumerate() {
+            if i != j && !missing.contains(&j) {
+                for c in 0..2 {
+                    m.a2a[i][j][c] = Some(byte(dist(a, (b.0 as f64, b.1 as f64))));
+                }
+            }
+        }
+    }
+    m
+}
+
+fn sink() -> Sink<Portable> {
+    Sink::new(AreaCm::new(1000, 1000))
+}
+
+#[test]
+fn a_noise_free_report_is_located_within_a_fine_step() {
+    let mut s = sink();
+    for (k, at) in [
+        (300.0, 600.0),
+        (500.0, 500.0),
+        (850.0, 120.0),
+        (50.0, 950.0),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let f = s.on_report(1, k as u16, &report(at, &[])).unwrap();
+        assert!(f.fitted);
+        for e in [f.mle, f.mmse] {
+            // mm against cm. The bytes are whole dB: ±0.5 dB is ±3.8 % of a distance at
+            // α = 3, up to 30 cm at 8 m, so two fine steps (2 × 20 cm) is the bound here.
+            let err = ((e.pos.x as f64 / 10.0 - at.0).powi(2)
+                + (e.pos.y as f64 / 10.0 - at.1).powi(2))
+            .sqrt();
+            assert!(err <= 40.0, "{at:?}: {e:?} ({err:.0} cm)");
+            assert_eq!(e.anchors, 4);
+        }
+    }
+    // Each report's fit moved the smoothed model off the prior, within the thesis' bounds.
+    // (Corner anchors see only 10 m and 14.1 m: whole-dB bytes leave α uncertain by ±0.7,
+    // which P0 absorbs; the fixes above are what matters.)
+    let m = s.model();
+    assert_ne!(m, PathLoss::THESIS);
+    assert!((-60 << 16..=-20 << 16).contains(&m.p0), "{m:?}");
+    assert!((2 << 24..=5 << 24).contains(&m.alpha), "{m:?}");
+    assert_eq!(s.counters().fixes, 4);
+}
+
+#[test]
+fn the_fix_is_loc_cores_with_the_smoothed_model() {
+    let mut s = sink();
+    let m = report((420.0, 310.0), &[]);
+    let f = s.on_report(2, 0, &m).unwrap();
+    let obs = observations(&m, Refinement::Extended);
+    let want = loc_core::fixed::mle(&obs, f.model, AreaCm::new(1000, 1000), Search::Thesis);
+    assert_eq!(Ok(f.mle), want);
+}
+
+#[test]
+fn three_anchors_still_fix_and_two_do_not() {
+    let mut s = sink();
+    let f = s.on_report(1, 0, &report((300.0, 300.0), &[3])).unwrap();
+    assert_eq!(f.mle.anchors, 3);
+    let e = s.on_report(1, 1, &report((300.0, 300.0), &[2, 3]));
+    assert_eq!(e, Err(LocError::TooFewAnchors { usable: 2 }));
+    assert_eq!((s.counters().fixes, s.counters().no_fixes), (1, 1));
+}
+
+#[test]
+fn gaps_in_an_agents_sequence_count_as_drops() {
+    let mut s = sink();
+    let m = report((500.0, 500.0), &[]);
+    for seq in [5u16, 6, 9, 9, 10, 12] {
+        let _ = s.on_report(3, seq, &m);
+    }
+    // 7, 8 and 11 missing; the repeated 9 is no drop.
+    assert_eq!(s.counters().drops, 3);
+    // Across the wrap: 0 missing.
+    for seq in [65535u16, 1] {
+        let _ = s.on_report(5, seq, &m);
+    }
+    assert_eq!(s.counters().drops, 4);
+    // A report from far in the past (more than half the sequence space back) is no drop either.
+    let _ = s.on_report(5, 40_000, &m);
+    assert_eq!(s.counters().drops, 4);
+    // Another agent has its own sequence; an agent id out of range is located but not tracked.
+    let _ = s.on_report(4, 100, &m);
+    let _ = s.on_report(0, 1, &m);
+    let _ = s.on_report(200, 1, &m);
+    assert_eq!(s.counters().drops, 4);
+    assert_eq!(s.counters().reports, 12);
+}
+
+#[test]
+fn bad_frames_are_counted_and_change_nothing() {
+    let mut s = sink();
+    let before = s.model();
+    s.on_bad_frame(BadFrame::Corrupt);
+    s.on_bad_frame(BadFrame::Foreign);
+    s.on_bad_frame(BadFrame::Foreign);
+    let c = s.counters();
+    assert_eq!(
+        (c.frames, c.checksum_errors, c.foreign, c.reports),
+        (3, 1, 2, 0)
+    );
+    assert_eq!(s.model(), before);
+    // A good report right after is located.
+    assert!(s.on_report(1, 0, &report((700.0, 400.0), &[])).is_ok());
+}
+
+#[test]
+fn a_report_without_anchor_to_anchor_rssi_keeps_the_model() {
+    let mut s = sink();
+    let mut m = report((700.0, 400.0), &[]);
+    m.a2a = [[[None; 4]; 8]; 8];
+    let f = s.on_report(1, 0, &m).unwrap();
+    assert!(!f.fitted);
+    assert_eq!(f.model, PathLoss::THESIS);
+}
