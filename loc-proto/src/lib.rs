@@ -2,6 +2,8 @@
 //! person, with an encoder for the firmware and a parser for the host tools.
 //!
 //! * [`line`]: the text lines every node writes on its UART at boot ([`line::BootLine`]).
+//! * [`msg`]: the binary radio messages, [`msg::Beacon`] and [`msg::Report`].
+//! * [`error`]: their one error type [`Error`], and the CRC-16 of configs and provisioning frames.
 //!
 //! Beacon and report messages, the sink's estimate lines, provisioning frames and the node config
 //! layout join this crate with the node firmware.
@@ -12,9 +14,12 @@
 #[cfg(test)]
 extern crate std;
 
+pub mod error;
 pub mod line;
+pub mod msg;
 mod role;
 
+pub use error::Error;
 pub use role::Role;
 
 /// The PAN id of a hoploc testbed unless configured otherwise (`ID`; ASCII "32").
