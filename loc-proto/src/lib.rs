@@ -3,6 +3,7 @@
 //!
 //! * [`line`]: the text lines every node writes on its UART at boot ([`line::BootLine`]).
 //! * [`msg`]: the binary radio messages, [`msg::Beacon`] and [`msg::Report`].
+//! * [`config`]: the node config as stored in EEPROM ([`config::Config`]).
 //! * [`error`]: their one error type [`Error`], and the CRC-16 of configs and provisioning frames.
 //!
 //! Beacon and report messages, the sink's estimate lines, provisioning frames and the node config
@@ -14,6 +15,7 @@
 #[cfg(test)]
 extern crate std;
 
+pub mod config;
 pub mod error;
 pub mod line;
 pub mod msg;
