@@ -4,6 +4,8 @@
 //! * [`line`]: the text lines every node writes on its UART at boot ([`line::BootLine`]).
 //! * [`msg`]: the binary radio messages, [`msg::Beacon`] and [`msg::Report`].
 //! * [`config`]: the node config as stored in EEPROM ([`config::Config`]).
+//! * [`provision`]: the provisioning frame that writes a config over the USB serial, its
+//!   streaming parser and the node's ACK/NAK.
 //! * [`error`]: their one error type [`Error`], and the CRC-16 of configs and provisioning frames.
 //!
 //! Beacon and report messages, the sink's estimate lines, provisioning frames and the node config
@@ -19,6 +21,7 @@ pub mod config;
 pub mod error;
 pub mod line;
 pub mod msg;
+pub mod provision;
 mod role;
 
 pub use error::Error;
