@@ -2,10 +2,15 @@
 //! person, with an encoder for the firmware and a parser for the host tools.
 //!
 //! * [`line`]: the text lines every node writes on its UART at boot ([`line::BootLine`]).
-//! * [`schedule`]: the TDMA superframe, when each anchor beacons and each agent reports.
+//! * [`schedule`]: the TDMA superframe, when each anchor beacons and each agent reports, and the
+//!   timeline every node follows.
+//! * [`msg`]: the binary radio messages, [`msg::Beacon`] and [`msg::Report`].
+//! * [`config`]: the node config as stored in EEPROM ([`config::Config`]).
+//! * [`provision`]: the provisioning frame that writes a config over the USB serial, its
+//!   streaming parser and the node's ACK/NAK.
+//! * [`error`]: their one error type [`Error`], and the CRC-16 of configs and provisioning frames.
 //!
-//! Beacon and report messages, the sink's estimate lines, provisioning frames and the node config
-//! layout join this crate with the node firmware.
+//! The sink's estimate and status lines join them with the sink firmware.
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -13,10 +18,15 @@
 #[cfg(test)]
 extern crate std;
 
+pub mod config;
+pub mod error;
 pub mod line;
+pub mod msg;
+pub mod provision;
 mod role;
 pub mod schedule;
 
+pub use error::Error;
 pub use role::Role;
 
 /// The PAN id of a hoploc testbed unless configured otherwise (`ID`; ASCII "32").

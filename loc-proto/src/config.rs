@@ -1,0 +1,335 @@
+//! The node config, as stored in EEPROM (from address 0) and carried by a provisioning frame
+//! ([`crate::provision`]).
+//!
+//! 18 + C bytes (C = 1…4 channels; 20 with the default two channels, 22 at most). Multi-byte
+//! fields are little endian except the CRC, which is big endian so that the CRC over the whole
+//! block is 0:
+//!
+//! | byte | field |
+//! |---|---|
+//! | 0 | magic [`MAGIC`] (0xC5; an erased EEPROM reads 0xFF) |
+//! | 1 | version [`VERSION`] (1) |
+//! | 2 | length of the whole block in bytes, CRC included (18 + C) |
+//! | 3 | role: 0 anchor, 1 agent, 2 sink |
+//! | 4 | node id (1…255; an anchor's 1…N) |
+//! | 5 | N, the number of anchors (3…8) |
+//! | 6–7, 8–9 | the anchor's position x, y (i16, cm; 0 for other roles by convention) |
+//! | 10–11 | slot length (u16, ms, 2…10000) |
+//! | 12 | sink channel (testbed channel 1…16) |
+//! | 13–14 | PAN id (u16, not 0xFFFF) |
+//! | 15 | C, the number of channels (1…4) |
+//! | 16 … 15+C | the channels (testbed channels 1…16, distinct, in hop order) |
+//! | 16+C, 17+C | CRC-16/CCITT-FALSE ([`crate::error::crc16`]) of bytes 0 … 15+C, big endian |
+//!
+//! Testbed channel *n* is XBee `CH` = 0x0A + *n* ([`crate::xbee_channel`]). Channel 1 (`CH`
+//! 0x0B) exists on the XBee S1 but not on the S1 Pro, which only has channels 2…13: a network
+//! with an S1 Pro must not list channel 1 (nor 14…16).
+
+use crate::error::{crc16, Error, Field};
+use crate::msg::{bad, ChannelList, Position, Reader, Writer, MAX_ANCHORS, MAX_CHANNEL};
+use crate::{Role, DEFAULT_CHANNELS, DEFAULT_PAN_ID, DEFAULT_SINK_CHANNEL};
+
+/// The first byte of a stored config.
+pub const MAGIC: u8 = 0xC5;
+/// The config layout version this build writes and reads.
+pub const VERSION: u8 = 1;
+/// The shortest config (one channel).
+pub const MIN_LEN: usize = 19;
+/// The longest config (four channels).
+pub const MAX_LEN: usize = 22;
+/// The shortest slot accepted (ms): a beacon's best-case time on air is about 1.6 ms.
+pub const MIN_SLOT_MS: u16 = 2;
+/// The longest slot accepted (ms).
+pub const MAX_SLOT_MS: u16 = 10_000;
+/// The default slot length (ms): 4 anchors × 62 ms ≈ the thesis's 250 ms per channel phase.
+pub const DEFAULT_SLOT_MS: u16 = 62;
+
+/// A node's configuration. See the [module docs](self) for the stored layout.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Config {
+    /// Which firmware role the node plays.
+    pub role: Role,
+    /// The node id (1…255; an anchor's 1…`anchors`). The radio address is
+    /// [`Role::address`] of it.
+    pub id: u8,
+    /// The number of anchors N in the network (3…8).
+    pub anchors: u8,
+    /// The anchor's position (cm).
+    pub position: Position,
+    /// The length of one TDMA slot (ms); a channel phase is `anchors` slots.
+    pub slot_ms: u16,
+    /// The anchor channels, in hop order.
+    pub channels: ChannelList,
+    /// The channel agents report to the sink on.
+    pub sink_channel: u8,
+    /// The 802.15.4 PAN id (XBee `ID`).
+    pub pan_id: u16,
+}
+
+const fn default_channels() -> ChannelList {
+    match ChannelList::new(&DEFAULT_CHANNELS) {
+        Ok(c) => c,
+        Err(_) => panic!("the default channel list is valid"),
+    }
+}
+
+impl Config {
+    /// The default: anchor 1 of 4 at (0, 0), 62 ms slots, channels [1, 12], sink channel 3,
+    /// PAN [`DEFAULT_PAN_ID`].
+    pub const DEFAULT: Config = Config {
+        role: Role::Anchor,
+        id: 1,
+        anchors: 4,
+        position: Position { x: 0, y: 0 },
+        slot_ms: DEFAULT_SLOT_MS,
+        channels: default_channels(),
+        sink_channel: DEFAULT_SINK_CHANNEL,
+        pan_id: DEFAULT_PAN_ID,
+    };
+
+    /// The stored size of this config (18 + C).
+    pub const fn size(&self) -> usize {
+        18 + self.channels.len()
+    }
+
+    /// Checks every field (the channel list is valid by construction).
+    pub fn validate(&self) -> Result<(), Error> {
+        if !(3..=MAX_ANCHORS as u8).contains(&self.anchors) {
+            return Err(bad(Field::Anchors));
+        }
+        if self.id == 0 || (self.role == Role::Anchor && self.id > self.anchors) {
+            return Err(bad(Field::NodeId));
+        }
+        if !(MIN_SLOT_MS..=MAX_SLOT_MS).contains(&self.slot_ms) {
+            return Err(bad(Field::SlotLength));
+        }
+        if !(1..=MAX_CHANNEL).contains(&self.sink_channel) {
+            return Err(bad(Field::SinkChannel));
+        }
+        if self.pan_id == 0xFFFF {
+            return Err(bad(Field::PanId));
+        }
+        Ok(())
+    }
+
+    /// Writes the config (with its CRC) into `buf`; returns the bytes written ([`Config::size`]).
+    pub fn to_bytes(&self, buf: &mut [u8]) -> Result<usize, Error> {
+        self.validate()?;
+        let size = self.size();
+        if buf.len() < size {
+            return Err(Error::BufferTooSmall { need: size as u16 });
+        }
+        let mut w = Writer::new(buf);
+        w.u8(MAGIC);
+        w.u8(VERSION);
+        w.u8(size as u8);
+        w.u8(role_code(self.role));
+        w.u8(self.id);
+        w.u8(self.anchors);
+        w.position(self.position);
+        w.u16(self.slot_ms);
+        w.u8(self.sink_channel);
+        w.u16(self.pan_id);
+        w.u8(self.channels.len() as u8);
+        for &c in self.channels.as_slice() {
+            w.u8(c);
+        }
+        let crc = crc16(&buf[..size - 2]);
+        buf[size - 2..size].copy_from_slice(&crc.to_be_bytes());
+        Ok(size)
+    }
+
+    /// Reads and validates a config from the start of `buf`; bytes after its length are
+    /// ignored (so a whole [`MAX_LEN`]-byte EEPROM block can be passed).
+    pub fn from_bytes(buf: &[u8]) -> Result<Config, Error> {
+        let [magic, version, len, ..] = *buf else {
+            return Err(Error::TooShort);
+        };
+        if magic != MAGIC {
+            return Err(Error::BadMagic);
+        }
+        if version != VERSION {
+            return Err(Error::BadVersion { found: version });
+        }
+        let len = len as usize;
+        if !(MIN_LEN..=MAX_LEN).contains(&len) {
+            return Err(Error::BadLength);
+        }
+        let Some(block) = buf.get(..len) else {
+            return Err(Error::TooShort);
+        };
+        let (body, crc) = block.split_at(len - 2);
+        if crc16(body) != u16::from_be_bytes([crc[0], crc[1]]) {
+            return Err(Error::BadCrc);
+        }
+        let mut r = Reader::new(body);
+        let [_, _, _] = [r.u8()?, r.u8()?, r.u8()?];
+        let role = role_of(r.u8()?)?;
+        let id = r.u8()?;
+        let anchors = r.u8()?;
+        let position = r.position()?;
+        let slot_ms = r.u16()?;
+        let sink_channel = r.u8()?;
+        let pan_id = r.u16()?;
+        let c = r.u8()? as usize;
+        if c + 18 != len {
+            return Err(Error::BadLength);
+        }
+        let mut list = [0; 4];
+        for ch in &mut list[..c] {
+            *ch = r.u8()?;
+        }
+        r.end()?;
+        let cfg = Config {
+            role,
+            id,
+            anchors,
+            position,
+            slot_ms,
+            channels: ChannelList::new(&list[..c])?,
+            sink_channel,
+            pan_id,
+        };
+        cfg.validate()?;
+        Ok(cfg)
+    }
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config::DEFAULT
+    }
+}
+
+/// The role byte: 0 anchor, 1 agent, 2 sink.
+pub const fn role_code(role: Role) -> u8 {
+    match role {
+        Role::Anchor => 0,
+        Role::Agent => 1,
+        Role::Sink => 2,
+    }
+}
+
+fn role_of(b: u8) -> Result<Role, Error> {
+    match b {
+        0 => Ok(Role::Anchor),
+        1 => Ok(Role::Agent),
+        2 => Ok(Role::Sink),
+        _ => Err(bad(Field::Role)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[rustfmt::skip]
+    const DEFAULT_BYTES: [u8; 20] = [
+        0xC5, 1, 20, // magic, version, length
+        0, 1, 4, // anchor, id 1, 4 anchors
+        0, 0, 0, 0, // (0, 0)
+        62, 0, // slot 62 ms
+        3, // sink channel
+        0x32, 0x33, // PAN 0x3332
+        2, 1, 12, // channels
+        0xE1, 0xE3, // CRC-16/CCITT-FALSE of the above
+    ];
+
+    fn golden() -> [u8; 20] {
+        DEFAULT_BYTES
+    }
+
+    #[test]
+    fn default_golden_bytes() {
+        let mut buf = [0; MAX_LEN];
+        assert_eq!(Config::DEFAULT.to_bytes(&mut buf), Ok(20));
+        assert_eq!(buf[..20], golden());
+        assert_eq!(Config::from_bytes(&golden()), Ok(Config::DEFAULT));
+        // A whole EEPROM block: trailing bytes are ignored.
+        assert_eq!(Config::from_bytes(&buf), Ok(Config::DEFAULT));
+        assert_eq!(crc16(&golden()), 0, "the CRC over the whole block is 0");
+    }
+
+    #[test]
+    fn every_single_byte_corruption_is_caught() {
+        let good = golden();
+        for i in 0..good.len() {
+            for bit in 0..8 {
+                let mut b = good;
+                b[i] ^= 1 << bit;
+                assert!(Config::from_bytes(&b).is_err(), "byte {i} bit {bit}");
+            }
+            for v in 0..=255u8 {
+                let mut b = good;
+                if b[i] != v {
+                    b[i] = v;
+                    assert!(Config::from_bytes(&b).is_err(), "byte {i} = {v}");
+                }
+            }
+        }
+    }
+
+    fn with(f: impl FnOnce(&mut Config)) -> Result<usize, Error> {
+        let mut c = Config::DEFAULT;
+        f(&mut c);
+        c.to_bytes(&mut [0; MAX_LEN])
+    }
+
+    #[test]
+    fn field_errors() {
+        let field = |f| Err(Error::BadValue { field: f });
+        assert_eq!(with(|c| c.id = 0), field(Field::NodeId));
+        assert_eq!(with(|c| c.id = 5), field(Field::NodeId));
+        assert_eq!(
+            with(|c| {
+                c.role = Role::Agent;
+                c.id = 200
+            }),
+            Ok(20)
+        );
+        assert_eq!(with(|c| c.anchors = 2), field(Field::Anchors));
+        assert_eq!(with(|c| c.anchors = 9), field(Field::Anchors));
+        assert_eq!(with(|c| c.slot_ms = 1), field(Field::SlotLength));
+        assert_eq!(with(|c| c.slot_ms = 10_001), field(Field::SlotLength));
+        assert_eq!(with(|c| c.sink_channel = 0), field(Field::SinkChannel));
+        assert_eq!(with(|c| c.sink_channel = 17), field(Field::SinkChannel));
+        assert_eq!(with(|c| c.pan_id = 0xFFFF), field(Field::PanId));
+        assert_eq!(
+            Config::DEFAULT.to_bytes(&mut [0; 19]),
+            Err(Error::BufferTooSmall { need: 20 })
+        );
+    }
+
+    /// `bytes` with byte `i` set to `v` and the CRC fixed up: reaches the field checks.
+    fn patched(i: usize, v: u8) -> [u8; 20] {
+        let mut b = golden();
+        b[i] = v;
+        let crc = crc16(&b[..18]);
+        b[18..].copy_from_slice(&crc.to_be_bytes());
+        b
+    }
+
+    #[test]
+    fn decode_errors() {
+        let field = |f| Err(Error::BadValue { field: f });
+        assert_eq!(Config::from_bytes(&golden()[..2]), Err(Error::TooShort));
+        assert_eq!(Config::from_bytes(&golden()[..19]), Err(Error::TooShort));
+        assert_eq!(Config::from_bytes(&[0xFF; 22]), Err(Error::BadMagic));
+        assert_eq!(
+            Config::from_bytes(&patched(1, 2)),
+            Err(Error::BadVersion { found: 2 })
+        );
+        assert_eq!(Config::from_bytes(&patched(2, 23)), Err(Error::BadLength));
+        assert_eq!(Config::from_bytes(&patched(15, 3)), Err(Error::BadLength));
+        assert_eq!(Config::from_bytes(&patched(3, 3)), field(Field::Role));
+        assert_eq!(
+            Config::from_bytes(&patched(17, 1)),
+            field(Field::DuplicateChannel)
+        );
+        assert_eq!(Config::from_bytes(&patched(17, 0)), field(Field::Channel));
+        assert_eq!(Config::from_bytes(&patched(4, 0)), field(Field::NodeId));
+        let mut b = golden();
+        b[19] ^= 1;
+        assert_eq!(Config::from_bytes(&b), Err(Error::BadCrc));
+    }
+}

@@ -1,0 +1,700 @@
+//! The binary messages nodes send each other over the radio: [`Beacon`] (anchor → everyone) and
+//! [`Report`] (agent → sink). Each is the whole RF payload of one XBee TX16/RX16 frame.
+//!
+//! Every message starts with the same 4-byte header; multi-byte integers are little endian
+//! (the AVR's own order). There is no CRC: the 802.15.4 MAC's FCS and the XBee's frame checksum
+//! already cover the payload; a payload with a wrong magic, version, kind or length is dropped
+//! (and counted by the node), never trusted. Decoders never panic on any input, and a decoded
+//! message re-encodes to exactly the bytes it came from.
+//!
+//! | byte | field |
+//! |---|---|
+//! | 0 | magic [`MAGIC`] (0xB5) |
+//! | 1 | version [`VERSION`] (1) |
+//! | 2 | kind: 1 beacon, 2 report |
+//! | 3 | length of the whole message in bytes, header included |
+//!
+//! **Beacon** (kind 1), 13 + R bytes (17 with R = 4 relayed anchors, 21 at most):
+//!
+//! | byte | field |
+//! |---|---|
+//! | 4 | anchor id (1…8) |
+//! | 5–6 | superframe sequence (u16) |
+//! | 7 | testbed channel the beacon is sent on (1…16) |
+//! | 8–9, 10–11 | anchor position x, y (i16, cm) |
+//! | 12 | R, the number of relayed RSSI bytes (0…8) |
+//! | 13 … 12+R | byte *j*: RSSI (−dBm, 0 = not heard) this anchor measured from anchor *j*+1 on this channel in the previous superframe; its own entry is 0 |
+//!
+//! **Report** (kind 2), N anchors (3…8), C channels (1…4):
+//!
+//! | byte | field |
+//! |---|---|
+//! | 4 | agent id (1…255) |
+//! | 5–6 | superframe sequence (u16) |
+//! | 7 | N |
+//! | 8 | C in bits 0–2; bit 7 set: the relay matrix follows (other bits 0) |
+//! | 9 … 8+C | the C testbed channels (1…16, distinct) |
+//! | then 4·N | per anchor *i* = 1…N: position x, y (i16, cm; 0, 0 if never heard) |
+//! | then C·N | per channel, per anchor: the RSSI byte of its beacon (−dBm, 0 = not heard) |
+//! | then C·N·(N−1) | if bit 7: per channel, per relaying anchor *i*, per other anchor *j* ≠ *i* (ascending): the RSSI *i* relayed having measured from *j* (0 = not heard or not relayed); the diagonal is not sent |
+//!
+//! Size: 9 + C + 4N + C·N² with the relay matrix, 9 + C + 4N + C·N without.
+//! 4 anchors × 2 channels: **59 bytes** (35 without relay). With the relay matrix the RF payload
+//! limit of 100 bytes ([`MAX_PAYLOAD`]) admits N×C up to 4×4 (93 bytes), 5×2 (81), 7×1 (87);
+//! 8 anchors with relay never fit (8×1 is 106 bytes): send those without the relay matrix
+//! (8×4: 77 bytes). [`Report::encode`] returns [`Error::TooLarge`] for a report that does not fit.
+
+use crate::error::{Error, Field};
+
+/// The first byte of every hoploc radio message.
+pub const MAGIC: u8 = 0xB5;
+/// The message format version this build writes and reads.
+pub const VERSION: u8 = 1;
+/// Bytes of the common header (magic, version, kind, length).
+pub const HEADER_LEN: usize = 4;
+/// The largest RF payload of an XBee 802.15.4 TX frame.
+pub const MAX_PAYLOAD: usize = 100;
+/// The most anchors a network has.
+pub const MAX_ANCHORS: usize = 8;
+/// The most channels in a channel list.
+pub const MAX_CHANNELS: usize = 4;
+/// The highest testbed channel number.
+pub const MAX_CHANNEL: u8 = 16;
+
+/// The kind byte of a [`Beacon`].
+pub const KIND_BEACON: u8 = 1;
+/// The kind byte of a [`Report`].
+pub const KIND_REPORT: u8 = 2;
+
+/// The report flag: the relay matrix follows.
+const RELAY_FLAG: u8 = 0x80;
+
+/// A position in cm.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Position {
+    /// x (cm).
+    pub x: i16,
+    /// y (cm).
+    pub y: i16,
+}
+
+/// A list of 1…4 distinct testbed channels (1…16), in hop order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ChannelList {
+    len: u8,
+    // Entries past `len` are 0, so equal lists compare equal.
+    list: [u8; MAX_CHANNELS],
+}
+
+impl ChannelList {
+    /// The list of `channels`, or why it is not one: [`Field::ChannelCount`] if empty or longer
+    /// than 4, [`Field::Channel`] outside 1…16, [`Field::DuplicateChannel`].
+    pub const fn new(channels: &[u8]) -> Result<ChannelList, Error> {
+        if channels.is_empty() || channels.len() > MAX_CHANNELS {
+            return Err(bad(Field::ChannelCount));
+        }
+        let mut list = [0; MAX_CHANNELS];
+        let mut i = 0;
+        while i < channels.len() {
+            let c = channels[i];
+            if c < 1 || c > MAX_CHANNEL {
+                return Err(bad(Field::Channel));
+            }
+            let mut j = 0;
+            while j < i {
+                if list[j] == c {
+                    return Err(bad(Field::DuplicateChannel));
+                }
+                j += 1;
+            }
+            list[i] = c;
+            i += 1;
+        }
+        Ok(ChannelList {
+            len: channels.len() as u8,
+            list,
+        })
+    }
+
+    /// The channels.
+    pub fn as_slice(&self) -> &[u8] {
+        &self.list[..(self.len as usize).min(MAX_CHANNELS)]
+    }
+
+    /// How many channels (1…4).
+    pub const fn len(&self) -> usize {
+        self.len as usize
+    }
+
+    /// Always false: a channel list has at least one channel.
+    pub const fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
+pub(crate) const fn bad(field: Field) -> Error {
+    Error::BadValue { field }
+}
+
+/// Reads fields off a byte slice; running out is [`Error::BadLength`] (the length byte
+/// promised more than the fields need or vice versa).
+pub(crate) struct Reader<'a> {
+    buf: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    pub(crate) fn new(buf: &'a [u8]) -> Self {
+        Reader { buf, at: 0 }
+    }
+    pub(crate) fn u8(&mut self) -> Result<u8, Error> {
+        let b = *self.buf.get(self.at).ok_or(Error::BadLength)?;
+        self.at += 1;
+        Ok(b)
+    }
+    pub(crate) fn u16(&mut self) -> Result<u16, Error> {
+        Ok(u16::from_le_bytes([self.u8()?, self.u8()?]))
+    }
+    pub(crate) fn i16(&mut self) -> Result<i16, Error> {
+        Ok(self.u16()? as i16)
+    }
+    pub(crate) fn position(&mut self) -> Result<Position, Error> {
+        Ok(Position {
+            x: self.i16()?,
+            y: self.i16()?,
+        })
+    }
+    /// Fails with [`Error::BadLength`] unless every byte was read.
+    pub(crate) fn end(&self) -> Result<(), Error> {
+        if self.at == self.buf.len() {
+            Ok(())
+        } else {
+            Err(Error::BadLength)
+        }
+    }
+}
+
+/// Writes fields into a buffer the caller checked is long enough (excess writes are dropped).
+pub(crate) struct Writer<'a> {
+    buf: &'a mut [u8],
+    pub(crate) at: usize,
+}
+
+impl<'a> Writer<'a> {
+    pub(crate) fn new(buf: &'a mut [u8]) -> Self {
+        Writer { buf, at: 0 }
+    }
+    pub(crate) fn u8(&mut self, b: u8) {
+        if let Some(s) = self.buf.get_mut(self.at) {
+            *s = b;
+        }
+        self.at += 1;
+    }
+    pub(crate) fn u16(&mut self, v: u16) {
+        let [a, b] = v.to_le_bytes();
+        self.u8(a);
+        self.u8(b);
+    }
+    pub(crate) fn position(&mut self, p: Position) {
+        self.u16(p.x as u16);
+        self.u16(p.y as u16);
+    }
+}
+
+/// Checks `size` against the radio payload and the buffer, and writes the header.
+fn start(buf: &mut [u8], kind: u8, size: usize) -> Result<Writer<'_>, Error> {
+    if size > MAX_PAYLOAD {
+        return Err(Error::TooLarge { size: size as u16 });
+    }
+    if buf.len() < size {
+        return Err(Error::BufferTooSmall { need: size as u16 });
+    }
+    let mut w = Writer::new(buf);
+    w.u8(MAGIC);
+    w.u8(VERSION);
+    w.u8(kind);
+    w.u8(size as u8);
+    Ok(w)
+}
+
+/// Checks magic, version and length of a message and returns its kind byte and a reader
+/// positioned after the header.
+fn open(buf: &[u8]) -> Result<(u8, Reader<'_>), Error> {
+    let [magic, version, kind, len, ..] = *buf else {
+        return Err(Error::TooShort);
+    };
+    if magic != MAGIC {
+        return Err(Error::BadMagic);
+    }
+    if version != VERSION {
+        return Err(Error::BadVersion { found: version });
+    }
+    let len = len as usize;
+    if buf.len() < len {
+        return Err(Error::TooShort);
+    }
+    if buf.len() > len || len < HEADER_LEN {
+        return Err(Error::BadLength);
+    }
+    let mut r = Reader::new(buf);
+    r.at = HEADER_LEN;
+    Ok((kind, r))
+}
+
+fn check_channel(c: u8) -> Result<(), Error> {
+    if (1..=MAX_CHANNEL).contains(&c) {
+        Ok(())
+    } else {
+        Err(bad(Field::Channel))
+    }
+}
+
+/// An anchor's beacon. See the [module docs](self) for the layout.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Beacon {
+    /// The sending anchor (1…8).
+    pub anchor: u8,
+    /// The superframe sequence number.
+    pub seq: u16,
+    /// The testbed channel it was sent on (1…16).
+    pub channel: u8,
+    /// The anchor's position.
+    pub position: Position,
+    /// How many entries of `relay` are sent (0…8).
+    pub relay_count: u8,
+    /// `relay[j]`: the RSSI byte (−dBm, 0 = not heard) this anchor measured from anchor `j + 1`
+    /// on `channel` in the previous superframe. Entries from `relay_count` on are not sent (and
+    /// decode as 0); the anchor's own entry must be 0.
+    pub relay: [u8; MAX_ANCHORS],
+}
+
+impl Beacon {
+    /// Bytes of a beacon without relay entries.
+    pub const BASE_LEN: usize = 13;
+    /// The longest beacon (8 relay entries).
+    pub const MAX_LEN: usize = Self::BASE_LEN + MAX_ANCHORS;
+
+    /// The encoded size of this beacon.
+    pub const fn size(&self) -> usize {
+        Self::BASE_LEN + self.relay_count as usize
+    }
+
+    /// The relay entries that are sent.
+    pub fn relayed(&self) -> &[u8] {
+        &self.relay[..(self.relay_count as usize).min(MAX_ANCHORS)]
+    }
+
+    fn validate(&self) -> Result<(), Error> {
+        if !(1..=MAX_ANCHORS as u8).contains(&self.anchor) {
+            return Err(bad(Field::AnchorId));
+        }
+        check_channel(self.channel)?;
+        if self.relay_count as usize > MAX_ANCHORS {
+            return Err(bad(Field::RelayCount));
+        }
+        if self
+            .relayed()
+            .get(self.anchor as usize - 1)
+            .is_some_and(|&r| r != 0)
+        {
+            return Err(bad(Field::SelfRssi));
+        }
+        Ok(())
+    }
+
+    /// Writes the beacon into `buf`; returns the bytes written ([`Beacon::size`]).
+    pub fn encode(&self, buf: &mut [u8]) -> Result<usize, Error> {
+        self.validate()?;
+        let mut w = start(buf, KIND_BEACON, self.size())?;
+        w.u8(self.anchor);
+        w.u16(self.seq);
+        w.u8(self.channel);
+        w.position(self.position);
+        w.u8(self.relay_count);
+        for &r in self.relayed() {
+            w.u8(r);
+        }
+        Ok(w.at)
+    }
+
+    /// Reads a beacon that is all of `buf`.
+    pub fn decode(buf: &[u8]) -> Result<Beacon, Error> {
+        match open(buf)? {
+            (KIND_BEACON, r) => Self::body(r),
+            (found, _) => Err(Error::BadKind { found }),
+        }
+    }
+
+    fn body(mut r: Reader<'_>) -> Result<Beacon, Error> {
+        let mut b = Beacon {
+            anchor: r.u8()?,
+            seq: r.u16()?,
+            channel: r.u8()?,
+            position: r.position()?,
+            relay_count: r.u8()?,
+            relay: [0; MAX_ANCHORS],
+        };
+        if b.relay_count as usize > MAX_ANCHORS {
+            return Err(bad(Field::RelayCount));
+        }
+        for j in 0..b.relay_count as usize {
+            b.relay[j] = r.u8()?;
+        }
+        r.end()?;
+        b.validate()?;
+        Ok(b)
+    }
+}
+
+/// An agent's report of one superframe to the sink. See the [module docs](self) for the layout.
+///
+/// Entries for anchors past `anchors` and channels past `channels.len()` are not sent (and
+/// decode as 0); so is the relay matrix's diagonal and, without `has_relay`, the whole matrix.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Report {
+    /// The reporting agent (1…255).
+    pub agent: u8,
+    /// The superframe sequence number.
+    pub seq: u16,
+    /// The number of anchors N (3…8).
+    pub anchors: u8,
+    /// The channels, in hop order (C = `channels.len()`).
+    pub channels: ChannelList,
+    /// `positions[i]`: anchor `i + 1`'s position (from its beacons; 0, 0 if never heard).
+    pub positions: [Position; MAX_ANCHORS],
+    /// `rssi[c][i]`: the RSSI byte (−dBm, 0 = not heard) of anchor `i + 1`'s beacon on channel
+    /// `channels[c]`.
+    pub rssi: [[u8; MAX_ANCHORS]; MAX_CHANNELS],
+    /// Whether the relay matrix is sent.
+    pub has_relay: bool,
+    /// `relay[c][i][j]`: what anchor `i + 1` relayed on channel `channels[c]` as the RSSI it
+    /// measured from anchor `j + 1` (0 = not heard or no beacon from `i + 1`).
+    pub relay: [[[u8; MAX_ANCHORS]; MAX_ANCHORS]; MAX_CHANNELS],
+}
+
+impl Report {
+    /// An empty report (nothing heard) of `anchors` anchors on `channels`, with the relay matrix.
+    pub const fn new(agent: u8, seq: u16, anchors: u8, channels: ChannelList) -> Report {
+        Report {
+            agent,
+            seq,
+            anchors,
+            channels,
+            positions: [Position { x: 0, y: 0 }; MAX_ANCHORS],
+            rssi: [[0; MAX_ANCHORS]; MAX_CHANNELS],
+            has_relay: true,
+            relay: [[[0; MAX_ANCHORS]; MAX_ANCHORS]; MAX_CHANNELS],
+        }
+    }
+
+    /// The encoded size of a report of `anchors` × `channels`, with or without the relay matrix.
+    pub const fn wire_size(anchors: usize, channels: usize, relay: bool) -> usize {
+        let per_channel = if relay { anchors * anchors } else { anchors };
+        9 + channels + 4 * anchors + channels * per_channel
+    }
+
+    /// The encoded size of this report (may exceed [`MAX_PAYLOAD`]: then it cannot be sent).
+    pub const fn size(&self) -> usize {
+        Self::wire_size(self.anchors as usize, self.channels.len(), self.has_relay)
+    }
+
+    fn n(&self) -> usize {
+        (self.anchors as usize).min(MAX_ANCHORS)
+    }
+
+    fn validate(&self) -> Result<(), Error> {
+        if self.agent == 0 {
+            return Err(bad(Field::AgentId));
+        }
+        if !(3..=MAX_ANCHORS as u8).contains(&self.anchors) {
+            return Err(bad(Field::Anchors));
+        }
+        // `ChannelList` is valid by construction.
+        Ok(())
+    }
+
+    /// Writes the report into `buf`; returns the bytes written ([`Report::size`]), or
+    /// [`Error::TooLarge`] if it exceeds the radio payload.
+    pub fn encode(&self, buf: &mut [u8]) -> Result<usize, Error> {
+        self.validate()?;
+        let n = self.n();
+        let c = self.channels.len();
+        let mut w = start(buf, KIND_REPORT, self.size())?;
+        w.u8(self.agent);
+        w.u16(self.seq);
+        w.u8(self.anchors);
+        w.u8(c as u8 | if self.has_relay { RELAY_FLAG } else { 0 });
+        for &ch in self.channels.as_slice() {
+            w.u8(ch);
+        }
+        for &p in &self.positions[..n] {
+            w.position(p);
+        }
+        for row in &self.rssi[..c] {
+            for &r in &row[..n] {
+                w.u8(r);
+            }
+        }
+        if self.has_relay {
+            for m in &self.relay[..c] {
+                for (i, row) in m[..n].iter().enumerate() {
+                    for (j, &r) in row[..n].iter().enumerate() {
+                        if i != j {
+                            w.u8(r);
+                        }
+                    }
+                }
+            }
+        }
+        Ok(w.at)
+    }
+
+    /// Reads a report that is all of `buf`.
+    pub fn decode(buf: &[u8]) -> Result<Report, Error> {
+        match open(buf)? {
+            (KIND_REPORT, r) => Self::body(r),
+            (found, _) => Err(Error::BadKind { found }),
+        }
+    }
+
+    fn body(mut r: Reader<'_>) -> Result<Report, Error> {
+        let agent = r.u8()?;
+        let seq = r.u16()?;
+        let anchors = r.u8()?;
+        let cf = r.u8()?;
+        if cf & !(RELAY_FLAG | 0x07) != 0 {
+            return Err(bad(Field::Flags));
+        }
+        let c = (cf & 0x07) as usize;
+        if !(1..=MAX_CHANNELS).contains(&c) {
+            return Err(bad(Field::ChannelCount));
+        }
+        let mut list = [0; MAX_CHANNELS];
+        for ch in &mut list[..c] {
+            *ch = r.u8()?;
+        }
+        let mut rep = Report::new(agent, seq, anchors, ChannelList::new(&list[..c])?);
+        rep.validate()?;
+        rep.has_relay = cf & RELAY_FLAG != 0;
+        let n = rep.n();
+        for p in &mut rep.positions[..n] {
+            *p = r.position()?;
+        }
+        for row in &mut rep.rssi[..c] {
+            for x in &mut row[..n] {
+                *x = r.u8()?;
+            }
+        }
+        if rep.has_relay {
+            for m in &mut rep.relay[..c] {
+                for (i, row) in m[..n].iter_mut().enumerate() {
+                    for (j, x) in row[..n].iter_mut().enumerate() {
+                        if i != j {
+                            *x = r.u8()?;
+                        }
+                    }
+                }
+            }
+        }
+        r.end()?;
+        Ok(rep)
+    }
+}
+
+/// Any hoploc radio message, told apart by its kind byte.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[allow(clippy::large_enum_variant)] // no_std, no alloc: nothing to box into
+pub enum Message {
+    /// An anchor's beacon.
+    Beacon(Beacon),
+    /// An agent's report.
+    Report(Report),
+}
+
+impl Message {
+    /// Reads whichever message `buf` (all of it) holds.
+    pub fn decode(buf: &[u8]) -> Result<Message, Error> {
+        match open(buf)? {
+            (KIND_BEACON, r) => Beacon::body(r).map(Message::Beacon),
+            (KIND_REPORT, r) => Report::body(r).map(Message::Report),
+            (found, _) => Err(Error::BadKind { found }),
+        }
+    }
+
+    /// Writes the message into `buf`; returns the bytes written.
+    pub fn encode(&self, buf: &mut [u8]) -> Result<usize, Error> {
+        match self {
+            Message::Beacon(b) => b.encode(buf),
+            Message::Report(r) => r.encode(buf),
+        }
+    }
+}
+
+/// Reads whichever message `buf` (all of it) holds: [`Message::decode`].
+pub fn decode_any(buf: &[u8]) -> Result<Message, Error> {
+    Message::decode(buf)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn beacon() -> Beacon {
+        Beacon {
+            anchor: 2,
+            seq: 0x0102,
+            channel: 12,
+            position: Position { x: 300, y: -5 },
+            relay_count: 4,
+            relay: [61, 0, 70, 0, 0, 0, 0, 0],
+        }
+    }
+
+    const BEACON: [u8; 17] = [
+        0xB5, 1, 1, 17, // header
+        2, 0x02, 0x01, 12, // anchor, seq, channel
+        0x2C, 0x01, 0xFB, 0xFF, // x 300, y -5
+        4, 61, 0, 70, 0, // relay
+    ];
+
+    #[test]
+    fn beacon_golden_bytes() {
+        let mut buf = [0; 32];
+        assert_eq!(beacon().encode(&mut buf), Ok(17));
+        assert_eq!(buf[..17], BEACON);
+        assert_eq!(Beacon::decode(&BEACON), Ok(beacon()));
+        assert_eq!(decode_any(&BEACON), Ok(Message::Beacon(beacon())));
+    }
+
+    fn report() -> Report {
+        let mut r = Report::new(7, 0xBEEF, 4, ChannelList::new(&[1, 12]).unwrap());
+        r.positions[1] = Position { x: 500, y: 0 };
+        r.positions[3] = Position { x: 0, y: 400 };
+        r.rssi[0] = [40, 50, 0, 60, 0, 0, 0, 0];
+        r.rssi[1][2] = 77;
+        r.relay[0][0][1] = 55; // anchor 1 heard anchor 2 at -55 dBm on channel 1
+        r.relay[1][3][2] = 66;
+        r
+    }
+
+    #[rustfmt::skip]
+    const REPORT: [u8; 59] = [
+        0xB5, 1, 2, 59, // header
+        7, 0xEF, 0xBE, 4, 0x82, 1, 12, // agent, seq, N, C | relay, channels
+        0, 0, 0, 0,  0xF4, 0x01, 0, 0,  0, 0, 0, 0,  0, 0, 0x90, 0x01, // positions
+        40, 50, 0, 60,  0, 0, 77, 0, // beacon RSSI per channel
+        55, 0, 0,  0, 0, 0,  0, 0, 0,  0, 0, 0, // relay, channel 1 (diagonal omitted)
+        0, 0, 0,  0, 0, 0,  0, 0, 0,  0, 0, 66, // relay, channel 12
+    ];
+
+    #[test]
+    fn report_golden_bytes() {
+        let mut buf = [0; MAX_PAYLOAD];
+        assert_eq!(report().encode(&mut buf), Ok(59));
+        assert_eq!(buf[..59], REPORT);
+        assert_eq!(Report::decode(&REPORT), Ok(report()));
+        assert_eq!(decode_any(&REPORT), Ok(Message::Report(report())));
+    }
+
+    #[test]
+    fn documented_sizes() {
+        assert_eq!(Report::wire_size(4, 2, true), 59);
+        assert_eq!(Report::wire_size(4, 2, false), 35);
+        assert_eq!(Report::wire_size(4, 4, true), 93);
+        assert_eq!(Report::wire_size(5, 2, true), 81);
+        assert_eq!(Report::wire_size(7, 1, true), 87);
+        assert_eq!(Report::wire_size(8, 1, true), 106);
+        assert_eq!(Report::wire_size(8, 4, false), 77);
+        assert!(Report::wire_size(5, 3, true) > MAX_PAYLOAD);
+        assert!(Report::wire_size(6, 2, true) > MAX_PAYLOAD);
+        assert_eq!(Beacon::MAX_LEN, 21);
+    }
+
+    #[test]
+    fn too_large_and_small_buffers() {
+        let mut r = Report::new(1, 0, 8, ChannelList::new(&[1]).unwrap());
+        let mut buf = [0; 128];
+        assert_eq!(r.encode(&mut buf), Err(Error::TooLarge { size: 106 }));
+        r.has_relay = false;
+        assert_eq!(r.encode(&mut buf), Ok(50));
+        assert_eq!(
+            r.encode(&mut buf[..49]),
+            Err(Error::BufferTooSmall { need: 50 })
+        );
+        assert_eq!(
+            beacon().encode(&mut buf[..3]),
+            Err(Error::BufferTooSmall { need: 17 })
+        );
+    }
+
+    #[test]
+    fn header_errors() {
+        assert_eq!(decode_any(&[]), Err(Error::TooShort));
+        assert_eq!(decode_any(&BEACON[..3]), Err(Error::TooShort));
+        assert_eq!(decode_any(&BEACON[..16]), Err(Error::TooShort));
+        let mut b = BEACON;
+        b[0] = 0x7E;
+        assert_eq!(decode_any(&b), Err(Error::BadMagic));
+        let mut b = BEACON;
+        b[1] = 2;
+        assert_eq!(decode_any(&b), Err(Error::BadVersion { found: 2 }));
+        let mut b = BEACON;
+        b[2] = 9;
+        assert_eq!(decode_any(&b), Err(Error::BadKind { found: 9 }));
+        assert_eq!(Report::decode(&BEACON), Err(Error::BadKind { found: 1 }));
+        let mut long = [0; 18];
+        long[..17].copy_from_slice(&BEACON);
+        assert_eq!(decode_any(&long), Err(Error::BadLength));
+        long[3] = 18; // says 18, but the fields are 17
+        assert_eq!(decode_any(&long), Err(Error::BadLength));
+    }
+
+    #[test]
+    fn field_errors() {
+        let field = |f| Err(Error::BadValue { field: f });
+        let mut b = BEACON;
+        b[4] = 9;
+        assert_eq!(decode_any(&b), field(Field::AnchorId));
+        let mut b = BEACON;
+        b[7] = 17;
+        assert_eq!(decode_any(&b), field(Field::Channel));
+        let mut b = BEACON;
+        b[14] = 1; // anchor 2's own entry
+        assert_eq!(decode_any(&b), field(Field::SelfRssi));
+        let mut b = BEACON;
+        b[12] = 9;
+        assert_eq!(decode_any(&b), field(Field::RelayCount));
+        let mut r = REPORT;
+        r[4] = 0;
+        assert_eq!(decode_any(&r), field(Field::AgentId));
+        let mut r = REPORT;
+        r[7] = 2;
+        assert_eq!(decode_any(&r), field(Field::Anchors));
+        let mut r = REPORT;
+        r[8] = 0x80;
+        assert_eq!(decode_any(&r), field(Field::ChannelCount));
+        let mut r = REPORT;
+        r[8] = 0x42;
+        assert_eq!(decode_any(&r), field(Field::Flags));
+        let mut r = REPORT;
+        r[10] = 1;
+        assert_eq!(decode_any(&r), field(Field::DuplicateChannel));
+        let mut r = REPORT;
+        r[8] = 0x02; // no relay flag: 24 bytes too many
+        assert_eq!(decode_any(&r), Err(Error::BadLength));
+    }
+
+    #[test]
+    fn channel_lists() {
+        assert_eq!(ChannelList::new(&[1, 12]).unwrap().as_slice(), &[1, 12]);
+        let field = |f| Err(Error::BadValue { field: f });
+        assert_eq!(ChannelList::new(&[]), field(Field::ChannelCount));
+        assert_eq!(
+            ChannelList::new(&[1, 2, 3, 4, 5]),
+            field(Field::ChannelCount)
+        );
+        assert_eq!(ChannelList::new(&[0]), field(Field::Channel));
+        assert_eq!(ChannelList::new(&[17]), field(Field::Channel));
+        assert_eq!(ChannelList::new(&[5, 1, 5]), field(Field::DuplicateChannel));
+    }
+}

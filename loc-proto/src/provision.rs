@@ -1,0 +1,322 @@
+//! The provisioning frame: how the host (`hoploc provision`) writes a node's [`Config`] over the
+//! USB serial in the first seconds after reset, and the node's one-line binary answer.
+//!
+//! Frame, L + 7 bytes (27 for a two-channel config, 29 at most):
+//!
+//! | byte | field |
+//! |---|---|
+//! | 0–2 | start delimiter `HLP` (0x48 0x4C 0x50): not 0x7E, so the radio ignores it, and upper case, which no hoploc text line starts with |
+//! | 3 | frame version [`VERSION`] (1) |
+//! | 4 | L, the length of the config block (19…22) |
+//! | 5 … 4+L | the config exactly as stored in EEPROM ([`crate::config`], with its own magic, version, length and CRC) |
+//! | 5+L, 6+L | CRC-16/CCITT-FALSE ([`crate::error::crc16`]) of bytes 3 … 4+L, big endian |
+//!
+//! The node answers every frame it recognised (delimiter, version and length) with 4 bytes:
+//!
+//! | reply | bytes | meaning |
+//! |---|---|---|
+//! | ACK | `HLA` 0x01 | the config was valid and has been stored; the 0x01 is [`VERSION`] |
+//! | NAK | `HLN` *code* | rejected; *code* is [`Error::code`] (1…9: 3 bad version, 5 bad length, 6 bad field, 7 bad CRC …) |
+//!
+//! Neither contains 0x7E, so the radio, which shares the node's TX line, ignores them.
+//! [`ProvisionParser`] finds frames in any byte stream: it skips garbage, and after a corrupt
+//! frame rescans the bytes it had taken for that frame, so the next good frame is never lost.
+
+use crate::config::{Config, MAX_LEN, MIN_LEN};
+use crate::error::{crc16, Error};
+
+/// The start delimiter of a provisioning frame.
+pub const DELIMITER: [u8; 3] = *b"HLP";
+/// The provisioning frame version.
+pub const VERSION: u8 = 1;
+/// The longest frame (a four-channel config).
+pub const MAX_FRAME: usize = MAX_LEN + 7;
+/// Bytes of a [`Reply`].
+pub const REPLY_LEN: usize = 4;
+
+/// Writes the provisioning frame of `config` into `buf`; returns the bytes written
+/// (`config.size() + 7`).
+pub fn encode(config: &Config, buf: &mut [u8]) -> Result<usize, Error> {
+    let size = config.size() + 7;
+    if buf.len() < size {
+        return Err(Error::BufferTooSmall { need: size as u16 });
+    }
+    let l = config.to_bytes(&mut buf[5..])?;
+    buf[..3].copy_from_slice(&DELIMITER);
+    buf[3] = VERSION;
+    buf[4] = l as u8;
+    let crc = crc16(&buf[3..5 + l]);
+    buf[5 + l..7 + l].copy_from_slice(&crc.to_be_bytes());
+    Ok(size)
+}
+
+/// The node's answer to a provisioning frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Reply {
+    /// Stored.
+    Ack,
+    /// Rejected, with [`Error::code`].
+    Nak(u8),
+}
+
+impl Reply {
+    /// The answer to a parser outcome.
+    pub fn to(outcome: &Result<Config, Error>) -> Reply {
+        match outcome {
+            Ok(_) => Reply::Ack,
+            Err(e) => Reply::Nak(e.code()),
+        }
+    }
+
+    /// The reply's 4 bytes.
+    pub const fn bytes(self) -> [u8; REPLY_LEN] {
+        match self {
+            Reply::Ack => [b'H', b'L', b'A', VERSION],
+            Reply::Nak(code) => [b'H', b'L', b'N', code],
+        }
+    }
+
+    /// The reply in `b`, if it is one.
+    pub fn parse(b: &[u8]) -> Option<Reply> {
+        match *b {
+            [b'H', b'L', b'A', VERSION] => Some(Reply::Ack),
+            [b'H', b'L', b'N', code] => Some(Reply::Nak(code)),
+            _ => None,
+        }
+    }
+}
+
+/// What the bytes buffered so far are.
+enum Step {
+    /// A frame's beginning; more bytes needed.
+    More,
+    /// Not a frame start: skip silently.
+    Skip,
+    /// A frame start, but broken (bad version, length or CRC).
+    Fail(Error),
+    /// A whole frame with a good CRC; the config in it is valid or not.
+    Done(Result<Config, Error>),
+}
+
+fn step(b: &[u8]) -> Step {
+    for (i, &d) in DELIMITER.iter().enumerate() {
+        match b.get(i) {
+            None => return Step::More,
+            Some(&x) if x != d => return Step::Skip,
+            Some(_) => {}
+        }
+    }
+    match b.get(3) {
+        None => return Step::More,
+        Some(&v) if v != VERSION => return Step::Fail(Error::BadVersion { found: v }),
+        Some(_) => {}
+    }
+    let l = match b.get(4) {
+        None => return Step::More,
+        Some(&l) if !(MIN_LEN..=MAX_LEN).contains(&(l as usize)) => {
+            return Step::Fail(Error::BadLength)
+        }
+        Some(&l) => l as usize,
+    };
+    let (Some(body), Some(&[hi, lo])) = (b.get(3..5 + l), b.get(5 + l..7 + l)) else {
+        return Step::More;
+    };
+    if crc16(body) != u16::from_be_bytes([hi, lo]) {
+        return Step::Fail(Error::BadCrc);
+    }
+    Step::Done(Config::from_bytes(&body[2..]))
+}
+
+/// Finds provisioning frames in a byte stream, one byte at a time, in a 29-byte buffer.
+#[derive(Clone, Debug)]
+pub struct ProvisionParser {
+    buf: [u8; MAX_FRAME],
+    n: u8,
+    errors: u16,
+}
+
+impl Default for ProvisionParser {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl ProvisionParser {
+    /// A parser that has seen nothing.
+    pub const fn new() -> Self {
+        ProvisionParser {
+            buf: [0; MAX_FRAME],
+            n: 0,
+            errors: 0,
+        }
+    }
+
+    /// How many broken frames it has reported (saturating).
+    pub const fn errors(&self) -> u16 {
+        self.errors
+    }
+
+    /// Feeds one byte. Returns `Some(Ok(config))` at the end of a good frame, `Some(Err(_))` when a
+    /// frame (delimiter seen) turns out broken or holds an invalid config, and `None` otherwise
+    /// (garbage is skipped silently). Never panics.
+    pub fn push(&mut self, byte: u8) -> Option<Result<Config, Error>> {
+        let mut n = self.n as usize;
+        if n >= MAX_FRAME {
+            // Cannot happen (a frame is complete at MAX_FRAME bytes), but stay in bounds.
+            n = 0;
+        }
+        self.buf[n] = byte;
+        n += 1;
+        let mut failed = None;
+        let out = loop {
+            match step(&self.buf[..n]) {
+                Step::More => break failed.map(Err),
+                Step::Done(r) => {
+                    n = 0;
+                    break Some(r);
+                }
+                s => {
+                    if let Step::Fail(e) = s {
+                        failed = Some(e);
+                        self.errors = self.errors.saturating_add(1);
+                    }
+                    // Resynchronise: the next frame may start inside what was buffered.
+                    let next = self.buf[1..n]
+                        .iter()
+                        .position(|&b| b == DELIMITER[0])
+                        .map_or(n, |i| i + 1);
+                    self.buf.copy_within(next..n, 0);
+                    n -= next;
+                    if n == 0 {
+                        break failed.map(Err);
+                    }
+                }
+            }
+        };
+        if let Some(Err(Error::BadValue { .. })) = out {
+            self.errors = self.errors.saturating_add(1);
+        }
+        self.n = n as u8;
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::vec::Vec;
+
+    #[rustfmt::skip]
+    const DEFAULT_FRAME: [u8; 27] = [
+        b'H', b'L', b'P', 1, 20,
+        0xC5, 1, 20, 0, 1, 4, 0, 0, 0, 0, 62, 0, 3, 0x32, 0x33, 2, 1, 12, 0xE1, 0xE3,
+        0xED, 0xA2,
+    ];
+
+    fn feed(p: &mut ProvisionParser, bytes: &[u8]) -> Vec<Result<Config, Error>> {
+        bytes.iter().filter_map(|&b| p.push(b)).collect()
+    }
+
+    #[test]
+    fn golden_frame() {
+        let mut buf = [0; MAX_FRAME];
+        assert_eq!(encode(&Config::DEFAULT, &mut buf), Ok(27));
+        assert_eq!(buf[..27], DEFAULT_FRAME);
+        let mut p = ProvisionParser::new();
+        assert_eq!(feed(&mut p, &DEFAULT_FRAME), [Ok(Config::DEFAULT)]);
+        assert_eq!(
+            encode(&Config::DEFAULT, &mut buf[..26]),
+            Err(Error::BufferTooSmall { need: 27 })
+        );
+    }
+
+    #[test]
+    fn replies() {
+        assert_eq!(Reply::Ack.bytes(), *b"HLA\x01");
+        assert_eq!(Reply::Nak(7).bytes(), *b"HLN\x07");
+        assert_eq!(Reply::to(&Err(Error::BadCrc)), Reply::Nak(7));
+        assert_eq!(Reply::to(&Ok(Config::DEFAULT)), Reply::Ack);
+        for r in [Reply::Ack, Reply::Nak(1), Reply::Nak(9)] {
+            assert_eq!(Reply::parse(&r.bytes()), Some(r));
+            assert!(!r.bytes().contains(&0x7E));
+        }
+        assert_eq!(Reply::parse(b"HLP\x01"), None);
+        assert_eq!(Reply::parse(b"HLA"), None);
+    }
+
+    #[test]
+    fn garbage_before_and_between() {
+        let mut s = Vec::new();
+        s.extend_from_slice(b"hoploc anchor boot\r\n\x7E\x00\x05HHLHL");
+        s.extend_from_slice(&DEFAULT_FRAME);
+        s.extend_from_slice(b"\xFFHL\x00H");
+        s.extend_from_slice(&DEFAULT_FRAME);
+        let mut p = ProvisionParser::new();
+        assert_eq!(feed(&mut p, &s), [Ok(Config::DEFAULT), Ok(Config::DEFAULT)]);
+        assert_eq!(p.errors(), 0);
+    }
+
+    #[test]
+    fn every_corrupt_frame_is_reported_and_the_next_good_one_kept() {
+        for i in 0..DEFAULT_FRAME.len() {
+            for v in [
+                0x00,
+                0x48,
+                0xFF,
+                DEFAULT_FRAME[i] ^ 0x01,
+                DEFAULT_FRAME[i] ^ 0x80,
+            ] {
+                let mut bad = DEFAULT_FRAME;
+                bad[i] = v;
+                if bad == DEFAULT_FRAME {
+                    continue;
+                }
+                let mut p = ProvisionParser::new();
+                let mut got = feed(&mut p, &bad);
+                got.extend(feed(&mut p, &DEFAULT_FRAME));
+                assert_eq!(got.last(), Some(&Ok(Config::DEFAULT)), "byte {i} = {v:#x}");
+                assert!(
+                    got[..got.len() - 1].iter().all(|r| r.is_err()),
+                    "byte {i} = {v:#x}: {got:?}"
+                );
+                // Only a broken delimiter makes a frame pass unnoticed as garbage.
+                if i >= 3 {
+                    assert!(got.len() >= 2, "byte {i} = {v:#x}: {got:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn truncated_frame_then_good_one() {
+        for cut in 1..DEFAULT_FRAME.len() {
+            let mut p = ProvisionParser::new();
+            let mut got = feed(&mut p, &DEFAULT_FRAME[..cut]);
+            got.extend(feed(&mut p, &DEFAULT_FRAME));
+            assert_eq!(got.last(), Some(&Ok(Config::DEFAULT)), "cut at {cut}");
+        }
+    }
+
+    #[test]
+    fn good_crc_invalid_config_is_a_typed_error() {
+        let mut c = Config::DEFAULT;
+        c.slot_ms = 0;
+        let mut buf = [0; MAX_FRAME];
+        assert!(encode(&c, &mut buf).is_err());
+        // Build one by hand: patch the slot and both CRCs.
+        let mut f = DEFAULT_FRAME;
+        f[15] = 0;
+        let inner = crc16(&f[5..23]);
+        f[23..25].copy_from_slice(&inner.to_be_bytes());
+        let outer = crc16(&f[3..25]);
+        f[25..27].copy_from_slice(&outer.to_be_bytes());
+        let mut p = ProvisionParser::new();
+        assert_eq!(
+            feed(&mut p, &f),
+            [Err(Error::BadValue {
+                field: crate::error::Field::SlotLength
+            })]
+        );
+        assert_eq!(feed(&mut p, &DEFAULT_FRAME), [Ok(Config::DEFAULT)]);
+    }
+}

@@ -1,0 +1,269 @@
+//! The binary formats (messages, config, provisioning frames): every valid value survives
+//! encode → decode, and no input makes a decoder panic; whatever decodes re-encodes to the same
+//! bytes.
+
+use loc_proto::config::{self, Config};
+use loc_proto::error::crc16;
+use loc_proto::msg::{
+    decode_any, Beacon, ChannelList, Message, Position, Report, MAX_ANCHORS, MAX_PAYLOAD,
+};
+use loc_proto::provision::{self, ProvisionParser, MAX_FRAME};
+use loc_proto::{Error, Role};
+use proptest::prelude::*;
+use proptest::sample::select;
+
+fn position() -> impl Strategy<Value = Position> {
+    (any::<i16>(), any::<i16>()).prop_map(|(x, y)| Position { x, y })
+}
+
+fn channels() -> impl Strategy<Value = ChannelList> {
+    proptest::sample::subsequence((1..=16u8).collect::<Vec<_>>(), 1..=4)
+        .prop_shuffle()
+        .prop_map(|c| ChannelList::new(&c).unwrap())
+}
+
+fn beacon() -> impl Strategy<Value = Beacon> {
+    (
+        1..=8u8,
+        any::<u16>(),
+        1..=16u8,
+        position(),
+        0..=8u8,
+        any::<[u8; 8]>(),
+    )
+        .prop_map(|(anchor, seq, channel, position, relay_count, mut relay)| {
+            for (j, r) in relay.iter_mut().enumerate() {
+                if j + 1 == anchor as usize || j >= relay_count as usize {
+                    *r = 0;
+                }
+            }
+            Beacon {
+                anchor,
+                seq,
+                channel,
+                position,
+                relay_count,
+                relay,
+            }
+        })
+}
+
+#[allow(clippy::needless_range_loop)] // three parallel index sets read clearer as ranges
+fn report() -> impl Strategy<Value = Report> {
+    (
+        1..=255u8,
+        any::<u16>(),
+        3..=8u8,
+        channels(),
+        any::<bool>(),
+        proptest::array::uniform8(position()),
+        any::<[[u8; 8]; 4]>(),
+        any::<[[[u8; 8]; 8]; 4]>(),
+    )
+        .prop_map(|(agent, seq, n, ch, has_relay, pos, rssi, relay)| {
+            let mut r = Report::new(agent, seq, n, ch);
+            r.has_relay = has_relay;
+            let (n, c) = (n as usize, ch.len());
+            r.positions[..n].copy_from_slice(&pos[..n]);
+            for k in 0..c {
+                r.rssi[k][..n].copy_from_slice(&rssi[k][..n]);
+                if has_relay {
+                    for i in 0..n {
+                        for j in 0..n {
+                            if i != j {
+                                r.relay[k][i][j] = relay[k][i][j];
+                            }
+                        }
+                    }
+                }
+            }
+            r
+        })
+}
+
+fn config() -> impl Strategy<Value = Config> {
+    (
+        select(Role::ALL.to_vec()),
+        1..=255u8,
+        3..=8u8,
+        position(),
+        config::MIN_SLOT_MS..=config::MAX_SLOT_MS,
+        channels(),
+        1..=16u8,
+        0..0xFFFFu16,
+    )
+        .prop_map(
+            |(role, id, anchors, position, slot_ms, channels, sink_channel, pan_id)| Config {
+                role,
+                id: if role == Role::Anchor {
+                    (id - 1) % anchors + 1
+                } else {
+                    id
+                },
+                anchors,
+                position,
+                slot_ms,
+                channels,
+                sink_channel,
+                pan_id,
+            },
+        )
+}
+
+/// Arbitrary bytes, biased to start like the format so the decoders get past the header.
+fn bytes_like(prefix: &'static [u8], max: usize) -> impl Strategy<Value = Vec<u8>> {
+    (
+        0..=prefix.len(),
+        proptest::collection::vec(any::<u8>(), 0..max),
+    )
+        .prop_map(move |(k, mut v)| {
+            for (i, &p) in prefix[..k].iter().enumerate() {
+                if i < v.len() {
+                    v[i] = p;
+                }
+            }
+            // Often make the length byte honest.
+            if k >= 3 && v.len() > 3 && v[0] == 0xB5 && v[3] & 1 == 0 {
+                v[3] = v.len() as u8;
+            }
+            v
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    #[test]
+    fn beacons_round_trip(b in beacon()) {
+        let mut buf = [0; MAX_PAYLOAD];
+        let n = b.encode(&mut buf).unwrap();
+        prop_assert_eq!(n, b.size());
+        prop_assert_eq!(buf[3] as usize, n);
+        prop_assert_eq!(Beacon::decode(&buf[..n]), Ok(b));
+        prop_assert_eq!(decode_any(&buf[..n]), Ok(Message::Beacon(b)));
+    }
+
+    #[test]
+    fn reports_round_trip_or_are_too_large(r in report()) {
+        let mut buf = [0; 256];
+        match r.encode(&mut buf) {
+            Ok(n) => {
+                prop_assert!(n <= MAX_PAYLOAD);
+                prop_assert_eq!(n, r.size());
+                prop_assert_eq!(Report::decode(&buf[..n]), Ok(r));
+                prop_assert_eq!(decode_any(&buf[..n]), Ok(Message::Report(r)));
+            }
+            Err(e) => {
+                prop_assert!(r.size() > MAX_PAYLOAD);
+                prop_assert_eq!(e, Error::TooLarge { size: r.size() as u16 });
+            }
+        }
+    }
+
+    #[test]
+    fn configs_round_trip(c in config()) {
+        let mut buf = [0; config::MAX_LEN];
+        let n = c.to_bytes(&mut buf).unwrap();
+        prop_assert_eq!(n, c.size());
+        prop_assert_eq!(Config::from_bytes(&buf[..n]), Ok(c));
+        prop_assert_eq!(crc16(&buf[..n]), 0);
+        let mut f = [0; MAX_FRAME];
+        let m = provision::encode(&c, &mut f).unwrap();
+        prop_assert_eq!(m, n + 7);
+        let mut p = ProvisionParser::new();
+        let got: Vec<_> = f[..m].iter().filter_map(|&b| p.push(b)).collect();
+        prop_assert_eq!(got, vec![Ok(c)]);
+    }
+
+    #[test]
+    fn any_bytes_decode_without_panic_and_reencode_exactly(
+        v in prop_oneof![
+            bytes_like(&[0xB5, 1, 1], 24),
+            bytes_like(&[0xB5, 1, 2], 110),
+            proptest::collection::vec(any::<u8>(), 0..110),
+        ]
+    ) {
+        if let Ok(m) = decode_any(&v) {
+            let mut buf = [0; 256];
+            let n = m.encode(&mut buf).unwrap();
+            prop_assert_eq!(&buf[..n], &v[..]);
+        }
+        if let Ok(b) = Beacon::decode(&v) {
+            prop_assert_eq!(decode_any(&v), Ok(Message::Beacon(b)));
+        }
+        if let Ok(r) = Report::decode(&v) {
+            prop_assert_eq!(decode_any(&v), Ok(Message::Report(r)));
+        }
+    }
+
+    #[test]
+    fn any_config_bytes_decode_without_panic_and_reencode_exactly(
+        v in prop_oneof![
+            bytes_like(&[0xC5, 1], 24),
+            proptest::collection::vec(any::<u8>(), 0..24),
+        ],
+        fix_crc in any::<bool>(),
+    ) {
+        let mut v = v;
+        // Half the time make length and CRC right, so the field checks are reached.
+        if fix_crc && v.len() >= config::MIN_LEN {
+            let len = v.len().min(config::MAX_LEN);
+            v[2] = len as u8;
+            let crc = crc16(&v[..len - 2]);
+            v[len - 2..len].copy_from_slice(&crc.to_be_bytes());
+        }
+        if let Ok(c) = Config::from_bytes(&v) {
+            let mut buf = [0; config::MAX_LEN];
+            let n = c.to_bytes(&mut buf).unwrap();
+            prop_assert_eq!(&buf[..n], &v[..n]);
+        }
+    }
+
+    #[test]
+    fn corrupting_one_config_byte_is_caught(c in config(), i in 0usize..22, x in 1..=255u8) {
+        let mut buf = [0; config::MAX_LEN];
+        let n = c.to_bytes(&mut buf).unwrap();
+        let i = i % n;
+        buf[i] ^= x;
+        prop_assert!(Config::from_bytes(&buf[..n]).is_err());
+    }
+
+    #[test]
+    fn parser_survives_any_bytes_and_finds_the_next_good_frame(
+        garbage in proptest::collection::vec(
+            prop_oneof![any::<u8>(), select(b"HLP\x01\x14\x13\xC5".to_vec())], 0..80),
+        c in config(),
+    ) {
+        let mut p = ProvisionParser::new();
+        for &b in &garbage {
+            if let Some(Ok(found)) = p.push(b) {
+                // Garbage can only hold a frame by containing one whole.
+                let mut f = [0; MAX_FRAME];
+                let m = provision::encode(&found, &mut f).unwrap();
+                prop_assert!(garbage.windows(m).any(|w| w == &f[..m]));
+            }
+        }
+        let mut f = [0; MAX_FRAME];
+        let m = provision::encode(&c, &mut f).unwrap();
+        let got: Vec<_> = f[..m].iter().filter_map(|&b| p.push(b)).collect();
+        prop_assert_eq!(got.last(), Some(&Ok(c)));
+    }
+}
+
+#[test]
+fn largest_reports_that_fit() {
+    for n in 3..=MAX_ANCHORS {
+        for c in 1..=4 {
+            let fits = Report::wire_size(n, c, true) <= MAX_PAYLOAD;
+            assert_eq!(
+                fits,
+                matches!((n, c), (3, _) | (4, _) | (5, 1..=2) | (6, 1) | (7, 1)),
+                "{n}x{c}"
+            );
+            assert!(
+                Report::wire_size(n, c, false) <= MAX_PAYLOAD,
+                "{n}x{c} without relay"
+            );
+        }
+    }
+}
