@@ -13,11 +13,14 @@
 //!   its report sub-slot (agent `a` has sub-slot `a`) it tunes to the sink channel, and at the
 //!   end of the sub-slot's guard it sends the report of the superframe's beacons
 //!   ([`Agent::report`]); the TX status (or the next phase) tunes it back.
-//! * **Not heard** is RSSI 0: a report says what was missed, it never repeats an old value.
+//! * **Not heard** is RSSI 0 (and position 0, 0 for an anchor not heard at all): a report says
+//!   what was missed, it never repeats an old value. The report is loc-proto's
+//!   [`Report`], with the relay matrix.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+use loc_proto::msg::{ChannelList, Position, Report};
 use loc_proto::schedule::{Schedule, Timeline};
 
 /// Most anchors in a testbed.
@@ -39,7 +42,8 @@ pub enum Tune {
 pub enum Action {
     /// Switch the radio's channel.
     Tune(Tune),
-    /// Send [`Agent::report`] (superframe `seq`) to the sink, then report the TX status.
+    /// Send [`Agent::report`] (superframe `seq`, a [`Report`]) to the sink, then report the TX
+    /// status.
     SendReport {
         /// Superframe sequence.
         seq: u16,
@@ -65,29 +69,6 @@ pub struct Heard<'a> {
     pub relay: &'a [u8],
 }
 
-/// What the agent collected in one superframe: the content of a report.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct Collected {
-    /// Superframe sequence.
-    pub seq: u16,
-    /// `rssi[c][a]`: anchor `a + 1`'s beacon on channel index `c`, −dBm; 0 not heard.
-    pub rssi: [[u8; MAX_ANCHORS]; MAX_CHANNELS],
-    /// Anchor positions as the beacons gave them, cm (`None`: no beacon of it heard).
-    pub pos: [Option<[i16; 2]>; MAX_ANCHORS],
-    /// `relay[c][a][b]`: what anchor `a + 1` said it heard from anchor `b + 1` on channel index
-    /// `c` (0: not heard, or its beacon not heard).
-    pub relay: [[[u8; MAX_ANCHORS]; MAX_ANCHORS]; MAX_CHANNELS],
-}
-
-impl Collected {
-    const EMPTY: Collected = Collected {
-        seq: 0,
-        rssi: [[0; MAX_ANCHORS]; MAX_CHANNELS],
-        pos: [None; MAX_ANCHORS],
-        relay: [[[0; MAX_ANCHORS]; MAX_ANCHORS]; MAX_CHANNELS],
-    };
-}
-
 /// The agent state machine.
 #[derive(Clone, Debug)]
 pub struct Agent {
@@ -99,14 +80,23 @@ pub struct Agent {
     next_ev: u8,
     /// A report is out, waiting for its TX status.
     awaiting: bool,
-    cur: Collected,
-    sent: Collected,
+    /// What this superframe's beacons said so far: the next report.
+    cur: Report,
+    sent: Report,
 }
 
 impl Agent {
-    /// Agent `id` (1…M of `sched`'s report sub-slots), booting at local time `now_us`; beacons
-    /// arrive `latency_us` after their transmit time.
-    pub fn new(id: u8, sched: Schedule, latency_us: u32, now_us: u32) -> Agent {
+    /// Agent `id` (1…M of `sched`'s report sub-slots) of a testbed hopping over `channels`
+    /// (`sched`'s channels), booting at local time `now_us`; beacons arrive `latency_us` after
+    /// their transmit time.
+    pub fn new(
+        id: u8,
+        sched: Schedule,
+        channels: ChannelList,
+        latency_us: u32,
+        now_us: u32,
+    ) -> Agent {
+        let empty = Report::new(id, 0, sched.anchors(), channels);
         Agent {
             id,
             tl: Timeline::new(sched, latency_us, 0, now_us),
@@ -114,8 +104,8 @@ impl Agent {
             tuned: false,
             next_ev: 0,
             awaiting: false,
-            cur: Collected::EMPTY,
-            sent: Collected::EMPTY,
+            cur: empty,
+            sent: empty,
         }
     }
 
@@ -125,12 +115,12 @@ impl Agent {
     }
 
     /// The report last sent ([`Action::SendReport`]).
-    pub fn report(&self) -> &Collected {
+    pub fn report(&self) -> &Report {
         &self.sent
     }
 
     /// What has been collected so far in this superframe.
-    pub fn collecting(&self) -> &Collected {
+    pub fn collecting(&self) -> &Report {
         &self.cur
     }
 
@@ -152,8 +142,12 @@ impl Agent {
 
     fn new_superframe(&mut self) {
         self.next_ev = 0;
-        self.cur = Collected::EMPTY;
-        self.cur.seq = self.tl.seq();
+        self.cur = Report::new(
+            self.cur.agent,
+            self.tl.seq(),
+            self.cur.anchors,
+            self.cur.channels,
+        );
     }
 
     /// What to do at local time `now_us`: call it often (at least once per guard time) and
@@ -225,11 +219,16 @@ impl Agent {
         }
         let (c, a) = (b.channel as usize, b.from as usize - 1);
         self.cur.rssi[c][a] = b.rssi;
-        self.cur.pos[a] = Some(b.pos);
+        self.cur.positions[a] = Position {
+            x: b.pos[0],
+            y: b.pos[1],
+        };
         let row = &mut self.cur.relay[c][a];
         for (slot, &v) in row.iter_mut().zip(b.relay) {
             *slot = v;
         }
+        // What an anchor says of itself is not a measurement (and is not sent).
+        row[a] = 0;
     }
 }
 

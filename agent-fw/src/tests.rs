@@ -11,12 +11,16 @@ fn sched() -> Schedule {
     Schedule::new(4, 2, 25_000, 2, 20_000, 2_000).unwrap()
 }
 
+fn channels() -> ChannelList {
+    ChannelList::new(&[1, 12]).unwrap()
+}
+
 const LATENCY: u32 = 3_000;
 const STEP: u64 = 100;
 const POS: [[i16; 2]; 4] = [[0, 0], [1000, 0], [1000, 1000], [0, 1000]];
 
 /// A report sent: (global time, agent, seq, what it carried).
-type Sent = (u64, u8, u16, Collected);
+type Sent = (u64, u8, u16, Report);
 
 /// An agent's local clock at global time `t`: offset, 3000 ppm slow.
 fn local(t: u64, off: u32) -> u32 {
@@ -45,7 +49,13 @@ impl Sim {
             agents: agent_offsets
                 .iter()
                 .enumerate()
-                .map(|(k, &off)| (Agent::new(k as u8 + 1, s, LATENCY, off), None, off))
+                .map(|(k, &off)| {
+                    (
+                        Agent::new(k as u8 + 1, s, channels(), LATENCY, off),
+                        None,
+                        off,
+                    )
+                })
                 .collect(),
             air: Vec::new(),
             status: Vec::new(),
@@ -132,7 +142,7 @@ impl Sim {
 
 #[test]
 fn an_agent_waits_for_a_beacon_before_anything() {
-    let mut g = Agent::new(1, sched(), LATENCY, 0);
+    let mut g = Agent::new(1, sched(), channels(), LATENCY, 0);
     assert_eq!(g.poll(0), Some(Action::Tune(Tune::List(0))));
     for t in (0..5_000_000).step_by(1000) {
         assert_eq!(g.poll(t), None);
@@ -169,11 +179,18 @@ fn agents_report_every_superframe_in_their_sub_slots() {
             for ch in 0..2 {
                 assert_eq!(&c.rssi[ch][..4], &[51, 52, 53, 54], "agent {agent} ch {ch}");
                 for a in 0..4 {
-                    assert_eq!(&c.relay[ch][a][..4], &[60, 61, 62, 63]);
+                    // The relays as sent, less each anchor's entry for itself.
+                    let mut want = [60, 61, 62, 63];
+                    want[a] = 0;
+                    assert_eq!(&c.relay[ch][a][..4], &want);
                 }
             }
-            assert_eq!(c.pos[..4], POS.map(Some));
-            assert_eq!(c.pos[4], None);
+            assert_eq!(c.positions[..4], POS.map(|[x, y]| Position { x, y }));
+            assert_eq!(c.positions[4], Position::default());
+            // It encodes: 59 bytes for 4 anchors × 2 channels with the relay matrix.
+            let mut buf = [0; 100];
+            assert_eq!(c.encode(&mut buf), Ok(59));
+            assert_eq!(Report::decode(&buf[..59]), Ok(*c));
         }
     }
     // Agent 2's report is one sub-slot after agent 1's, within the timing error.
@@ -198,12 +215,12 @@ fn a_silent_anchor_is_marked_not_heard() {
         assert_eq!(&last.3.rssi[ch][..4], &[51, 52, 0, 54]);
         assert_eq!(last.3.relay[ch][2], [0; MAX_ANCHORS]);
     }
-    assert_eq!(last.3.pos[2], None);
+    assert_eq!(last.3.positions[2], Position::default());
 }
 
 #[test]
 fn impossible_beacons_are_ignored() {
-    let mut g = Agent::new(1, sched(), LATENCY, 0);
+    let mut g = Agent::new(1, sched(), channels(), LATENCY, 0);
     for (from, channel) in [(0, 0), (5, 0), (1, 2)] {
         g.on_beacon(Heard {
             from,
@@ -227,5 +244,5 @@ fn impossible_beacons_are_ignored() {
         relay: &[1; 20],
     });
     assert!(g.synced());
-    assert_eq!(g.collecting().relay[0][0], [1; MAX_ANCHORS]);
+    assert_eq!(g.collecting().relay[0][0], [0, 1, 1, 1, 1, 1, 1, 1]);
 }

@@ -25,6 +25,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+use loc_proto::msg::{Beacon, ChannelList, Position};
 pub use loc_proto::schedule::SILENT_SUPERFRAMES;
 use loc_proto::schedule::{Schedule, Timeline};
 
@@ -137,6 +138,32 @@ impl Anchor {
             Some(row) if channel < self.tl.schedule().channels() => &row[..n],
             _ => &[],
         }
+    }
+
+    /// The beacon for [`Action::SendBeacon`] `{ seq, channel }`: this anchor at `position`, on
+    /// the testbed channel `channels[channel]`, relaying [`Anchor::relay`]`(channel)`.
+    pub fn beacon(
+        &self,
+        seq: u16,
+        channel: u8,
+        channels: &ChannelList,
+        position: Position,
+    ) -> Beacon {
+        let relay = self.relay(channel);
+        let mut b = Beacon {
+            anchor: self.id,
+            seq,
+            channel: channels
+                .as_slice()
+                .get(channel as usize)
+                .copied()
+                .unwrap_or(0),
+            position,
+            relay_count: relay.len() as u8,
+            relay: [0; MAX_ANCHORS],
+        };
+        b.relay[..relay.len()].copy_from_slice(relay);
+        b
     }
 
     /// Time of event `k` of the superframe, µs from its start.

@@ -222,6 +222,16 @@ fn the_relay_carries_last_superframes_rssi_per_channel() {
         assert_eq!(net.nodes[2].a.relay(c), &[41, 42, 0, 44]);
     }
     assert_eq!(net.nodes[2].a.relay(2), &[] as &[u8]);
+    // The beacon of anchor 3 on channel index 1 (testbed channel 12) carries it, and encodes.
+    let channels = loc_proto::msg::ChannelList::new(&[1, 12]).unwrap();
+    let pos = Position { x: 1000, y: 1000 };
+    let b = net.nodes[2].a.beacon(9, 1, &channels, pos);
+    assert_eq!((b.anchor, b.seq, b.channel, b.position), (3, 9, 12, pos));
+    assert_eq!(b.relayed(), &[41, 42, 0, 44]);
+    let mut buf = [0; Beacon::MAX_LEN];
+    let n = b.encode(&mut buf).unwrap();
+    assert_eq!(n, 17);
+    assert_eq!(Beacon::decode(&buf[..n]), Ok(b));
 }
 
 #[test]

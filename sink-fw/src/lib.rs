@@ -13,8 +13,36 @@
 use core::marker::PhantomData;
 use loc_core::fixed::{
     mle_with, mmse_window_with, observations, AreaCm, Bounds, Estimate, FitMethod, LocError,
-    Measurements, OnlineParams, ParamMode, PathLoss, Refinement, Search, TermKernel,
+    Measurements, OnlineParams, ParamMode, PathLoss, PointCm, Refinement, Search, TermKernel,
 };
+use loc_proto::msg::Report;
+
+/// What a [`Report`] measured, for loc-core: anchor positions as the beacons gave them, the
+/// agent's RSSI per anchor and channel, and the relayed anchor-to-anchor RSSI (`a2a[i][j][c]`:
+/// anchor `i + 1` heard anchor `j + 1`); 0 bytes (not heard) are missing values.
+pub fn measurements(r: &Report) -> Measurements {
+    let n = (r.anchors as usize).min(loc_core::MAX_ANCHORS);
+    let c = r.channels.len().min(loc_core::MAX_CHANNELS);
+    let mut pos = [PointCm::default(); loc_core::MAX_ANCHORS];
+    for (p, q) in pos.iter_mut().zip(&r.positions[..n]) {
+        *p = PointCm::new(q.x, q.y);
+    }
+    let mut m = Measurements::new(&pos[..n], c);
+    let heard = |b: u8| (b != 0).then_some(b);
+    for ch in 0..c {
+        for i in 0..n {
+            m.rssi[i][ch] = heard(r.rssi[ch][i]);
+            if r.has_relay {
+                for j in 0..n {
+                    if i != j {
+                        m.a2a[i][j][ch] = heard(r.relay[ch][i][j]);
+                    }
+                }
+            }
+        }
+    }
+    m
+}
 
 /// Most agents a sink tracks (report sequence numbers for the drop count).
 pub const MAX_AGENTS: usize = 16;
@@ -114,8 +142,18 @@ impl<K: TermKernel> Sink<K> {
         }
     }
 
+    /// A decoded report: [`Sink::on_measurements`] of its [`measurements`].
+    pub fn on_report(&mut self, r: &Report) -> Result<Fix, LocError> {
+        self.on_measurements(r.agent, r.seq, &measurements(r))
+    }
+
     /// Agent `agent`'s report of superframe `seq`, as measurements: fit, smooth, locate.
-    pub fn on_report(&mut self, agent: u8, seq: u16, m: &Measurements) -> Result<Fix, LocError> {
+    pub fn on_measurements(
+        &mut self,
+        agent: u8,
+        seq: u16,
+        m: &Measurements,
+    ) -> Result<Fix, LocError> {
         self.counters.frames += 1;
         self.counters.reports += 1;
         if let Some(next) = self.next_seq.get_mut((agent as usize).wrapping_sub(1)) {

@@ -53,7 +53,7 @@ fn a_noise_free_report_is_located_within_a_fine_step() {
     .into_iter()
     .enumerate()
     {
-        let f = s.on_report(1, k as u16, &report(at, &[])).unwrap();
+        let f = s.on_measurements(1, k as u16, &report(at, &[])).unwrap();
         assert!(f.fitted);
         for e in [f.mle, f.mmse] {
             // mm against cm. The bytes are whole dB: ±0.5 dB is ±3.8 % of a distance at
@@ -79,7 +79,7 @@ fn a_noise_free_report_is_located_within_a_fine_step() {
 fn the_fix_is_loc_cores_with_the_smoothed_model() {
     let mut s = sink();
     let m = report((420.0, 310.0), &[]);
-    let f = s.on_report(2, 0, &m).unwrap();
+    let f = s.on_measurements(2, 0, &m).unwrap();
     let obs = observations(&m, Refinement::Extended);
     let want = loc_core::fixed::mle(&obs, f.model, AreaCm::new(1000, 1000), Search::Thesis);
     assert_eq!(Ok(f.mle), want);
@@ -88,9 +88,11 @@ fn the_fix_is_loc_cores_with_the_smoothed_model() {
 #[test]
 fn three_anchors_still_fix_and_two_do_not() {
     let mut s = sink();
-    let f = s.on_report(1, 0, &report((300.0, 300.0), &[3])).unwrap();
+    let f = s
+        .on_measurements(1, 0, &report((300.0, 300.0), &[3]))
+        .unwrap();
     assert_eq!(f.mle.anchors, 3);
-    let e = s.on_report(1, 1, &report((300.0, 300.0), &[2, 3]));
+    let e = s.on_measurements(1, 1, &report((300.0, 300.0), &[2, 3]));
     assert_eq!(e, Err(LocError::TooFewAnchors { usable: 2 }));
     assert_eq!((s.counters().fixes, s.counters().no_fixes), (1, 1));
 }
@@ -100,22 +102,22 @@ fn gaps_in_an_agents_sequence_count_as_drops() {
     let mut s = sink();
     let m = report((500.0, 500.0), &[]);
     for seq in [5u16, 6, 9, 9, 10, 12] {
-        let _ = s.on_report(3, seq, &m);
+        let _ = s.on_measurements(3, seq, &m);
     }
     // 7, 8 and 11 missing; the repeated 9 is no drop.
     assert_eq!(s.counters().drops, 3);
     // Across the wrap: 0 missing.
     for seq in [65535u16, 1] {
-        let _ = s.on_report(5, seq, &m);
+        let _ = s.on_measurements(5, seq, &m);
     }
     assert_eq!(s.counters().drops, 4);
     // A report from far in the past (more than half the sequence space back) is no drop either.
-    let _ = s.on_report(5, 40_000, &m);
+    let _ = s.on_measurements(5, 40_000, &m);
     assert_eq!(s.counters().drops, 4);
     // Another agent has its own sequence; an agent id out of range is located but not tracked.
-    let _ = s.on_report(4, 100, &m);
-    let _ = s.on_report(0, 1, &m);
-    let _ = s.on_report(200, 1, &m);
+    let _ = s.on_measurements(4, 100, &m);
+    let _ = s.on_measurements(0, 1, &m);
+    let _ = s.on_measurements(200, 1, &m);
     assert_eq!(s.counters().drops, 4);
     assert_eq!(s.counters().reports, 12);
 }
@@ -134,7 +136,9 @@ fn bad_frames_are_counted_and_change_nothing() {
     );
     assert_eq!(s.model(), before);
     // A good report right after is located.
-    assert!(s.on_report(1, 0, &report((700.0, 400.0), &[])).is_ok());
+    assert!(s
+        .on_measurements(1, 0, &report((700.0, 400.0), &[]))
+        .is_ok());
 }
 
 #[test]
@@ -142,7 +146,38 @@ fn a_report_without_anchor_to_anchor_rssi_keeps_the_model() {
     let mut s = sink();
     let mut m = report((700.0, 400.0), &[]);
     m.a2a = [[[None; 4]; 8]; 8];
-    let f = s.on_report(1, 0, &m).unwrap();
+    let f = s.on_measurements(1, 0, &m).unwrap();
     assert!(!f.fitted);
     assert_eq!(f.model, PathLoss::THESIS);
+}
+
+#[test]
+fn a_report_off_the_wire_gives_the_same_fix_as_its_measurements() {
+    use loc_proto::msg::{ChannelList, Position};
+    let m = report((620.0, 280.0), &[1]);
+    let mut r = Report::new(7, 3, 4, ChannelList::new(&[1, 12]).unwrap());
+    for i in 0..4 {
+        r.positions[i] = Position {
+            x: ANCHORS[i].0,
+            y: ANCHORS[i].1,
+        };
+        for c in 0..2 {
+            r.rssi[c][i] = m.rssi[i][c].unwrap_or(0);
+            for j in 0..4 {
+                r.relay[c][i][j] = m.a2a[i][j][c].unwrap_or(0);
+            }
+        }
+    }
+    let mut buf = [0; 100];
+    let len = r.encode(&mut buf).unwrap();
+    let back = Report::decode(&buf[..len]).unwrap();
+    assert_eq!(measurements(&back), m);
+    let (mut a, mut b) = (sink(), sink());
+    let fa = a.on_report(&back).unwrap();
+    assert_eq!(
+        (fa.agent, fa.seq, fa.mle.anchors),
+        (7, 3, 3),
+        "anchor 2 not heard"
+    );
+    assert_eq!(Ok(fa), b.on_measurements(7, 3, &m));
 }
