@@ -156,11 +156,8 @@ fn a_report_off_the_wire_gives_the_same_fix_as_its_measurements() {
     use loc_proto::msg::{ChannelList, Position};
     let m = report((620.0, 280.0), &[1]);
     let mut r = Report::new(7, 3, 4, ChannelList::new(&[1, 12]).unwrap());
-    for i in 0..4 {
-        r.positions[i] = Position {
-            x: ANCHORS[i].0,
-            y: ANCHORS[i].1,
-        };
+    for (i, &(x, y)) in ANCHORS.iter().enumerate() {
+        r.positions[i] = Position { x, y };
         for c in 0..2 {
             r.rssi[c][i] = m.rssi[i][c].unwrap_or(0);
             for j in 0..4 {
