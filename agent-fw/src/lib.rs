@@ -23,10 +23,7 @@
 use loc_proto::msg::{ChannelList, Position, Report};
 use loc_proto::schedule::{Schedule, Timeline};
 
-/// Most anchors in a testbed.
-pub const MAX_ANCHORS: usize = 8;
-/// Most channels in the list.
-pub const MAX_CHANNELS: usize = 4;
+pub use loc_proto::msg::{MAX_ANCHORS, MAX_CHANNELS};
 
 /// Where the radio should listen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

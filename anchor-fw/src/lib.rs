@@ -29,10 +29,7 @@ use loc_proto::msg::{Beacon, ChannelList, Position};
 pub use loc_proto::schedule::SILENT_SUPERFRAMES;
 use loc_proto::schedule::{Schedule, Timeline};
 
-/// Most anchors in a testbed.
-pub const MAX_ANCHORS: usize = 8;
-/// Most channels in the list.
-pub const MAX_CHANNELS: usize = 4;
+pub use loc_proto::msg::{MAX_ANCHORS, MAX_CHANNELS};
 /// What the anchor asks its shell to do.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Action {
