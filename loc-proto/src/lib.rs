@@ -2,6 +2,7 @@
 //! person, with an encoder for the firmware and a parser for the host tools.
 //!
 //! * [`line`]: the text lines every node writes on its UART at boot ([`line::BootLine`]).
+//! * [`sink_line`]: the sink's estimate, no-fix and status lines ([`sink_line::SinkLine`]).
 //! * [`schedule`]: the TDMA superframe, when each anchor beacons and each agent reports, and the
 //!   timeline every node follows.
 //! * [`msg`]: the binary radio messages, [`msg::Beacon`] and [`msg::Report`].
@@ -10,7 +11,7 @@
 //!   streaming parser and the node's ACK/NAK.
 //! * [`error`]: their one error type [`Error`], and the CRC-16 of configs and provisioning frames.
 //!
-//! The sink's estimate and status lines join them with the sink firmware.
+//! The sink firmware writes its lines with the same crate.
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -25,6 +26,7 @@ pub mod msg;
 pub mod provision;
 mod role;
 pub mod schedule;
+pub mod sink_line;
 
 pub use error::Error;
 pub use role::Role;

@@ -119,7 +119,7 @@ fn put_word(k: u8, out: &mut impl FnMut(u8)) {
 }
 
 /// Writes `n` in decimal.
-fn put_decimal(n: u32, out: &mut impl FnMut(u8)) {
+pub(crate) fn put_decimal(n: u32, out: &mut impl FnMut(u8)) {
     let mut digits = [0u8; 10];
     let mut i = digits.len();
     let mut n = n;

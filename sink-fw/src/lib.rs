@@ -16,6 +16,7 @@ use loc_core::fixed::{
     Measurements, OnlineParams, ParamMode, PathLoss, PointCm, Refinement, Search, TermKernel,
 };
 use loc_proto::msg::Report;
+use loc_proto::sink_line::{Estimator, SinkLine, FLAG_FITTED};
 
 /// What a [`Report`] measured, for loc-core: anchor positions as the beacons gave them, the
 /// agent's RSSI per anchor and channel, and the relayed anchor-to-anchor RSSI (`a2a[i][j][c]`:
@@ -92,6 +93,53 @@ pub struct Fix {
     pub model: PathLoss,
     /// Whether this report's anchor-to-anchor RSSI gave a fit.
     pub fitted: bool,
+}
+
+impl Fix {
+    /// The two `fix` lines (MLE, then MMSE) of loc-proto's [`SinkLine`]: cm rounded from mm,
+    /// α and P0 in hundredths, rounded.
+    pub fn lines(&self) -> [SinkLine; 2] {
+        let line = |e: &Estimate, estimator| SinkLine::Fix {
+            agent: self.agent,
+            seq: self.seq,
+            estimator,
+            x: ((e.pos.x + 5) / 10).min(i16::MAX as u32) as i16,
+            y: ((e.pos.y + 5) / 10).min(i16::MAX as u32) as i16,
+            // Q.24 and Q.16 to hundredths, rounded (|α| ≤ 2^7, |P0| < 2^10: no overflow).
+            alpha_x100: ((self.model.alpha.max(0) as i64 * 100 + (1 << 23)) >> 24) as u16,
+            p0_x100: ((self.model.p0 as i64 * 100 + (1 << 15)) >> 16) as i16,
+            anchors: e.anchors,
+            flags: if self.fitted { FLAG_FITTED } else { 0 },
+        };
+        [
+            line(&self.mle, Estimator::Mle),
+            line(&self.mmse, Estimator::Mmse),
+        ]
+    }
+}
+
+/// The `nofix` line of agent `agent`'s report `seq` that failed with `e`.
+pub fn no_fix_line(agent: u8, seq: u16, e: LocError) -> SinkLine {
+    let usable = match e {
+        LocError::TooFewAnchors { usable } => usable.min(u8::MAX as usize) as u8,
+        _ => 0,
+    };
+    SinkLine::NoFix { agent, seq, usable }
+}
+
+impl Counters {
+    /// The `status` line at `uptime_s` seconds.
+    pub fn line(&self, uptime_s: u32) -> SinkLine {
+        SinkLine::Status {
+            uptime_s,
+            frames: self.frames,
+            reports: self.reports,
+            drops: self.drops,
+            checksum_errors: self.checksum_errors,
+            foreign: self.foreign,
+            fixes: self.fixes,
+        }
+    }
 }
 
 /// The sink state machine over cost kernel `K`.

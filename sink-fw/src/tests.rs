@@ -178,3 +178,79 @@ fn a_report_off_the_wire_gives_the_same_fix_as_its_measurements() {
     );
     assert_eq!(Ok(fa), b.on_measurements(7, 3, &m));
 }
+
+#[test]
+fn fixes_and_failures_become_sink_lines_that_parse_back() {
+    use loc_proto::sink_line::{Estimator, SinkLine};
+    let mut s = sink();
+    let f = s
+        .on_measurements(5, 77, &report((300.0, 600.0), &[]))
+        .unwrap();
+    let [mle, mmse] = f.lines();
+    let SinkLine::Fix {
+        agent,
+        seq,
+        estimator,
+        x,
+        y,
+        alpha_x100,
+        p0_x100,
+        anchors,
+        flags,
+    } = mle
+    else {
+        panic!("{mle:?}")
+    };
+    assert_eq!(
+        (agent, seq, estimator, anchors, flags),
+        (5, 77, Estimator::Mle, 4, 1)
+    );
+    assert_eq!(
+        (x as u32, y as u32),
+        ((f.mle.pos.x + 5) / 10, (f.mle.pos.y + 5) / 10)
+    );
+    let alpha = f.model.alpha as f64 / 16_777_216.0;
+    let p0 = f.model.p0 as f64 / 65_536.0;
+    assert!(
+        (alpha_x100 as f64 / 100.0 - alpha).abs() <= 0.005,
+        "{alpha_x100} {alpha}"
+    );
+    assert!(
+        (p0_x100 as f64 / 100.0 - p0).abs() <= 0.005,
+        "{p0_x100} {p0}"
+    );
+    assert!(matches!(
+        mmse,
+        SinkLine::Fix {
+            estimator: Estimator::Mmse,
+            ..
+        }
+    ));
+    let e = s
+        .on_measurements(5, 78, &report((300.0, 600.0), &[0, 1]))
+        .unwrap_err();
+    let nofix = no_fix_line(5, 78, e);
+    assert_eq!(
+        nofix,
+        SinkLine::NoFix {
+            agent: 5,
+            seq: 78,
+            usable: 2
+        }
+    );
+    let status = s.counters().line(12);
+    assert!(matches!(
+        status,
+        SinkLine::Status {
+            uptime_s: 12,
+            reports: 2,
+            fixes: 1,
+            ..
+        }
+    ));
+    for l in [mle, mmse, nofix, status] {
+        let mut v = std::vec::Vec::new();
+        l.write(|b| v.push(b));
+        assert_eq!(SinkLine::parse(std::str::from_utf8(&v).unwrap()), Ok(l));
+    }
+}

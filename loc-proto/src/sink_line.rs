@@ -1,0 +1,373 @@
+//! The sink's output lines: one per estimate, one per report that gave none, and a periodic
+//! status line. Written by sink-fw on its UART (the USB serial), read by `hoploc monitor` and
+//! `hoploc replay`; the format is stable.
+//!
+//! Like the boot lines ([`crate::line`]): ASCII words separated by single spaces, ending in
+//! `\r\n`, never `0x7E`. Each line ends with ` *XX`, two upper-case hex digits of the XOR of every
+//! byte before the space that precedes `*` (as NMEA does), so a line damaged on the way is
+//! detected, not believed.
+//!
+//! | line | fields |
+//! |---|---|
+//! | `hoploc sink fix 2 417 mle 281 600 282 -4126 4 1 *27` | agent, sequence, estimator (`mle`: thesis MLE, `mmse`: windowed MMSE), x and y (cm), α × 100, P0 × 100 (dBm), anchors used, flags |
+//! | `hoploc sink nofix 2 418 2 *63` | agent, sequence, usable anchors (fewer than 3) |
+//! | `hoploc sink status 61 1203 240 3 1 17 480 *35` | uptime (s), frames, reports, drops, checksum errors, foreign frames, estimates |
+//!
+//! Flags: bit 0 ([`FLAG_FITTED`]): P0 and α were fitted from this report's anchor-to-anchor RSSI
+//! (else the smoothed values of earlier reports, or the prior). The sink writes one `fix` line
+//! per estimator for each report.
+
+use core::fmt;
+
+use crate::line::put_decimal;
+
+avr_progmem::progmem! {
+    /// Every word of the lines, space separated; [`Word`] numbers them.
+    static progmem WORDS: [u8; 37] = *b"hoploc sink fix nofix status mle mmse";
+}
+
+/// Indices into [`WORDS`].
+#[derive(Clone, Copy)]
+#[repr(u8)]
+enum Word {
+    Hoploc = 0,
+    Sink = 1,
+    Fix = 2,
+    NoFix = 3,
+    Status = 4,
+    Mle = 5,
+    Mmse = 6,
+}
+
+/// Flag: P0 and α were fitted from this report.
+pub const FLAG_FITTED: u8 = 1;
+
+/// Which estimator produced a fix.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Estimator {
+    /// The thesis' coarse-to-fine MLE.
+    Mle,
+    /// The posterior mean over the thesis' fine window.
+    Mmse,
+}
+
+/// A line of the sink.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SinkLine {
+    /// An estimate.
+    Fix {
+        /// The agent.
+        agent: u8,
+        /// The report's superframe sequence.
+        seq: u16,
+        /// Which estimator.
+        estimator: Estimator,
+        /// Position, cm.
+        x: i16,
+        /// Position, cm.
+        y: i16,
+        /// α × 100.
+        alpha_x100: u16,
+        /// P0 × 100, dBm.
+        p0_x100: i16,
+        /// Anchors used.
+        anchors: u8,
+        /// [`FLAG_FITTED`] and future flags.
+        flags: u8,
+    },
+    /// A report that gave no estimate.
+    NoFix {
+        /// The agent.
+        agent: u8,
+        /// The report's superframe sequence.
+        seq: u16,
+        /// Usable anchors (fewer than 3).
+        usable: u8,
+    },
+    /// The sink's counters.
+    Status {
+        /// Seconds since boot.
+        uptime_s: u32,
+        /// Frames received.
+        frames: u32,
+        /// Reports decoded.
+        reports: u32,
+        /// Reports missing from agents' sequences.
+        drops: u32,
+        /// Frames that failed to decode.
+        checksum_errors: u32,
+        /// Frames that are not hoploc messages.
+        foreign: u32,
+        /// Estimates made.
+        fixes: u32,
+    },
+}
+
+/// Longest line [`SinkLine::write`] produces, `\r\n` included (a status line of seven
+/// 10-digit counters).
+pub const MAX_SINK_LINE: usize = 101;
+
+/// Why [`SinkLine::parse`] rejected a line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SinkLineError {
+    /// Not a sink line (another node's line, or noise): safe to skip.
+    NotSinkLine,
+    /// No ` *XX` checksum at the end.
+    NoChecksum,
+    /// The checksum does not match: the line was damaged.
+    BadChecksum {
+        /// The checksum the line carries.
+        found: u8,
+        /// The checksum of its text.
+        computed: u8,
+    },
+    /// An unknown line kind after `hoploc sink`.
+    UnknownKind,
+    /// Field `index` (0 = the first after the kind) is missing or not a valid number or word.
+    BadField {
+        /// The field's position.
+        index: u8,
+    },
+    /// More fields than the kind has.
+    TooManyFields,
+}
+
+impl fmt::Display for SinkLineError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SinkLineError::NotSinkLine => f.write_str("not a hoploc sink line"),
+            SinkLineError::NoChecksum => f.write_str("no checksum"),
+            SinkLineError::BadChecksum { found, computed } => {
+                write!(f, "checksum {found:02X}, text gives {computed:02X}")
+            }
+            SinkLineError::UnknownKind => f.write_str("unknown sink line kind"),
+            SinkLineError::BadField { index } => write!(f, "bad or missing field {index}"),
+            SinkLineError::TooManyFields => f.write_str("too many fields"),
+        }
+    }
+}
+
+impl core::error::Error for SinkLineError {}
+
+/// Writes word `k` of [`WORDS`].
+fn put_word(k: Word, out: &mut impl FnMut(u8)) {
+    let mut seen = 0;
+    for i in 0..WORDS.len() {
+        let b = WORDS.load_at(i);
+        if b == b' ' {
+            seen += 1;
+            if seen > k as u8 {
+                return;
+            }
+        } else if seen == k as u8 {
+            out(b);
+        }
+    }
+}
+
+fn hex(n: u8) -> u8 {
+    if n < 10 {
+        b'0' + n
+    } else {
+        b'A' + n - 10
+    }
+}
+
+impl SinkLine {
+    /// Writes the line, checksum and `\r\n` included, one byte at a time (at most
+    /// [`MAX_SINK_LINE`] bytes).
+    pub fn write(&self, mut out: impl FnMut(u8)) {
+        let mut cs = 0u8;
+        let mut body = |b: u8| {
+            cs ^= b;
+            out(b)
+        };
+        let o = &mut body;
+        let num = |v: u32, o: &mut dyn FnMut(u8)| {
+            o(b' ');
+            put_decimal(v, &mut |b| o(b));
+        };
+        let signed = |v: i32, o: &mut dyn FnMut(u8)| {
+            o(b' ');
+            if v < 0 {
+                o(b'-');
+            }
+            put_decimal(v.unsigned_abs(), &mut |b| o(b));
+        };
+        let word = |w: Word, o: &mut dyn FnMut(u8)| {
+            o(b' ');
+            put_word(w, &mut |b| o(b));
+        };
+        put_word(Word::Hoploc, o);
+        word(Word::Sink, o);
+        match *self {
+            SinkLine::Fix {
+                agent,
+                seq,
+                estimator,
+                x,
+                y,
+                alpha_x100,
+                p0_x100,
+                anchors,
+                flags,
+            } => {
+                word(Word::Fix, o);
+                num(agent.into(), o);
+                num(seq.into(), o);
+                word(
+                    match estimator {
+                        Estimator::Mle => Word::Mle,
+                        Estimator::Mmse => Word::Mmse,
+                    },
+                    o,
+                );
+                signed(x.into(), o);
+                signed(y.into(), o);
+                num(alpha_x100.into(), o);
+                signed(p0_x100.into(), o);
+                num(anchors.into(), o);
+                num(flags.into(), o);
+            }
+            SinkLine::NoFix { agent, seq, usable } => {
+                word(Word::NoFix, o);
+                num(agent.into(), o);
+                num(seq.into(), o);
+                num(usable.into(), o);
+            }
+            SinkLine::Status {
+                uptime_s,
+                frames,
+                reports,
+                drops,
+                checksum_errors,
+                foreign,
+                fixes,
+            } => {
+                word(Word::Status, o);
+                for v in [
+                    uptime_s,
+                    frames,
+                    reports,
+                    drops,
+                    checksum_errors,
+                    foreign,
+                    fixes,
+                ] {
+                    num(v, o);
+                }
+            }
+        }
+        out(b' ');
+        out(b'*');
+        out(hex(cs >> 4));
+        out(hex(cs & 15));
+        out(b'\r');
+        out(b'\n');
+    }
+
+    /// Reads a line (with or without its `\r\n`). Never panics; any line not starting with
+    /// `hoploc sink ` is [`SinkLineError::NotSinkLine`].
+    pub fn parse(line: &str) -> Result<SinkLine, SinkLineError> {
+        let line = line.strip_suffix('\n').unwrap_or(line);
+        let line = line.strip_suffix('\r').unwrap_or(line);
+        if !line.starts_with("hoploc sink ") {
+            return Err(SinkLineError::NotSinkLine);
+        }
+        let (text, cs) = line.rsplit_once(" *").ok_or(SinkLineError::NoChecksum)?;
+        let found = match cs.as_bytes() {
+            [h, l] => match (unhex(*h), unhex(*l)) {
+                (Some(h), Some(l)) => h << 4 | l,
+                _ => return Err(SinkLineError::NoChecksum),
+            },
+            _ => return Err(SinkLineError::NoChecksum),
+        };
+        let computed = text.bytes().fold(0, |a, b| a ^ b);
+        if found != computed {
+            return Err(SinkLineError::BadChecksum { found, computed });
+        }
+        let mut words = text.split(' ').skip(2);
+        let kind = words.next().ok_or(SinkLineError::UnknownKind)?;
+        let mut fields = Fields { words, index: 0 };
+        let parsed = match kind {
+            "fix" => SinkLine::Fix {
+                agent: fields.num()?,
+                seq: fields.num()?,
+                estimator: match fields.next()? {
+                    "mle" => Estimator::Mle,
+                    "mmse" => Estimator::Mmse,
+                    _ => return Err(fields.bad()),
+                },
+                x: fields.num()?,
+                y: fields.num()?,
+                alpha_x100: fields.num()?,
+                p0_x100: fields.num()?,
+                anchors: fields.num()?,
+                flags: fields.num()?,
+            },
+            "nofix" => SinkLine::NoFix {
+                agent: fields.num()?,
+                seq: fields.num()?,
+                usable: fields.num()?,
+            },
+            "status" => SinkLine::Status {
+                uptime_s: fields.num()?,
+                frames: fields.num()?,
+                reports: fields.num()?,
+                drops: fields.num()?,
+                checksum_errors: fields.num()?,
+                foreign: fields.num()?,
+                fixes: fields.num()?,
+            },
+            _ => return Err(SinkLineError::UnknownKind),
+        };
+        if fields.words.next().is_some() {
+            return Err(SinkLineError::TooManyFields);
+        }
+        Ok(parsed)
+    }
+}
+
+fn unhex(b: u8) -> Option<u8> {
+    match b {
+        b'0'..=b'9' => Some(b - b'0'),
+        b'A'..=b'F' => Some(b - b'A' + 10),
+        _ => None,
+    }
+}
+
+/// The fields after the kind, counted for the error.
+struct Fields<'a, I: Iterator<Item = &'a str>> {
+    words: I,
+    index: u8,
+}
+
+impl<'a, I: Iterator<Item = &'a str>> Fields<'a, I> {
+    fn bad(&self) -> SinkLineError {
+        SinkLineError::BadField {
+            index: self.index.saturating_sub(1),
+        }
+    }
+
+    fn next(&mut self) -> Result<&'a str, SinkLineError> {
+        self.index = self.index.saturating_add(1);
+        self.words.next().ok_or(self.bad())
+    }
+
+    /// A decimal number (no `+`, no leading zeros but `0` itself) that fits `T`.
+    fn num<T: core::str::FromStr>(&mut self) -> Result<T, SinkLineError> {
+        let w = self.next()?;
+        let digits = w.strip_prefix('-').unwrap_or(w);
+        let canonical = !digits.is_empty()
+            && digits.bytes().all(|b| b.is_ascii_digit())
+            && (digits == "0" || !digits.starts_with('0'))
+            && w != "-0";
+        if !canonical {
+            return Err(self.bad());
+        }
+        w.parse().map_err(|_| self.bad())
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,221 @@
+use super::*;
+use proptest::prelude::*;
+use std::string::String;
+use std::vec::Vec;
+
+fn text(l: &SinkLine) -> String {
+    let mut v = Vec::new();
+    l.write(|b| v.push(b));
+    assert!(v.len() <= MAX_SINK_LINE, "{}", v.len());
+    assert!(!v.contains(&0x7E));
+    String::from_utf8(v).unwrap()
+}
+
+const FIX: SinkLine = SinkLine::Fix {
+    agent: 2,
+    seq: 417,
+    estimator: Estimator::Mle,
+    x: 281,
+    y: 600,
+    alpha_x100: 282,
+    p0_x100: -4126,
+    anchors: 4,
+    flags: 1,
+};
+const NOFIX: SinkLine = SinkLine::NoFix {
+    agent: 2,
+    seq: 418,
+    usable: 2,
+};
+const STATUS: SinkLine = SinkLine::Status {
+    uptime_s: 61,
+    frames: 1203,
+    reports: 240,
+    drops: 3,
+    checksum_errors: 1,
+    foreign: 17,
+    fixes: 480,
+};
+
+#[test]
+fn golden_lines() {
+    // The module docs show these three lines.
+    assert_eq!(
+        text(&FIX),
+        "hoploc sink fix 2 417 mle 281 600 282 -4126 4 1 *27\r\n"
+    );
+    assert_eq!(text(&NOFIX), "hoploc sink nofix 2 418 2 *63\r\n");
+    assert_eq!(
+        text(&STATUS),
+        "hoploc sink status 61 1203 240 3 1 17 480 *35\r\n"
+    );
+    for l in [FIX, NOFIX, STATUS] {
+        assert_eq!(SinkLine::parse(&text(&l)), Ok(l));
+    }
+}
+
+#[test]
+fn the_longest_line_fits() {
+    let l = SinkLine::Status {
+        uptime_s: u32::MAX,
+        frames: u32::MAX,
+        reports: u32::MAX,
+        drops: u32::MAX,
+        checksum_errors: u32::MAX,
+        foreign: u32::MAX,
+        fixes: u32::MAX,
+    };
+    assert_eq!(text(&l).len(), MAX_SINK_LINE);
+}
+
+#[test]
+fn damage_is_detected() {
+    let good = text(&FIX);
+    // A digit changed.
+    let bad = good.replace("281", "251");
+    assert!(matches!(
+        SinkLine::parse(&bad),
+        Err(SinkLineError::BadChecksum { .. })
+    ));
+    // Checksum missing or malformed.
+    assert_eq!(
+        SinkLine::parse("hoploc sink fix 2 417 mle 281 600 282 -4126 4 1"),
+        Err(SinkLineError::NoChecksum)
+    );
+    assert_eq!(
+        SinkLine::parse("hoploc sink nofix 2 418 2 *3"),
+        Err(SinkLineError::NoChecksum)
+    );
+    assert_eq!(
+        SinkLine::parse("hoploc sink nofix 2 418 2 *3g"),
+        Err(SinkLineError::NoChecksum)
+    );
+    assert_eq!(
+        SinkLine::parse("hoploc anchor boot"),
+        Err(SinkLineError::NotSinkLine)
+    );
+    assert_eq!(SinkLine::parse(""), Err(SinkLineError::NotSinkLine));
+}
+
+/// `text` with a correct checksum.
+fn signed(text: &str) -> String {
+    let cs = text.bytes().fold(0u8, |a, b| a ^ b);
+    std::format!("{text} *{cs:02X}")
+}
+
+#[test]
+fn bad_fields_say_which() {
+    let cases = [
+        (
+            "hoploc sink fix 2 417 mle 281 600 282 -4126 4",
+            SinkLineError::BadField { index: 8 },
+        ),
+        (
+            "hoploc sink fix 2 417 ml 281 600 282 -4126 4 1",
+            SinkLineError::BadField { index: 2 },
+        ),
+        (
+            "hoploc sink fix 256 417 mle 281 600 282 -4126 4 1",
+            SinkLineError::BadField { index: 0 },
+        ),
+        (
+            "hoploc sink fix 2 417 mle 281 600 282 -4126 4 01",
+            SinkLineError::BadField { index: 8 },
+        ),
+        (
+            "hoploc sink fix 2 417 mle +281 600 282 -4126 4 1",
+            SinkLineError::BadField { index: 3 },
+        ),
+        (
+            "hoploc sink fix 2 417 mle -0 600 282 -4126 4 1",
+            SinkLineError::BadField { index: 3 },
+        ),
+        ("hoploc sink nofix 2 418 2 9", SinkLineError::TooManyFields),
+        (
+            "hoploc sink nofix 2 418",
+            SinkLineError::BadField { index: 2 },
+        ),
+        (
+            "hoploc sink nofix 2  418 2",
+            SinkLineError::BadField { index: 1 },
+        ),
+        ("hoploc sink fixes 2 418 2", SinkLineError::UnknownKind),
+        (
+            "hoploc sink status 1 2 3 4 5 6 -7",
+            SinkLineError::BadField { index: 6 },
+        ),
+    ];
+    for (t, e) in cases {
+        assert_eq!(SinkLine::parse(&signed(t)), Err(e), "{t}");
+    }
+}
+
+fn any_line() -> impl Strategy<Value = SinkLine> {
+    prop_oneof![
+        (
+            any::<u8>(),
+            any::<u16>(),
+            any::<bool>(),
+            any::<i16>(),
+            any::<i16>(),
+            any::<u16>(),
+            any::<i16>(),
+            any::<u8>(),
+            any::<u8>()
+        )
+            .prop_map(
+                |(agent, seq, m, x, y, alpha_x100, p0_x100, anchors, flags)| SinkLine::Fix {
+                    agent,
+                    seq,
+                    estimator: if m { Estimator::Mmse } else { Estimator::Mle },
+                    x,
+                    y,
+                    alpha_x100,
+                    p0_x100,
+                    anchors,
+                    flags,
+                }
+            ),
+        (any::<u8>(), any::<u16>(), any::<u8>()).prop_map(|(agent, seq, usable)| SinkLine::NoFix {
+            agent,
+            seq,
+            usable
+        }),
+        proptest::array::uniform7(any::<u32>()).prop_map(|v| SinkLine::Status {
+            uptime_s: v[0],
+            frames: v[1],
+            reports: v[2],
+            drops: v[3],
+            checksum_errors: v[4],
+            foreign: v[5],
+            fixes: v[6],
+        }),
+    ]
+}
+
+proptest! {
+    #[test]
+    fn write_then_parse_is_the_identity(l in any_line()) {
+        prop_assert_eq!(SinkLine::parse(&text(&l)), Ok(l));
+    }
+
+    #[test]
+    fn any_one_byte_change_is_caught_or_harmless(l in any_line(), at in any::<prop::sample::Index>(), to in any::<u8>()) {
+        let mut v = text(&l).into_bytes();
+        let i = at.index(v.len() - 2); // not the \r\n
+        if v[i] == to { return Ok(()); }
+        v[i] = to;
+        if let Ok(s) = std::str::from_utf8(&v) {
+            // Never the same line with other values: either rejected or, if the change kept
+            // the text and checksum consistent (impossible for one byte), identical.
+            let r = SinkLine::parse(s);
+            prop_assert!(r.is_err(), "{:?} from {:?}", r, s);
+        }
+    }
+
+    #[test]
+    fn parsing_never_panics(s in ".{0,120}") {
+        let _ = SinkLine::parse(&s);
+        let _ = SinkLine::parse(&std::format!("hoploc sink {s}"));
+    }
+}
