@@ -215,7 +215,17 @@ impl<K: TermKernel> Sink<K> {
             *next = Some(seq.wrapping_add(1));
         }
         let stats = loc_core::fixed::CalStats::from_measurements(m, None);
-        let fitted = self.params.update(&stats).is_ok();
+        // The least-squares fit directly: through `OnlineParams::update` the thesis' grid fit
+        // would be linked in too.
+        let p = &self.params;
+        let fitted =
+            match loc_core::fixed::fit_least_squares(&stats, p.mode, p.current(), &p.bounds) {
+                Ok(f) => {
+                    self.params.feed(&f);
+                    true
+                }
+                Err(_) => false,
+            };
         let model = self.params.current();
         let obs = observations(m, Refinement::Extended);
         let result = mle_with::<K>(&obs, model, self.area, Search::Thesis).and_then(|mle| {
