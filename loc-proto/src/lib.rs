@@ -1,7 +1,7 @@
 //! The wire contract of hoploc, defined once: everything one node says to another node or to a
 //! person, with an encoder for the firmware and a parser for the host tools.
 //!
-//! * [`line`]: the text lines every node writes on its UART at boot ([`line::BootLine`]).
+//! * [`mod@line`]: the text lines every node writes on its UART at boot ([`line::BootLine`]).
 //! * [`sink_line`]: the sink's estimate, no-fix and status lines ([`sink_line::SinkLine`]).
 //! * [`schedule`]: the TDMA superframe, when each anchor beacons and each agent reports, and the
 //!   timeline every node follows.

@@ -3,15 +3,16 @@
 //! `hoploc replay`; the format is stable.
 //!
 //! Like the boot lines ([`crate::line`]): ASCII words separated by single spaces, ending in
-//! `\r\n`, never `0x7E`. Each line ends with ` *XX`, two upper-case hex digits of the XOR of every
-//! byte before the space that precedes `*` (as NMEA does), so a line damaged on the way is
-//! detected, not believed.
+//! `\r\n`, never `0x7E`. Each line ends with ` *XX`, two upper-case hex digits of the CRC-8
+//! ([`crc8`]: polynomial 0x07, initial 0, no reflection, no final XOR) of every byte before the
+//! space that precedes `*`, so a line damaged on the way is detected, not believed. Unlike an
+//! NMEA-style XOR it also catches two swapped digits.
 //!
 //! | line | fields |
 //! |---|---|
-//! | `hoploc sink fix 2 417 mle 281 600 282 -4126 4 1 *27` | agent, sequence, estimator (`mle`: thesis MLE, `mmse`: windowed MMSE), x and y (cm), α × 100, P0 × 100 (dBm), anchors used, flags |
-//! | `hoploc sink nofix 2 418 2 *63` | agent, sequence, usable anchors (fewer than 3) |
-//! | `hoploc sink status 61 1203 240 3 1 17 480 *35` | uptime (s), frames, reports, drops, checksum errors, foreign frames, estimates |
+//! | `hoploc sink fix 2 417 mle 281 600 282 -4126 4 1 *66` | agent, sequence, estimator (`mle`: thesis MLE, `mmse`: windowed MMSE), x and y (cm), α × 100, P0 × 100 (dBm), anchors used, flags |
+//! | `hoploc sink nofix 2 418 2 *5F` | agent, sequence, usable anchors (fewer than 3) |
+//! | `hoploc sink status 61 1203 240 3 1 17 480 *DB` | uptime (s), frames, reports, drops, checksum errors, foreign frames, estimates |
 //!
 //! Flags: bit 0 ([`FLAG_FITTED`]): P0 and α were fitted from this report's anchor-to-anchor RSSI
 //! (else the smoothed values of earlier reports, or the prior). The sink writes one `fix` line
@@ -165,6 +166,23 @@ fn put_word(k: Word, out: &mut impl FnMut(u8)) {
     }
 }
 
+/// CRC-8 (polynomial 0x07, initial 0, no reflection, no final XOR; `crc8(b"123456789")` is
+/// 0xF4), bit by bit: no table in flash.
+pub fn crc8(bytes: impl IntoIterator<Item = u8>) -> u8 {
+    let mut c = 0u8;
+    for b in bytes {
+        c ^= b;
+        for _ in 0..8 {
+            c = if c & 0x80 != 0 {
+                (c << 1) ^ 0x07
+            } else {
+                c << 1
+            };
+        }
+    }
+    c
+}
+
 fn hex(n: u8) -> u8 {
     if n < 10 {
         b'0' + n
@@ -179,7 +197,8 @@ impl SinkLine {
     pub fn write(&self, mut out: impl FnMut(u8)) {
         let mut cs = 0u8;
         let mut body = |b: u8| {
-            cs ^= b;
+            // One byte of the running CRC: crc8 from state `cs` is crc8 of `cs ^ b` from 0.
+            cs = crc8([cs ^ b]);
             out(b)
         };
         let o = &mut body;
@@ -282,7 +301,7 @@ impl SinkLine {
             },
             _ => return Err(SinkLineError::NoChecksum),
         };
-        let computed = text.bytes().fold(0, |a, b| a ^ b);
+        let computed = crc8(text.bytes());
         if found != computed {
             return Err(SinkLineError::BadChecksum { found, computed });
         }

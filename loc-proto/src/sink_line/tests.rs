@@ -42,16 +42,22 @@ fn golden_lines() {
     // The module docs show these three lines.
     assert_eq!(
         text(&FIX),
-        "hoploc sink fix 2 417 mle 281 600 282 -4126 4 1 *27\r\n"
+        "hoploc sink fix 2 417 mle 281 600 282 -4126 4 1 *66\r\n"
     );
-    assert_eq!(text(&NOFIX), "hoploc sink nofix 2 418 2 *63\r\n");
+    assert_eq!(text(&NOFIX), "hoploc sink nofix 2 418 2 *5F\r\n");
     assert_eq!(
         text(&STATUS),
-        "hoploc sink status 61 1203 240 3 1 17 480 *35\r\n"
+        "hoploc sink status 61 1203 240 3 1 17 480 *DB\r\n"
     );
     for l in [FIX, NOFIX, STATUS] {
         assert_eq!(SinkLine::parse(&text(&l)), Ok(l));
     }
+}
+
+#[test]
+fn the_crc_is_crc_8() {
+    assert_eq!(crc8(*b"123456789"), 0xF4);
+    assert_eq!(crc8([]), 0);
 }
 
 #[test]
@@ -77,6 +83,17 @@ fn damage_is_detected() {
         SinkLine::parse(&bad),
         Err(SinkLineError::BadChecksum { .. })
     ));
+    // Two digits swapped (an XOR would not see it), a word dropped.
+    let swapped = good.replace("281", "218");
+    assert!(matches!(
+        SinkLine::parse(&swapped),
+        Err(SinkLineError::BadChecksum { .. })
+    ));
+    let dropped = good.replace(" 4 1 ", " 1 ");
+    assert!(matches!(
+        SinkLine::parse(&dropped),
+        Err(SinkLineError::BadChecksum { .. })
+    ));
     // Checksum missing or malformed.
     assert_eq!(
         SinkLine::parse("hoploc sink fix 2 417 mle 281 600 282 -4126 4 1"),
@@ -99,7 +116,7 @@ fn damage_is_detected() {
 
 /// `text` with a correct checksum.
 fn signed(text: &str) -> String {
-    let cs = text.bytes().fold(0u8, |a, b| a ^ b);
+    let cs = crc8(text.bytes());
     std::format!("{text} *{cs:02X}")
 }
 
