@@ -186,6 +186,21 @@ impl Agent {
         }
     }
 
+    /// How long the shell may wait from local time `now_us` before [`Agent::poll`] has something
+    /// to do, µs (0: poll now; `u32::MAX` while it waits for a first beacon).
+    pub fn wait_us(&self, now_us: u32) -> u32 {
+        if !self.synced {
+            return if self.tuned { u32::MAX } else { 0 };
+        }
+        let sf = self.tl.schedule().superframe_us();
+        let t = self.tl.elapsed_us(now_us);
+        match self.event_time(self.next_ev) {
+            _ if t >= sf => 0,
+            Some(time) => time.saturating_sub(t),
+            None => sf - t,
+        }
+    }
+
     /// The radio reported the report's transmission (`ok` or not): back to the channel list.
     pub fn on_tx_status(&mut self, _ok: bool) -> Option<Action> {
         if !self.awaiting {

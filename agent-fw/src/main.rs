@@ -1,10 +1,10 @@
-//! agent-fw: the hoploc agent node firmware for the Arduino Uno.
+//! agent-fw: the hoploc agent firmware for the Arduino Uno.
 //!
-//! For now the boot firmware: write `hoploc agent boot`, bring the radio up through xbee-api (API
-//! mode 2 at 57600; `MY`, `ID`, `CH` from `uno_board::boot_radio_config`, each read back),
-//! retrying with an LED error code while it does not answer, then listen. The node logic will
-//! live in a host-tested `lib.rs`; this file only wires it to `uno-board`. Build: `cargo fw` (all
-//! firmwares) or `cargo fw-run -p agent-fw`.
+//! Wiring only (the logic is `agent_fw::Agent`, host-tested): boot line, node config, radio
+//! bring-up, then the loop — feed the µs clock to the agent and do what it asks (tune to an
+//! anchor channel or the sink channel, send the report to the sink), feed it the beacons and
+//! TX statuses the radio hands over, idle until its next event. Build: `cargo fw` (all
+//! firmwares) or `cargo fw-run -p agent-fw` (build and flash).
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]
@@ -16,5 +16,99 @@ uno_board::link_avr_libc!();
 #[cfg(target_arch = "avr")]
 #[uno_board::entry]
 fn main() -> ! {
-    uno_board::boot_and_listen(loc_proto::Role::Agent)
+    use agent_fw::{Action, Agent, Heard, Tune};
+    use loc_proto::config::Config;
+    use loc_proto::line::BootLine;
+    use loc_proto::msg::{Beacon, MAX_PAYLOAD};
+    use loc_proto::schedule::{beacon_latency_us, Schedule};
+    use loc_proto::Role;
+    use uno_board::node::{self, Event};
+    use uno_board::NodeRadio;
+    use uno_board::{bring_up_radio, now_us, reset, write_line, Board, SysClock, WdtTimeout};
+    use xbee_api::driver::{BringUpConfig, Radio};
+
+    const CONFIG: Config = Config {
+        role: Role::Agent,
+        ..Config::DEFAULT
+    };
+    let Some(board) = Board::take() else { reset() };
+    let Board {
+        mut serial,
+        mut led,
+        mut watchdog,
+        ..
+    } = board;
+    write_line(&mut serial, &BootLine::Boot { role: Role::Agent });
+    let config = CONFIG;
+    let channels = config.channels;
+    let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
+    let bring_up = BringUpConfig {
+        my: Some(Role::Agent.address(config.id)),
+        pan_id: Some(config.pan_id),
+        channel: loc_proto::xbee_channel(channels.as_slice()[0]),
+        ..BringUpConfig::new()
+    };
+    bring_up_radio(&mut radio, &mut led, Role::Agent, &bring_up);
+    let Ok(sched) = Schedule::for_config(&config) else {
+        reset()
+    };
+    let latency = beacon_latency_us(config.anchors);
+    let mut agent = Agent::new(config.id, sched, channels, latency, now_us());
+    let sink = Role::Sink.address(1);
+
+    let act = |radio: &mut NodeRadio, agent: &Agent, action: Action| match action {
+        Action::Tune(Tune::List(c)) => {
+            if let Some(&n) = channels.as_slice().get(c as usize) {
+                let _ = node::tune(radio, n);
+            }
+        }
+        Action::Tune(Tune::Sink) => {
+            let _ = node::tune(radio, config.sink_channel);
+        }
+        Action::SendReport { .. } => {
+            let mut buf = [0u8; MAX_PAYLOAD];
+            if let Ok(n) = agent.report().encode(&mut buf) {
+                let _ = node::send(radio, sink, &buf[..n]);
+            }
+        }
+    };
+    watchdog.start(WdtTimeout::S1);
+    loop {
+        watchdog.feed();
+        while let Some(action) = agent.poll(now_us()) {
+            act(&mut radio, &agent, action);
+            if let Action::SendReport { .. } = action {
+                led.toggle();
+            }
+        }
+        // What arrived: a beacon goes to the agent inside the poll (it borrows the frame); a TX
+        // status comes out, and the action it gives is done after.
+        while let Some(status) = node::poll(&mut radio, |ev| match ev {
+            Event::Packet {
+                rssi, data, at_us, ..
+            } => {
+                if let Ok(b) = Beacon::decode(data) {
+                    if let Some(c) = channels.as_slice().iter().position(|&c| c == b.channel) {
+                        agent.on_beacon(Heard {
+                            from: b.anchor,
+                            seq: b.seq,
+                            channel: c as u8,
+                            rssi: rssi.max(1),
+                            at_us,
+                            pos: [b.position.x, b.position.y],
+                            relay: b.relayed(),
+                        });
+                    }
+                }
+                None
+            }
+            Event::TxStatus(ok) => Some(ok),
+            Event::Other => None,
+        }) {
+            if let Some(action) = status.and_then(|ok| agent.on_tx_status(ok)) {
+                act(&mut radio, &agent, action);
+            }
+        }
+        node::idle(agent.wait_us(now_us()));
+    }
 }

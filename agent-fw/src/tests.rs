@@ -246,3 +246,61 @@ fn impossible_beacons_are_ignored() {
     assert!(g.synced());
     assert_eq!(g.collecting().relay[0][0], [0, 1, 1, 1, 1, 1, 1, 1]);
 }
+
+/// A shell that sleeps [`Agent::wait_us`] between polls acts exactly at the event times, and
+/// nothing is due before the wait is over.
+#[test]
+fn waiting_wait_us_between_polls_misses_nothing() {
+    let s = sched();
+    let sf = s.superframe_us();
+    let mut g = Agent::new(2, s, channels(), LATENCY, 0);
+    assert_eq!(g.wait_us(0), 0);
+    assert_eq!(g.poll(0), Some(Action::Tune(Tune::List(0))));
+    assert_eq!(g.wait_us(0), u32::MAX, "nothing to do before a beacon");
+    // Anchor 1's channel-0 beacon of superframe 5, received at 100 ms: the superframe began
+    // LATENCY + its transmit time earlier.
+    let at = 100_000;
+    g.on_beacon(Heard {
+        from: 1,
+        seq: 5,
+        channel: 0,
+        rssi: 50,
+        at_us: at,
+        pos: [0, 0],
+        relay: &[0, 0, 0, 0],
+    });
+    let start = at - LATENCY - s.beacon_at_us(0, 1).unwrap();
+    let mut t = at;
+    let mut got = Vec::new();
+    while t < start + 3 * sf {
+        while let Some(act) = g.poll(t) {
+            got.push((t - start, act));
+        }
+        let w = g.wait_us(t);
+        assert!(
+            w > 0,
+            "poll returned None, so something must be ahead at {t}"
+        );
+        assert_eq!(
+            g.poll(t + w - 1),
+            None,
+            "due before the wait ended ({t} + {w})"
+        );
+        t += w;
+    }
+    let mut want = Vec::new();
+    for k in 0..3u16 {
+        let base = k as u32 * sf;
+        if k > 0 {
+            want.push((base, Action::Tune(Tune::List(0))));
+        }
+        want.push((
+            base + s.channel_start_us(1).unwrap(),
+            Action::Tune(Tune::List(1)),
+        ));
+        let report = s.report_at_us(2).unwrap();
+        want.push((base + report - s.guard_us(), Action::Tune(Tune::Sink)));
+        want.push((base + report, Action::SendReport { seq: 5 + k }));
+    }
+    assert_eq!(got, want);
+}

@@ -227,6 +227,25 @@ impl Anchor {
         }
     }
 
+    /// How long the shell may wait from local time `now_us` before [`Anchor::poll`] has
+    /// something to do, µs (0: poll now). Beacons arriving meanwhile change nothing that is due
+    /// earlier, so a shell can sleep this long unless the radio wakes it.
+    pub fn wait_us(&self, now_us: u32) -> u32 {
+        match self.mode {
+            Mode::Listening { .. } if !self.tuned => 0,
+            Mode::Listening { until_us } => (until_us.wrapping_sub(now_us) as i32).max(0) as u32,
+            Mode::Running => {
+                let sf = self.tl.schedule().superframe_us();
+                let t = self.tl.elapsed_us(now_us);
+                match self.event_time(self.next_ev) {
+                    _ if t >= sf => 0,
+                    Some(time) => time.saturating_sub(t),
+                    None => sf - t,
+                }
+            }
+        }
+    }
+
     /// A beacon was received.
     pub fn on_beacon(&mut self, b: Heard) {
         if !self.tl.plausible(b.from, b.channel) {

@@ -1,10 +1,9 @@
-//! anchor-fw: the hoploc anchor node firmware for the Arduino Uno.
+//! anchor-fw: the hoploc anchor firmware for the Arduino Uno.
 //!
-//! For now the boot firmware: write `hoploc anchor boot`, bring the radio up through xbee-api (API
-//! mode 2 at 57600; `MY`, `ID`, `CH` from `uno_board::boot_radio_config`, each read back),
-//! retrying with an LED error code while it does not answer, then listen. The node logic will
-//! live in a host-tested `lib.rs`; this file only wires it to `uno-board`. Build: `cargo fw` (all
-//! firmwares) or `cargo fw-run -p anchor-fw`.
+//! Wiring only (the logic is `anchor_fw::Anchor`, host-tested): boot line, node config, radio
+//! bring-up, then the loop — feed the µs clock to the anchor and do what it asks (tune, send a
+//! beacon), feed it the beacons the radio hears, idle until its next event. Build: `cargo fw`
+//! (all firmwares) or `cargo fw-run -p anchor-fw` (build and flash).
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]
@@ -16,5 +15,84 @@ uno_board::link_avr_libc!();
 #[cfg(target_arch = "avr")]
 #[uno_board::entry]
 fn main() -> ! {
-    uno_board::boot_and_listen(loc_proto::Role::Anchor)
+    use anchor_fw::{Action, Anchor, Heard};
+    use loc_proto::config::Config;
+    use loc_proto::line::BootLine;
+    use loc_proto::msg::Beacon;
+    use loc_proto::schedule::{beacon_latency_us, Schedule};
+    use loc_proto::Role;
+    use uno_board::node::{self, Event};
+    use uno_board::{bring_up_radio, now_us, reset, write_line, Board, SysClock, WdtTimeout};
+    use xbee_api::driver::{BringUpConfig, Radio};
+
+    const CONFIG: Config = Config::DEFAULT;
+    let Some(board) = Board::take() else { reset() };
+    let Board {
+        mut serial,
+        mut led,
+        mut watchdog,
+        ..
+    } = board;
+    write_line(&mut serial, &BootLine::Boot { role: Role::Anchor });
+    let config = CONFIG;
+    let channels = config.channels;
+    let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
+    let bring_up = BringUpConfig {
+        my: Some(Role::Anchor.address(config.id)),
+        pan_id: Some(config.pan_id),
+        channel: loc_proto::xbee_channel(channels.as_slice()[0]),
+        ..BringUpConfig::new()
+    };
+    bring_up_radio(&mut radio, &mut led, Role::Anchor, &bring_up);
+    let Ok(sched) = Schedule::for_config(&config) else {
+        reset()
+    };
+    let mut anchor = Anchor::new(
+        config.id,
+        sched,
+        beacon_latency_us(config.anchors),
+        now_us(),
+    );
+    watchdog.start(WdtTimeout::S1);
+    loop {
+        watchdog.feed();
+        while let Some(action) = anchor.poll(now_us()) {
+            match action {
+                Action::SetChannel(c) => {
+                    if let Some(&n) = channels.as_slice().get(c as usize) {
+                        let _ = node::tune(&mut radio, n);
+                    }
+                }
+                Action::SendBeacon { seq, channel } => {
+                    let beacon = anchor.beacon(seq, channel, &channels, config.position);
+                    let mut buf = [0u8; Beacon::MAX_LEN];
+                    if let Ok(n) = beacon.encode(&mut buf) {
+                        let _ = node::send(&mut radio, loc_proto::BROADCAST, &buf[..n]);
+                    }
+                    led.toggle();
+                }
+            }
+        }
+        while let Some(heard) = node::poll(&mut radio, |ev| match ev {
+            Event::Packet {
+                rssi, data, at_us, ..
+            } => {
+                let b = Beacon::decode(data).ok()?;
+                let channel = channels.as_slice().iter().position(|&c| c == b.channel)?;
+                Some(Heard {
+                    from: b.anchor,
+                    seq: b.seq,
+                    channel: channel as u8,
+                    rssi: rssi.max(1),
+                    at_us,
+                })
+            }
+            _ => None,
+        }) {
+            if let Some(h) = heard {
+                anchor.on_beacon(h);
+            }
+        }
+        node::idle(anchor.wait_us(now_us()));
+    }
 }

@@ -172,6 +172,47 @@ fn a_lone_anchor_listens_then_beacons_in_its_slots() {
     assert_eq!(got, want);
 }
 
+/// A shell that sleeps [`Anchor::wait_us`] between polls acts exactly at the event times, and
+/// nothing is due before the wait is over.
+#[test]
+fn waiting_wait_us_between_polls_misses_nothing() {
+    let s = sched();
+    let sf = s.superframe_us();
+    let mut a = Anchor::new(2, s, LATENCY, 5_000);
+    let mut t = 5_000u32;
+    let mut got = Vec::new();
+    while t < 5_000 + 7 * sf {
+        while let Some(act) = a.poll(t) {
+            got.push((t, act));
+        }
+        let w = a.wait_us(t);
+        assert!(
+            w > 0,
+            "poll returned None, so something must be ahead at {t}"
+        );
+        assert_eq!(
+            a.poll(t + w - 1),
+            None,
+            "due before the wait ended ({t} + {w})"
+        );
+        t += w;
+    }
+    // Listening ends after 3 superframes (anchor 2): then its slots, on its own timeline.
+    let start = 5_000 + 3 * sf;
+    let mut want = vec![(5_000, Action::SetChannel(0))];
+    for seq in 0..4u16 {
+        for c in 0..2u8 {
+            let base = start + seq as u32 * sf;
+            want.push((base + s.channel_start_us(c).unwrap(), Action::SetChannel(c)));
+            want.push((
+                base + s.beacon_at_us(c, 2).unwrap(),
+                Action::SendBeacon { seq, channel: c },
+            ));
+        }
+    }
+    assert_eq!(got, want);
+}
+
 #[test]
 fn anchors_sync_on_anchor_1_within_a_millisecond() {
     // Clocks far apart.

@@ -34,6 +34,9 @@ pub use role::Role;
 /// The PAN id of a hoploc testbed unless configured otherwise (`ID`; ASCII "32").
 pub const DEFAULT_PAN_ID: u16 = 0x3332;
 
+/// The 16-bit broadcast address: anchors broadcast their beacons.
+pub const BROADCAST: u16 = 0xFFFF;
+
 /// The XBee `CH` register value of testbed channel `n` (1…16): `CH = 0x0A + n`, so channel 1 is
 /// 802.15.4 channel 11 (0x0B) and 16 is 26 (0x1A). `None` outside 1…16. The S1 Pro only has
 /// testbed channels 2…13 (0x0C…0x17).

@@ -192,6 +192,62 @@ impl Schedule {
     }
 }
 
+/// The guard time at the start of every slot, µs. Nodes switch channel at a phase start; an
+/// `AT CH` round trip takes ≈ 4 ms at 57600 baud (two 9-byte frames and the radio's answer), which
+/// the first sender of the phase covers with its guard plus the ≈ 4.5 ms its beacon takes over
+/// its own UART before it goes on air. The rest is margin for the sync error (< 1 ms).
+pub const GUARD_US: u32 = 3_000;
+/// Report sub-slots per superframe: agents 1…`REPORT_SUBSLOTS` report, one sub-slot each.
+pub const REPORT_SUBSLOTS: u8 = 2;
+/// The shortest report sub-slot, µs: a 4-anchor × 2-channel report (59 B) takes ≈ 12 ms over the
+/// agent's UART and ≈ 2.8 ms on air, after the sink-channel switch.
+pub const MIN_REPORT_SLOT_US: u32 = 20_000;
+/// One byte on the 57600-baud 8N1 UART between MCU and radio (10 bit times), ns.
+pub const UART_BYTE_NS: u32 = 173_611;
+/// From the end of a packet on air to the first byte of its RX frame on the receiving radio's
+/// UART, µs (the modelled XBee's default; a real S1's is of the same order).
+pub const RADIO_RX_LATENCY_US: u32 = 200;
+
+/// How long after its scheduled transmit time a beacon of a network of `anchors` anchors reaches
+/// a receiver's MCU, µs: the TX16 frame over the sender's UART (frame delimiter, length, API id,
+/// frame id, destination, options and checksum around the payload: 9 + 13 + N bytes), the
+/// best-case time on air (0.928 ms + 32 µs per payload byte, SPEC §1), the receiving radio's
+/// latency, and the RX frame's first byte (the receiver stamps a frame when its 0x7E has
+/// arrived, `uno_board::rx_frame_start_us`). Escaped bytes add 174 µs each (rare: positions
+/// and RSSI bytes seldom equal 0x11, 0x13, 0x7D or 0x7E).
+pub const fn beacon_latency_us(anchors: u8) -> u32 {
+    let payload = crate::msg::Beacon::BASE_LEN as u32 + anchors as u32;
+    let frame = payload + 9;
+    (frame + 1) * UART_BYTE_NS / 1000 + 928 + 32 * payload + RADIO_RX_LATENCY_US
+}
+
+impl Schedule {
+    /// The superframe every node derives from its config: `anchors` slots of `slot_ms` per
+    /// channel, [`REPORT_SUBSLOTS`] report sub-slots of `slot_ms` (at least
+    /// [`MIN_REPORT_SLOT_US`]), and a guard of [`GUARD_US`] (at most a quarter of a slot).
+    pub const fn for_config(c: &crate::config::Config) -> Result<Schedule, ScheduleError> {
+        let slot_us = c.slot_ms as u32 * 1000;
+        let report_us = if slot_us > MIN_REPORT_SLOT_US {
+            slot_us
+        } else {
+            MIN_REPORT_SLOT_US
+        };
+        let guard_us = if GUARD_US < slot_us / 4 {
+            GUARD_US
+        } else {
+            slot_us / 4
+        };
+        Schedule::new(
+            c.anchors,
+            c.channels.len() as u8,
+            slot_us,
+            REPORT_SUBSLOTS,
+            report_us,
+            guard_us,
+        )
+    }
+}
+
 /// Superframes without a beacon after which an anchor is taken as gone (for the master choice).
 pub const SILENT_SUPERFRAMES: u8 = 3;
 
@@ -452,5 +508,38 @@ mod tests {
         assert_eq!(tl.master(), 1);
         assert!(!tl.plausible(3, 0) && !tl.plausible(0, 0) && !tl.plausible(5, 0));
         assert!(!tl.plausible(1, 2) && tl.plausible(4, 1));
+    }
+
+    #[test]
+    fn the_superframe_of_a_config() {
+        use crate::config::Config;
+        // The default: 4 anchors × 2 channels × 62 ms, two 62 ms report sub-slots, 3 ms guard.
+        let s = Schedule::for_config(&Config::DEFAULT).unwrap();
+        assert_eq!(s.superframe_us(), 8 * 62_000 + 2 * 62_000);
+        assert_eq!(s.beacon_at_us(1, 3), Some(6 * 62_000 + GUARD_US));
+        assert_eq!(s.report_at_us(2), Some(8 * 62_000 + 62_000 + GUARD_US));
+        assert_eq!(s.agents(), REPORT_SUBSLOTS);
+        // Short slots: report sub-slots stay long enough for a report, the guard shrinks.
+        let fast = Config {
+            slot_ms: 8,
+            ..Config::DEFAULT
+        };
+        let s = Schedule::for_config(&fast).unwrap();
+        assert_eq!(s.guard_us(), 2_000);
+        assert_eq!(s.report_at_us(1), Some(8 * 8_000 + 2_000));
+        assert_eq!(s.superframe_us(), 8 * 8_000 + 2 * MIN_REPORT_SLOT_US);
+    }
+
+    #[test]
+    fn the_beacon_latency_adds_up() {
+        // 4 anchors: 17-byte payload, 26-byte frame + the RX frame's delimiter = 27 bytes of
+        // UART (4 687 µs), 1 472 µs on air, 200 µs in the receiving radio.
+        assert_eq!(
+            beacon_latency_us(4),
+            27 * 173_611 / 1000 + 928 + 32 * 17 + 200
+        );
+        assert_eq!(beacon_latency_us(4), 6_359);
+        // Each more relayed anchor: one more byte on the UART and on air.
+        assert_eq!(beacon_latency_us(5) - beacon_latency_us(4), 173 + 32 + 1);
     }
 }

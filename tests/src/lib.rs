@@ -33,3 +33,61 @@ pub fn boot(role: Role) -> Avr {
 pub fn led_on(avr: &Avr) -> bool {
     avr.data().get(PORTB).is_some_and(|&v| v & LED_BIT != 0)
 }
+
+/// The beacons a firmware wrote to its modelled radio: (start of the TX16 frame on the UART in
+/// ms, the decoded beacon, the radio's `CH` when the frame ended). Panics on a TX16 frame that
+/// is not a broadcast beacon.
+pub fn beacons_sent(radio: &simavr::xbee::XBee) -> Vec<(f64, loc_proto::msg::Beacon, u8)> {
+    let mut ch = None;
+    let mut out = Vec::new();
+    for f in radio.frames_from_firmware() {
+        match f.data.as_slice() {
+            [0x08, _, b'C', b'H', c] => ch = Some(*c),
+            [0x01, _, 0xFF, 0xFF, _, payload @ ..] => {
+                let b = loc_proto::msg::Beacon::decode(payload)
+                    .unwrap_or_else(|e| panic!("{f}: not a beacon: {e:?}"));
+                out.push((f.ms(), b, ch.expect("a channel was set before a beacon")));
+            }
+            [0x01, ..] => panic!("{f}: not a broadcast"),
+            _ => {}
+        }
+    }
+    out
+}
+
+/// A beacon's payload.
+pub fn beacon_packet(anchor: u8, seq: u16, channel: u8, pos: [i16; 2], relay: &[u8]) -> Vec<u8> {
+    let mut b = loc_proto::msg::Beacon {
+        anchor,
+        seq,
+        channel,
+        position: loc_proto::msg::Position {
+            x: pos[0],
+            y: pos[1],
+        },
+        relay_count: relay.len() as u8,
+        relay: [0; 8],
+    };
+    b.relay[..relay.len()].copy_from_slice(relay);
+    let mut buf = [0; 32];
+    let n = b.encode(&mut buf).unwrap();
+    buf[..n].to_vec()
+}
+
+/// One byte on the 57600-baud UART of real hardware (10 bit times), ms.
+pub const UART_BYTE_MS: f64 = loc_proto::schedule::UART_BYTE_NS as f64 / 1e6;
+
+/// When a packet with a `payload_len`-byte payload whose sender's MCU began writing its TX16
+/// frame at `tx_ms` is off the air (what `XBee::deliver` takes): the frame over the sender's
+/// UART at real-hardware byte times (9 + payload bytes, no escapes), then the best-case time on
+/// air.
+pub fn rx_frame_delivery(tx_ms: f64, payload_len: usize) -> f64 {
+    tx_ms + (9 + payload_len) as f64 * UART_BYTE_MS + simavr::xbee::time_on_air_ms(payload_len)
+}
+
+/// The inverse of [`rx_frame_delivery`].
+pub fn tx_time_before(delivery_ms: f64, payload_len: usize) -> f64 {
+    delivery_ms
+        - (9 + payload_len) as f64 * UART_BYTE_MS
+        - simavr::xbee::time_on_air_ms(payload_len)
+}

@@ -5,6 +5,7 @@ mod cost_term;
 mod eeprom;
 mod led;
 pub mod libm;
+pub mod node;
 mod power;
 mod radio;
 mod serial;
@@ -16,8 +17,8 @@ pub use eeprom::Eeprom;
 pub use led::Led;
 pub use power::{sleep_idle, sleep_unless};
 pub use radio::{boot_and_listen, boot_radio_config, bring_up_radio, write_line, NodeRadio};
-pub use serial::{rx_pending, RxStats, Serial};
-pub use time::{delay_ms, now_ms, SysClock};
+pub use serial::{rx_frame_start_us, rx_pending, RxStats, Serial};
+pub use time::{delay_ms, now_ms, now_us, SysClock};
 pub use watchdog::{reset, ResetCause, Watchdog};
 
 /// The PAC, for peripherals uno-board does not wrap yet.

@@ -36,6 +36,9 @@ struct RxState {
     stats: RxStats,
 }
 
+/// [`now_us`](crate::now_us) when the last API frame start delimiter (0x7E) arrived.
+static FRAME_START_US: IrqCell<u32> = IrqCell::new(0);
+
 static RX: IrqCell<RxState> = IrqCell::new(RxState {
     ring: Ring::new(),
     stats: RxStats {
@@ -64,6 +67,20 @@ fn USART_RX() {
             rx.stats.ring_full = rx.stats.ring_full.saturating_add(1);
         }
     });
+    if byte == xbee_api::START {
+        let now = super::now_us();
+        FRAME_START_US.with(|t| *t = now);
+    }
+}
+
+/// The local time ([`now_us`](crate::now_us)) at which the last API frame start delimiter
+/// (0x7E) arrived, stamped by the RX interrupt at the byte's stop bit. In API mode 2 an
+/// unescaped 0x7E always starts a frame, so for a frame just decoded (the main loop drains the
+/// ring promptly) this is when the radio began handing it over: a receive time that does not
+/// depend on the frame's length or on how late the main loop got to it.
+#[inline]
+pub fn rx_frame_start_us() -> u32 {
+    FRAME_START_US.with(|t| *t)
 }
 
 /// True when at least one received byte waits in the ring (for [`sleep_unless`](crate::sleep_unless)).

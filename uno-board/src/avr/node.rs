@@ -1,0 +1,88 @@
+//! What every node's main loop does with its radio once it is up: tune to a testbed channel,
+//! send a hoploc message, take what arrives (stamped with its arrival time), and idle until the
+//! next event. The node logic itself is sans-IO in each `*-fw/src/lib.rs`.
+
+use loc_proto::xbee_channel;
+use xbee_api::driver::Error;
+
+use super::{rx_frame_start_us, rx_pending, sleep_unless, NodeRadio};
+
+/// How long a channel change may wait for the TX status of a frame still being sent, ms.
+pub const TUNE_TIMEOUT_MS: u32 = 20;
+
+/// Switches the radio to testbed channel `n` (XBee `CH` = 0x0A + n): waits for the TX status of
+/// any frame still being sent (a channel change would cut it off), then sends `ATCH` and
+/// returns without waiting for the radio's `OK` (which arrives as an [`Event::Other`]). The
+/// radio takes frames in order, so a beacon written right after goes out on the new channel;
+/// waiting for the answer would cost ≈ 4 ms of the slot's 3 ms guard. Frames that arrive while
+/// it waits are dropped (none are due in a guard time).
+pub fn tune(radio: &mut NodeRadio, n: u8) -> Result<(), Error> {
+    let ch = xbee_channel(n).ok_or(Error::Unexpected { command: *b"CH" })?;
+    radio.wait_tx_status(TUNE_TIMEOUT_MS, |_| ())?;
+    // A zero timeout: the command is written, the answer is not waited for.
+    match radio.at_command(*b"CH", &[ch], 0, |_| ()) {
+        Ok(_) | Err(Error::Timeout { .. }) => Ok(()),
+        Err(e) => Err(e),
+    }
+}
+
+/// Sends `payload` (an encoded hoploc message) to 16-bit address `dest` (0xFFFF: broadcast).
+pub fn send(radio: &mut NodeRadio, dest: u16, payload: &[u8]) -> Result<u8, Error> {
+    radio.send_tx16(dest, payload)
+}
+
+/// A frame from the radio, as the node logic needs it.
+#[derive(Clone, Copy, Debug)]
+pub enum Event<'a> {
+    /// A packet received (RX16).
+    Packet {
+        /// The sender's 16-bit address.
+        source: u16,
+        /// Its signal strength, −dBm.
+        rssi: u8,
+        /// The RF payload.
+        data: &'a [u8],
+        /// Local time its RX frame began to arrive ([`rx_frame_start_us`]).
+        at_us: u32,
+    },
+    /// The TX status of a frame sent: delivered (`true`) or not.
+    TxStatus(bool),
+    /// Any other frame (AT responses, modem status…), or one that could not be read.
+    Other,
+}
+
+/// Takes the next frame the radio has completed, if any, and hands it to `f` as an [`Event`].
+/// `None` when nothing more is waiting; stream errors (counted by the driver) give
+/// `Some(f(Event::Other))` so the caller keeps draining.
+pub fn poll<R>(radio: &mut NodeRadio, f: impl FnOnce(Event<'_>) -> R) -> Option<R> {
+    let mut f = Some(f);
+    let r = radio.poll(|raw| {
+        let ev = if let Some(rx) = raw.rx16() {
+            Event::Packet {
+                source: rx.source,
+                rssi: rx.rssi.0,
+                data: rx.data,
+                at_us: rx_frame_start_us(),
+            }
+        } else if let Some((_, status)) = raw.tx_status() {
+            Event::TxStatus(status == xbee_api::TxStatus::SUCCESS)
+        } else {
+            Event::Other
+        };
+        f.take().map(|f| f(ev))
+    })?;
+    match r {
+        Ok(Some(r)) => Some(r),
+        _ => f.take().map(|f| f(Event::Other)),
+    }
+}
+
+/// Waits for the next event `wait_us` ahead: sleeps (idle) until an interrupt when that is more
+/// than a tick away — the 1 ms tick or a received byte wakes the node — and returns at once
+/// otherwise, so the last millisecond before a slot is spent polling the µs clock and the slot
+/// starts on time (within the loop's few µs).
+pub fn idle(wait_us: u32) {
+    if wait_us > 1_000 {
+        sleep_unless(rx_pending);
+    }
+}
