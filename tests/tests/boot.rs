@@ -2,7 +2,8 @@
 //! these tests assert the exact frames it writes and what it says on the UART and the LED:
 //!
 //! * a radio already in API mode 2: `AP` query, then `MY`, `ID`, `CH` each set and read back, the
-//!   `radio ok api` line, then a quiet, listening node (no watchdog reset);
+//!   `radio ok api` line, the first channel (`CH`, anchors and agents), then a quiet, listening
+//!   node (no watchdog reset);
 //! * a radio that never answers: two `AP` queries, `+++` at each of the five baud rates, the
 //!   `radio error 9 try 1` line, error code 9 on the LED, then the next attempt;
 //! * a radio that answers garbage (a bad-checksum answer, noise, never `OK`): `radio error 10`,
@@ -61,14 +62,19 @@ fn api_radio(role: Role) -> ScriptedRadio {
             .reply(&at_ok(id + 1, cmd, value), 1.0);
         id += 2;
     }
-    // Then it listens: no frame for 3 s (three watchdog periods).
-    s.expect_silence(3000.0)
+    // Then anchors and agents tune to their first channel (without waiting for the answer), and
+    // every node listens: no frame for 1.2 s (more than a watchdog period; an anchor beacons
+    // after listening for 1 + id superframes, 1.24 s for anchor 1 with the default config).
+    if role != Role::Sink {
+        s = s.expect(Match::data(&at(id, b"CH", &[ch])), 10.0);
+    }
+    s.expect_silence(1200.0)
 }
 
 fn boots_against_a_radio_in_api_mode(role: Role) {
     let mut avr = boot(role);
     let mut radio = api_radio(role);
-    radio.run_to_end(&mut avr, 5000.0).unwrap();
+    radio.run_to_end(&mut avr, 2000.0).unwrap();
     // The AP query, byte for byte on the wire (AP=2 escaping; nothing to escape here).
     let first = &radio.frames()[0];
     let wire: Vec<u8> = avr
@@ -80,8 +86,8 @@ fn boots_against_a_radio_in_api_mode(role: Role) {
     assert_eq!(wire, [0x7E, 0x00, 0x04, 0x08, 0x01, 0x41, 0x50, 0x65]);
     assert_eq!(
         radio.frames().len(),
-        7,
-        "AP?, then MY, ID, CH set + read back"
+        if role == Role::Sink { 7 } else { 8 },
+        "AP?, then MY, ID, CH set + read back (then the first channel, for anchors and agents)"
     );
     let lines = parsed_lines(&radio);
     let texts: Vec<&str> = lines.iter().map(|(_, t)| t.as_str()).collect();
