@@ -16,14 +16,11 @@ uno_board::link_avr_libc!();
 #[cfg(target_arch = "avr")]
 #[uno_board::entry]
 fn main() -> ! {
-    use agent_fw::{Action, Agent, Heard, Tune};
+    use agent_fw::Agent;
     use loc_proto::config::Config;
     use loc_proto::line::BootLine;
-    use loc_proto::msg::{Beacon, MAX_PAYLOAD};
     use loc_proto::schedule::{beacon_latency_us, Schedule};
     use loc_proto::Role;
-    use uno_board::node::{self, Event};
-    use uno_board::NodeRadio;
     use uno_board::{bring_up_radio, now_us, reset, write_line, Board, SysClock, WdtTimeout};
     use xbee_api::driver::{BringUpConfig, Radio};
 
@@ -53,9 +50,30 @@ fn main() -> ! {
         reset()
     };
     let latency = beacon_latency_us(config.anchors);
-    let mut agent = Agent::new(config.id, sched, channels, latency, now_us());
-    let sink = Role::Sink.address(1);
+    let agent = Agent::new(config.id, sched, channels, latency, now_us());
+    watchdog.start(WdtTimeout::S1);
+    run(agent, radio, led, watchdog, &config)
+}
 
+/// The node's loop, out of line: on the AVR every access beyond 63 bytes into a stack frame
+/// costs 14 bytes of code, and `main`'s frame is big with the bring-up's state (measured: the
+/// agent 17 038 → N B).
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+fn run(
+    mut agent: agent_fw::Agent,
+    mut radio: uno_board::NodeRadio,
+    mut led: uno_board::Led,
+    mut watchdog: uno_board::Watchdog,
+    config: &loc_proto::config::Config,
+) -> ! {
+    use agent_fw::{Action, Agent, Heard, Tune};
+    use loc_proto::msg::{Beacon, MAX_PAYLOAD};
+    use loc_proto::Role;
+    use uno_board::node::{self, Event};
+    use uno_board::{now_us, NodeRadio};
+    let channels = config.channels;
+    let sink = Role::Sink.address(1);
     let act = |radio: &mut NodeRadio, agent: &Agent, action: Action| match action {
         Action::Tune(Tune::List(c)) => {
             if let Some(&n) = channels.as_slice().get(c as usize) {
@@ -72,7 +90,6 @@ fn main() -> ! {
             }
         }
     };
-    watchdog.start(WdtTimeout::S1);
     loop {
         watchdog.feed();
         while let Some(action) = agent.poll(now_us()) {

@@ -24,6 +24,11 @@ pub struct Schedule {
     slot_us: u32,
     report_slot_us: u32,
     guard_us: u32,
+    // Derived in `new` (every node asks for them all the time; on the AVR each would otherwise
+    // be a 32-bit multiplication inlined at every use).
+    phase_us: u32,
+    report_start_us: u32,
+    superframe_us: u32,
 }
 
 /// Why a layout was refused.
@@ -86,21 +91,24 @@ impl Schedule {
         if slot_us <= guard_us || slot_us < 1000 || (agents > 0 && report_slot_us <= guard_us) {
             return Err(ScheduleError::SlotTooShort);
         }
-        let s = Schedule {
-            anchors,
-            channels,
-            agents,
-            slot_us,
-            report_slot_us,
-            guard_us,
-        };
         // Beacon part ≤ 32 slots; report part ≤ 16 sub-slots: widen to check.
         let total = (anchors as u64 * channels as u64) * slot_us as u64
             + agents as u64 * report_slot_us as u64;
         if total > u32::MAX as u64 {
             return Err(ScheduleError::TooLong);
         }
-        Ok(s)
+        let phase_us = anchors as u32 * slot_us;
+        Ok(Schedule {
+            anchors,
+            channels,
+            agents,
+            slot_us,
+            report_slot_us,
+            guard_us,
+            phase_us,
+            report_start_us: channels as u32 * phase_us,
+            superframe_us: total as u32,
+        })
     }
 
     /// Anchors per channel phase.
@@ -130,17 +138,17 @@ impl Schedule {
 
     /// One channel phase, µs.
     pub const fn channel_phase_us(&self) -> u32 {
-        self.anchors as u32 * self.slot_us
+        self.phase_us
     }
 
     /// Start of the report window, µs.
     pub const fn report_start_us(&self) -> u32 {
-        self.channels as u32 * self.channel_phase_us()
+        self.report_start_us
     }
 
     /// The whole superframe, µs.
     pub const fn superframe_us(&self) -> u32 {
-        self.report_start_us() + self.agents as u32 * self.report_slot_us
+        self.superframe_us
     }
 
     /// When anchor `anchor` (1…N) transmits in channel phase `channel` (index): the end of its
