@@ -77,9 +77,10 @@ pub struct Agent {
     next_ev: u8,
     /// A report is out, waiting for its TX status.
     awaiting: bool,
-    /// What this superframe's beacons said so far: the next report.
+    /// What this superframe's beacons said so far: the next report. (There is no copy of the
+    /// report being sent: the shell encodes it when asked, and a second 330-byte `Report` would
+    /// not fit the Uno's SRAM budget next to the radio driver.)
     cur: Report,
-    sent: Report,
 }
 
 impl Agent {
@@ -93,7 +94,6 @@ impl Agent {
         latency_us: u32,
         now_us: u32,
     ) -> Agent {
-        let empty = Report::new(id, 0, sched.anchors(), channels);
         Agent {
             id,
             tl: Timeline::new(sched, latency_us, 0, now_us),
@@ -101,8 +101,7 @@ impl Agent {
             tuned: false,
             next_ev: 0,
             awaiting: false,
-            cur: empty,
-            sent: empty,
+            cur: Report::new(id, 0, sched.anchors(), channels),
         }
     }
 
@@ -111,9 +110,10 @@ impl Agent {
         self.synced
     }
 
-    /// The report last sent ([`Action::SendReport`]).
+    /// The report to send on [`Action::SendReport`]: what the superframe's beacons said (read it
+    /// before the next [`Agent::poll`] or beacon; it is the same as [`Agent::collecting`]).
     pub fn report(&self) -> &Report {
-        &self.sent
+        &self.cur
     }
 
     /// What has been collected so far in this superframe.
@@ -179,7 +179,6 @@ impl Agent {
             }
             // The report: only less than a guard time late (never into the next sub-slot).
             if t - time < s.guard_us().max(1) {
-                self.sent = self.cur;
                 self.awaiting = true;
                 return Some(Action::SendReport { seq: self.cur.seq });
             }
