@@ -53,6 +53,13 @@
 //!   [`mmse`] over the full lattice, weights `2^(−y)` from a 32-entry table, and
 //!   [`mmse_window`] over the thesis' fine window only, the sink's MMSE; [`estimate`],
 //!   [`locate`]); [`sink_fix`] runs the whole sink step (fit, smoothing, refinement, estimate).
+//! * The sink's two estimates at once ([`mle_and_mmse_window_with`]): the windowed MMSE's window
+//!   *is* the thesis' fine window around the same coarse winner, so one coarse stage and one pass
+//!   over the window give both the thesis MLE and the windowed MMSE, bit for bit the
+//!   [`Estimate`]s of [`mle_with`] (`Search::Thesis`) and [`mmse_window_with`] (tested on
+//!   random inputs, evaluation counts included). `sink-fw` runs this: one copy of the search in
+//!   flash (the sink must fit 16 KB with its radio code, SPEC §8) and about the MMSE's cycles
+//!   for both instead of the MLE's plus the MMSE's.
 //!
 //! Errors are [`LocError`]: fewer than three usable anchors is
 //! [`LocError::TooFewAnchors`]; a fit without samples [`LocError::NoCalibrationData`]. Nothing
@@ -92,8 +99,8 @@ mod refine;
 mod tables;
 
 pub use grid::{
-    estimate, estimate_with, locate, mle, mle_with, mmse, mmse_window, mmse_window_with, mmse_with,
-    sink_fix, Estimate, Estimator,
+    estimate, estimate_with, locate, mle, mle_and_mmse_window_with, mle_with, mmse, mmse_window,
+    mmse_window_with, mmse_with, sink_fix, Estimate, Estimator,
 };
 pub use kernel::{
     log2_segment_table, portable_column, portable_term, AnchorTerm, ColumnJob, Portable,
