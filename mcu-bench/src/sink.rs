@@ -42,9 +42,10 @@ pub fn report(inp: &Inputs, seq: u16) -> Report {
 pub fn run_sink<K: TermKernel>(inp: &Inputs, mut mark: impl FnMut(u8)) -> [Option<SinkLine>; 2] {
     let area = AreaCm::new(inp.area[0], inp.area[1]);
     let mut sink = Sink::<K>::new(area);
-    let first = report(core::hint::black_box(inp), 1);
-    let _ = core::hint::black_box(sink.on_report(core::hint::black_box(&first)));
-    let second = core::hint::black_box(report(inp, 2));
+    // One report, sent twice (seq 1, then 2): one copy of the bench's scaffolding in flash.
+    let mut second = report(core::hint::black_box(inp), 1);
+    let _ = core::hint::black_box(sink.on_report(core::hint::black_box(&second)));
+    second.seq = 2;
     mark(SINK_MARKS[0]);
     let fix = sink.on_report(core::hint::black_box(&second));
     let fix = core::hint::black_box(fix);

@@ -929,7 +929,7 @@ pub fn mmse_window_with<K: TermKernel>(
 /// (it only can be when the window's shifts differ from the coarse grid's), so every cost that
 /// could beat the MLE's best is exact too; the MLE's winner is then the first smallest of the
 /// window's non-coarse points (the thesis skips the coarse ones) under the strict `<`, as in
-/// [`Searcher::thesis`]. Costs ≈ the windowed MMSE's cycles, and one copy of the search code in
+/// the thesis search. Costs ≈ the windowed MMSE's cycles, and one copy of the search code in
 /// flash (what `sink-fw` links).
 #[inline(never)]
 pub fn mle_and_mmse_window_with<K: TermKernel>(

@@ -75,10 +75,13 @@
 //! divisions, nine 64-bit products), Extended refinement ≈ 6 k, thesis MLE ≈ 129 k (312 anchor
 //! terms of the 932 a full evaluation takes, ≈ 300 cycles each with their row's share of the
 //! loop), ≈ 157 k in all (9.8 ms, 25.2× fewer than the same algorithm in f32): within the 160 k
-//! budget. The windowed MMSE (the sink's, [`mmse_window`]) is ≈ 326 k (≈ 355 k for the whole
+//! budget. The windowed MMSE (the sink's, [`mmse_window`]) is ≈ 330 k (≈ 358 k for the whole
 //! step): its weights need every window cost up to 27 bits of weight below the best, so the
 //! early exits hardly ever fire; the full-lattice [`mmse`] is ≈ 7.9 M. Code ≈ 30 KB of flash
-//! with both estimators linked (32.1 KB of the 32 KB in all); stack peak ≈ 1.1 KB.
+//! with both estimators linked (31.7 KB of the 32 KB in all); stack peak ≈ 1.1 KB. The sink
+//! itself runs [`mle_and_mmse_window_with`] (both estimates, ≈ the MMSE's cycles); its whole
+//! report path is the `est-sink` firmware (`cargo fw-sink`): 36.5 KB with its line writing, not
+//! yet within the sink's 16 KB.
 //!
 //! ```ignore
 //! // The lean sink step (what a firmware calls; `sink_fix` does the same from a `Measurements`):
