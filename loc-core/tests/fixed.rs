@@ -463,6 +463,56 @@ fn mmse_limits() {
     );
 }
 
+/// The sink's one-pass search is `[mle(Thesis), mmse_window]` bit for bit (estimates, costs and
+/// evaluation counts): random rooms of 1–30 m (the larger ones take the shifted cost path, and
+/// windows whose shifts differ from the coarse grid's), random models including α = 0 and
+/// negative α, σ from 0 (hard minimisers) to huge.
+#[test]
+fn one_pass_sink_search_equals_both_estimators() {
+    const TRIALS: usize = 3000;
+    let mut rng = Rng(0x0BE5_7EA5);
+    let mut shifted = 0;
+    for t in 0..TRIALS {
+        let tr = trial(&mut rng);
+        let obs = fx::observations(&tr.mf, tr.refinement);
+        let model = match t % 10 {
+            0 => fx::PathLoss {
+                p0: -40 * fx::DB,
+                alpha: 0,
+            },
+            1 => fx::PathLoss {
+                p0: -45 * fx::DB,
+                alpha: -fx::ALPHA,
+            },
+            _ => fx::PathLoss {
+                p0: -(30 * fx::DB + rng.below(30 * fx::DB as usize) as i32),
+                alpha: 2 * fx::ALPHA + rng.below(3 * fx::ALPHA as usize) as i32,
+            },
+        };
+        let sigma = match t % 7 {
+            0 => 0,
+            1 => 1,
+            2 => u16::MAX,
+            _ => rng.below(8 << 8) as u16,
+        };
+        let both = fx::mle_and_mmse_window_with::<fx::Portable>(&obs, model, tr.af, sigma);
+        let mle = fx::mle(&obs, model, tr.af, Search::Thesis);
+        let mmse = fx::mmse_window(&obs, model, tr.af, sigma);
+        match both {
+            Ok([a, b]) => {
+                assert_eq!(Ok(a), mle, "trial {t}: MLE");
+                assert_eq!(Ok(b), mmse, "trial {t}: MMSE");
+            }
+            Err(e) => {
+                assert_eq!(Err(e), mle, "trial {t}");
+                assert_eq!(Err(e), mmse, "trial {t}");
+            }
+        }
+        shifted += usize::from(tr.af.width.max(tr.af.height) > 1400);
+    }
+    assert!(shifted > TRIALS / 4, "{shifted}");
+}
+
 /// The windowed MMSE: σ = 0 is the mean of the window's minimisers (here the thesis MLE), a huge
 /// σ the centroid of the window; its smallest cost is the thesis MLE's, at the thesis' price.
 #[test]
@@ -704,6 +754,11 @@ proptest! {
                 }
             }
         }
+        let both = fx::mle_and_mmse_window_with::<fx::Portable>(&obs, model, area, sigma);
+        let mle = fx::mle(&obs, model, area, Search::Thesis);
+        let mmse = fx::mmse_window(&obs, model, area, sigma);
+        prop_assert_eq!(both.map(|[a, _]| a), mle);
+        prop_assert_eq!(both.map(|[_, b]| b), mmse);
         let stats = fx::CalStats::from_measurements(&m, None);
         let bounds = fx::Bounds { alpha_min: alpha, alpha_max: 5 * fx::ALPHA, p0_min: p0, p0_max: -20 * fx::DB };
         match fx::fit(&stats, mode, method, model, &bounds) {

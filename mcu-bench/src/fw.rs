@@ -60,6 +60,25 @@ pub fn main<P: Pipeline>(mut p: P) -> ! {
     }
 }
 
+/// Runs [`crate::sink::run_sink`] with the AVR cost kernel and stops: the two markers, `\n`, the
+/// sink's lines ([`crate::sink::write_lines`]), then `end`.
+pub fn sink_main() -> ! {
+    let Some(board) = Board::take() else {
+        uno_board::reset()
+    };
+    avr_device::interrupt::disable();
+    let mut serial = board.serial;
+    let inp = black_box(Inputs::BENCH);
+    let lines = crate::sink::run_sink::<uno_board::AvrTerm>(&inp, |b| mark(&mut serial, b));
+    crate::sink::write_lines(&lines, |b| serial.write_byte(b));
+    serial.write_bytes(b"end\n");
+    serial.flush_blocking();
+    loop {
+        avr_device::interrupt::disable();
+        avr_device::asm::sleep();
+    }
+}
+
 /// The inputs of [`kernel_check`]: every `(d², carry)` edge of the normalisation and the
 /// segment table, then xorshift draws over the whole range of each argument.
 fn kernel_inputs(i: u32, r: &mut u32) -> (u32, bool, i32, i32) {

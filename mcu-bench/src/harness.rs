@@ -282,3 +282,102 @@ pub fn host_f64(inp: &Inputs) -> [Fix; 2] {
     let mmse = fix(mmse, model);
     [mle, mmse]
 }
+
+/// What an `est-sink` run gave.
+#[derive(Clone, Debug)]
+pub struct SinkRun {
+    /// Cycles of the timed report (between the two [`crate::sink::SINK_MARKS`], one marker's
+    /// overhead included: subtract `est-none`'s empty phase).
+    pub cycles: u64,
+    /// What it wrote after the markers (`\n` first), up to and without `end\n`.
+    pub lines: String,
+    /// Flash bytes.
+    pub flash: usize,
+    /// Static data bytes.
+    pub static_sram: usize,
+    /// Stack peak, bytes.
+    pub stack_peak: usize,
+}
+
+/// The ATmega328P's flash, bytes.
+pub const FLASH: usize = 32 * 1024;
+
+/// Builds `est-sink` (`cargo fw-sink`, a no-op when current) unless `HOPLOC_FIRMWARE_DIR` points
+/// elsewhere, where it must exist; returns its flash bytes (`.text` + `.data`, read from the ELF:
+/// also when it does not fit).
+pub fn build_sink() -> Result<usize, String> {
+    let elf = elf("est-sink");
+    if std::env::var_os("HOPLOC_FIRMWARE_DIR").is_none() {
+        let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+            .arg("fw-sink")
+            .current_dir(workspace_root())
+            .status()
+            .map_err(|e| format!("could not run cargo fw-sink: {e}"))?;
+        if !status.success() {
+            return Err("cargo fw-sink failed".into());
+        }
+    }
+    let out = Command::new("avr-size")
+        .arg(&elf)
+        .output()
+        .map_err(|e| format!("could not run avr-size: {e}"))?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    let words: Vec<usize> = text
+        .lines()
+        .nth(1)
+        .unwrap_or("")
+        .split_whitespace()
+        .take(2)
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    match words[..] {
+        [t, d] => Ok(t + d),
+        _ => Err(format!("{}: avr-size said {text:?}", elf.display())),
+    }
+}
+
+/// Runs the `est-sink` ELF `elf` in simavr until it stops.
+pub fn run_sink_elf(elf: &Path) -> Result<SinkRun, String> {
+    let err = |e: simavr::Error| format!("{}: {e}", elf.display());
+    let mut avr = Avr::load(elf).map_err(err)?;
+    let mut state = State::Running;
+    while state.is_alive() && avr.time_ms() < RUN_LIMIT_MS {
+        state = avr.run_for_ms(50.0);
+    }
+    let text = avr.uart_output_string();
+    if state != State::Done {
+        return Err(format!(
+            "{}: did not stop ({state:?}): {text:?}",
+            elf.display()
+        ));
+    }
+    let out = avr.uart_output();
+    let marks = &crate::sink::SINK_MARKS;
+    let got: Vec<u8> = out.iter().take(marks.len()).map(|b| b.byte).collect();
+    let body = text.get(marks.len()..).unwrap_or("");
+    let lines = body.strip_suffix("end\n");
+    match (got == marks, lines) {
+        (true, Some(lines)) => {
+            let need = |v: Option<usize>, what: &str| {
+                v.ok_or_else(|| format!("{}: no {what} (symbols missing)", elf.display()))
+            };
+            Ok(SinkRun {
+                cycles: out[1].cycle - out[0].cycle,
+                lines: lines.to_string(),
+                flash: need(avr.flash_size(), "flash size")?,
+                static_sram: need(avr.static_data_size(), "static data size")?,
+                stack_peak: need(avr.stack_peak(), "stack peak")?,
+            })
+        }
+        _ => Err(format!("{}: unexpected output {text:?}", elf.display())),
+    }
+}
+
+/// What `est-sink` must print after its markers: [`crate::sink::run_sink`] on the host, with
+/// the portable cost kernel.
+pub fn host_sink(inp: &Inputs) -> String {
+    let lines = crate::sink::run_sink::<loc_core::fixed::Portable>(inp, |_| {});
+    let mut out = Vec::new();
+    crate::sink::write_lines(&lines, |b| out.push(b));
+    String::from_utf8_lossy(&out).into_owned()
+}

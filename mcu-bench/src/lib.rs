@@ -7,6 +7,10 @@
 //!
 //! * `est-fixed`: loc-core's integer path ([`loc_core::fixed`], the lean sink sequence);
 //! * `est-f32`: the same algorithm in plain `f32` with avr-libc's `log10`/`exp` ([`float`]);
+//! * `est-sink`: not phase by phase: the sink's whole per-report path
+//!   (`sink_fw::Sink::on_report` of a `loc_proto` report, then its text lines; [`sink`]), for
+//!   its flash (SPEC §8: the sink firmware within 16 KB) and its cycles; built apart, by
+//!   `cargo fw-sink`, while it does not fit the 32 KB;
 //! * `est-none`: no estimator: the baseline whose phases measure the markers' own cost, and whose
 //!   flash and SRAM are subtracted to attribute the rest to the estimator.
 //!
@@ -28,6 +32,7 @@ pub mod float;
 pub mod fw;
 #[cfg(not(target_arch = "avr"))]
 pub mod harness;
+pub mod sink;
 
 /// Anchors.
 pub const N_ANCHORS: usize = 4;

@@ -6,14 +6,26 @@
 //! answers with a [`Fix`] (or why there is none); `main.rs` writes them as loc-proto's sink
 //! lines. It is generic over the cost kernel: the AVR assembly one on the Uno, the portable one
 //! on the host, with identical results.
+//!
+//! What a report costs (SPEC §8: the sink firmware within 16 KB of flash): [`Sink::on_report`]
+//! takes the calibration statistics and the Extended observations straight from the report's
+//! bytes ([`report_inputs`], no [`Measurements`] of 8 × 8 × 4 optional bytes in between), fits
+//! P0/α by least squares only, and gets both estimates from one search
+//! (`loc_core::fixed::mle_and_mmse_window_with`: the MMSE's window is the thesis' fine window,
+//! so the coarse stage and the window run once). The results are those of the generic path,
+//! [`Sink::on_measurements`] (thesis MLE, then windowed MMSE), bit for bit (`tests`). Its flash
+//! is measured by the mcu-bench firmware `est-sink` (`cargo fw-sink`): 36.6 KB with the bench's
+//! scaffolding and the line writing, against 41.4 KB before the one-pass search, so not yet
+//! within the budget.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 use core::marker::PhantomData;
 use loc_core::fixed::{
-    mle_with, mmse_window_with, observations, AreaCm, Bounds, Estimate, FitMethod, LocError,
-    Measurements, OnlineParams, ParamMode, PathLoss, PointCm, Refinement, Search, TermKernel,
+    fit_least_squares, mle_and_mmse_window_with, observations, observations_of, AreaCm, Bounds,
+    CalStats, ChannelBytes, Estimate, FitMethod, LocError, Measurements, Observations,
+    OnlineParams, ParamMode, PathLoss, PointCm, Refinement, TermKernel,
 };
 use loc_proto::msg::Report;
 use loc_proto::sink_line::{Estimator, SinkLine, FLAG_FITTED};
@@ -105,9 +117,8 @@ impl Fix {
             estimator,
             x: ((e.pos.x + 5) / 10).min(i16::MAX as u32) as i16,
             y: ((e.pos.y + 5) / 10).min(i16::MAX as u32) as i16,
-            // Q.24 and Q.16 to hundredths, rounded (|α| ≤ 2^7, |P0| < 2^10: no overflow).
-            alpha_x100: ((self.model.alpha.max(0) as i64 * 100 + (1 << 23)) >> 24) as u16,
-            p0_x100: ((self.model.p0 as i64 * 100 + (1 << 15)) >> 16) as i16,
+            alpha_x100: centi(self.model.alpha.max(0), 24) as u16,
+            p0_x100: centi(self.model.p0, 16) as i16,
             anchors: e.anchors,
             flags: if self.fitted { FLAG_FITTED } else { 0 },
         };
@@ -116,6 +127,16 @@ impl Fix {
             line(&self.mmse, Estimator::Mmse),
         ]
     }
+}
+
+/// `v·100 / 2^q` rounded (half up), `q ≥ 8`, for `|v| ≤ 2^30`: `(v·100 + 2^(q−1)) >> q` in 32
+/// bits. With `v = 256·h + l` (`0 ≤ l < 256`), `v·100 + 2^(q−1) = 256·(100·h + 2^(q−9)) + 100·l`,
+/// and `⌊(256·a + b)/2^q⌋ = ⌊(a + ⌊b/256⌋)/2^(q−8)⌋`; `|100·h| < 2^29`. (A sink's α is within
+/// [`loc_core::fixed::ALPHA_LIMIT`] and its P0 within [`loc_core::fixed::P0_LIMIT`], both below
+/// 2^30.)
+fn centi(v: i32, q: u32) -> i32 {
+    let (h, l) = (v >> 8, v & 0xFF);
+    (100 * h + (1 << (q - 9)) + ((100 * l) >> 8)) >> (q - 8)
 }
 
 /// The `nofix` line of agent `agent`'s report `seq` that failed with `e`.
@@ -190,9 +211,12 @@ impl<K: TermKernel> Sink<K> {
         }
     }
 
-    /// A decoded report: [`Sink::on_measurements`] of its [`measurements`].
+    /// A decoded report: as [`Sink::on_measurements`] of its [`measurements`] (the same
+    /// result, `tests` checks), with the calibration statistics and the observations taken
+    /// straight from the report's bytes.
     pub fn on_report(&mut self, r: &Report) -> Result<Fix, LocError> {
-        self.on_measurements(r.agent, r.seq, &measurements(r))
+        let (stats, obs) = report_inputs(r);
+        self.locate(r.agent, r.seq, &stats, &obs)
     }
 
     /// Agent `agent`'s report of superframe `seq`, as measurements: fit, smooth, locate.
@@ -201,6 +225,21 @@ impl<K: TermKernel> Sink<K> {
         agent: u8,
         seq: u16,
         m: &Measurements,
+    ) -> Result<Fix, LocError> {
+        let stats = CalStats::from_measurements(m, None);
+        let obs = observations(m, Refinement::Extended);
+        self.locate(agent, seq, &stats, &obs)
+    }
+
+    /// The report's counters, the least-squares fit of `stats` fed to the AR(1) smoothers, then
+    /// both estimates of `obs` from one search.
+    #[inline(never)]
+    fn locate(
+        &mut self,
+        agent: u8,
+        seq: u16,
+        stats: &CalStats,
+        obs: &Observations,
     ) -> Result<Fix, LocError> {
         self.counters.frames += 1;
         self.counters.reports += 1;
@@ -214,38 +253,68 @@ impl<K: TermKernel> Sink<K> {
             }
             *next = Some(seq.wrapping_add(1));
         }
-        let stats = loc_core::fixed::CalStats::from_measurements(m, None);
         // The least-squares fit directly: through `OnlineParams::update` the thesis' grid fit
         // would be linked in too.
         let p = &self.params;
-        let fitted =
-            match loc_core::fixed::fit_least_squares(&stats, p.mode, p.current(), &p.bounds) {
-                Ok(f) => {
-                    self.params.feed(&f);
-                    true
-                }
-                Err(_) => false,
-            };
+        let fitted = match fit_least_squares(stats, p.mode, p.current(), &p.bounds) {
+            Ok(f) => {
+                self.params.feed(&f);
+                true
+            }
+            Err(_) => false,
+        };
         let model = self.params.current();
-        let obs = observations(m, Refinement::Extended);
-        let result = mle_with::<K>(&obs, model, self.area, Search::Thesis).and_then(|mle| {
-            let sigma = self.params.sigma().unwrap_or(DEFAULT_SIGMA);
-            let mmse = mmse_window_with::<K>(&obs, model, self.area, sigma)?;
-            Ok(Fix {
+        let sigma = self.params.sigma().unwrap_or(DEFAULT_SIGMA);
+        let result =
+            mle_and_mmse_window_with::<K>(obs, model, self.area, sigma).map(|[mle, mmse]| Fix {
                 agent,
                 seq,
                 mle,
                 mmse,
                 model,
                 fitted,
-            })
-        });
+            });
         match result {
             Ok(_) => self.counters.fixes += 1,
             Err(_) => self.counters.no_fixes += 1,
         }
         result
     }
+}
+
+/// What [`Sink::on_report`] works from, straight from the report's bytes: the calibration
+/// statistics of every anchor pair (both directions' relayed bytes, as
+/// [`CalStats::from_measurements`] of [`measurements`]) and the agent's observations under the
+/// Extended refinement (as [`observations`]).
+#[inline(never)]
+pub fn report_inputs(r: &Report) -> (CalStats, Observations) {
+    let n = (r.anchors as usize).min(loc_core::MAX_ANCHORS);
+    let c = r.channels.len().min(loc_core::MAX_CHANNELS);
+    let heard = |b: u8| (b != 0).then_some(b);
+    let pos = |i: usize| PointCm::new(r.positions[i].x, r.positions[i].y);
+    let mut stats = CalStats::new();
+    if r.has_relay {
+        for i in 0..n {
+            for j in i + 1..n {
+                let mut bytes = [None; 2 * loc_core::MAX_CHANNELS];
+                for ch in 0..c {
+                    bytes[ch] = heard(r.relay[ch][i][j]);
+                    bytes[loc_core::MAX_CHANNELS + ch] = heard(r.relay[ch][j][i]);
+                }
+                stats.push_pair(pos(i), pos(j), &bytes);
+            }
+        }
+    }
+    let mut anchors = [PointCm::default(); loc_core::MAX_ANCHORS];
+    let mut rssi: [ChannelBytes; loc_core::MAX_ANCHORS] = Default::default();
+    for i in 0..n {
+        anchors[i] = pos(i);
+        for (v, row) in rssi[i].iter_mut().zip(&r.rssi[..c]) {
+            *v = heard(row[i]);
+        }
+    }
+    let obs = observations_of(&anchors[..n], &rssi[..n], c, Refinement::Extended);
+    (stats, obs)
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! The sink on noise-free reports from the path-loss model (P0 = −40 dBm, α = 3).
 
 use super::*;
-use loc_core::fixed::{PointCm, Portable};
+use loc_core::fixed::{PointCm, Portable, Search};
 
 const ANCHORS: [(i16, i16); 4] = [(0, 0), (1000, 0), (1000, 1000), (0, 1000)];
 
@@ -252,5 +252,91 @@ fn fixes_and_failures_become_sink_lines_that_parse_back() {
         let mut v = std::vec::Vec::new();
         l.write(|b| v.push(b));
         assert_eq!(SinkLine::parse(std::str::from_utf8(&v).unwrap()), Ok(l));
+    }
+}
+
+/// [`report_inputs`] (what `on_report` runs) gives exactly the calibration statistics and
+/// observations of the generic path from [`measurements`], and `on_report` the same fixes and
+/// counters as `on_measurements`, on random reports: 1–8 anchors anywhere (coincident ones
+/// too), 1–4 channels, bytes 0 (not heard) to 255, with and without the relay matrix.
+#[test]
+fn reports_go_the_same_way_as_their_measurements() {
+    use loc_proto::msg::{ChannelList, Position};
+    let mut x = 0x2545_F491_4F6C_DD1Du64;
+    let mut next = move |n: u64| {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        x % n
+    };
+    let (mut a, mut b) = (sink(), sink());
+    let mut fixes = 0;
+    for t in 0..3000u16 {
+        let anchors = 1 + next(8) as u8;
+        let chans = [1, 12, 3, 16];
+        let list = ChannelList::new(&chans[..1 + next(4) as usize]).unwrap();
+        let mut r = Report::new(1 + next(3) as u8, t, anchors, list);
+        r.has_relay = next(5) != 0;
+        let near = next(2) == 0;
+        for p in r.positions.iter_mut() {
+            *p = if near {
+                Position {
+                    x: next(1200) as i16 - 100,
+                    y: next(1200) as i16 - 100,
+                }
+            } else {
+                Position {
+                    x: next(65536) as u16 as i16,
+                    y: next(65536) as u16 as i16,
+                }
+            };
+        }
+        let byte = |next: &mut dyn FnMut(u64) -> u64| match next(10) {
+            0 => 0,
+            1 => 255,
+            _ => 40 + next(60) as u8,
+        };
+        for c in 0..4 {
+            for i in 0..8 {
+                r.rssi[c][i] = byte(&mut next);
+                for j in 0..8 {
+                    r.relay[c][i][j] = byte(&mut next);
+                }
+            }
+        }
+        let m = measurements(&r);
+        let (stats, obs) = report_inputs(&r);
+        assert_eq!(stats, CalStats::from_measurements(&m, None), "report {t}");
+        assert_eq!(obs, observations(&m, Refinement::Extended), "report {t}");
+        let fa = a.on_report(&r);
+        assert_eq!(fa, b.on_measurements(r.agent, r.seq, &m), "report {t}");
+        fixes += usize::from(fa.is_ok());
+        assert_eq!(a.counters(), b.counters());
+        assert_eq!(a.model(), b.model());
+    }
+    assert!(fixes > 1000, "{fixes}");
+}
+
+/// `centi` is the 64-bit rounding it replaces, on the edges and across the whole range of α
+/// (Q.24) and P0 (Q.16) a sink can hold.
+#[test]
+fn hundredths_are_the_64_bit_rounding() {
+    let want = |v: i32, q: u32| ((v as i64 * 100 + (1 << (q - 1))) >> q) as i32;
+    let mut x = 0x9E37_79B9_7F4A_7C15u64;
+    for k in 0..200_000u32 {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        let v = match k {
+            0 => loc_core::fixed::ALPHA_LIMIT,
+            1 => -loc_core::fixed::P0_LIMIT,
+            2 => 1 << 30,
+            3 => -(1 << 30),
+            4..=1000 => k as i32 - 500,
+            _ => (x as i32) >> 1 >> (x >> 59),
+        };
+        for q in [16, 24] {
+            assert_eq!(centi(v, q), want(v, q), "{v} {q}");
+        }
     }
 }

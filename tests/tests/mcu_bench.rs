@@ -40,6 +40,49 @@ fn fixed_firmware_equals_host_fixed() {
     assert!(mle.x_mm <= 10_000.0 && mle.y_mm <= 10_000.0, "{mle:?}");
 }
 
+/// `est-sink` (the sink's `on_report` with the AVR kernel, and its lines) prints exactly what
+/// `sink_fw::Sink` with the portable kernel gives on the host: two `fix` lines. Ignored while
+/// est-sink does not fit the ATmega328P (it fails then, saying by how much).
+#[test]
+#[ignore = "est-sink (the sink's report path) does not fit the 32 KB flash yet: cargo fw-sink"]
+fn sink_firmware_equals_host_sink() {
+    let flash = harness::build_sink().unwrap_or_else(|e| panic!("est-sink: {e}"));
+    assert!(
+        flash <= harness::FLASH,
+        "est-sink is {flash} B of flash, over the {} B of the ATmega328P",
+        harness::FLASH
+    );
+    let fw = harness::run_sink_elf(&harness::elf("est-sink")).unwrap_or_else(|e| panic!("{e}"));
+    let host = harness::host_sink(&Inputs::BENCH);
+    assert_eq!(fw.lines, host, "est-sink vs host sink_fw::Sink");
+    let fix_lines = host.lines().filter(|l| l.starts_with("fix ")).count();
+    assert_eq!(fix_lines, 2, "{host:?}");
+}
+
+/// The host side of `est-sink`: the sink's lines for the benchmark's report are two `fix` lines
+/// that parse back, with the same positions as the fixed path's sequence (MLE and a windowed
+/// MMSE on the same fitted model, the MMSE with the fitted σ).
+#[test]
+fn host_sink_gives_two_fix_lines() {
+    use loc_proto::sink_line::SinkLine;
+    let host = harness::host_sink(&Inputs::BENCH);
+    let body = host.strip_prefix('\n').expect("timed part's end");
+    let lines: Vec<SinkLine> = body
+        .split_inclusive('\n')
+        .map(|l| SinkLine::parse(l).unwrap_or_else(|e| panic!("{l:?}: {e:?}")))
+        .collect();
+    assert_eq!(lines.len(), 2, "{host:?}");
+    let fixed = harness::host_fixed(&Inputs::BENCH);
+    let SinkLine::Fix { x, y, .. } = lines[0] else {
+        panic!("{:?}", lines[0])
+    };
+    // The same thesis MLE as est-fixed's (same inputs, same fit and smoothing), in cm.
+    assert_eq!(
+        (x as u32, y as u32),
+        ((fixed[0].x + 5) / 10, (fixed[0].y + 5) / 10)
+    );
+}
+
 #[test]
 fn f32_firmware_matches_host_f32_and_fixed() {
     let fw = run("est-f32");

@@ -101,6 +101,7 @@ struct Cost {
 }
 
 impl Cost {
+    #[inline(never)]
     fn new(obs: &Observations, model: PathLoss, area: AreaCm) -> Cost {
         let model = model.sane();
         // K = 5·log10(2)·α, Q.24.
@@ -170,6 +171,7 @@ impl Cost {
     }
 
     /// `C = K²·C'` in Q.8 dB² (saturating) of a cost `c` (Q.20).
+    #[inline(never)]
     fn report(&self, c: u32) -> u32 {
         if self.flat {
             return 0;
@@ -750,6 +752,7 @@ impl Weights {
     }
 
     /// For `K` (Q.16) and σ (Q.8 dB).
+    #[inline(never)]
     fn new(k_q16: i64, sigma_q8: u16) -> Weights {
         let mut w = Weights {
             span: 1,
@@ -790,8 +793,9 @@ impl Weights {
         w
     }
 
-    /// Weight (Q.26) of a cost excess `excess < span` over the reference.
-    #[inline]
+    /// Weight (Q.26) of a cost excess `excess < span` over the reference. (Out of line: one
+    /// copy of the `2^−y` evaluation in flash.)
+    #[inline(never)]
     fn weight(&self, excess: u32) -> u32 {
         if self.hard {
             return if excess == 0 { 1 << 26 } else { 0 };
@@ -916,6 +920,83 @@ pub fn mmse_window_with<K: TermKernel>(
     ))
 }
 
+/// The sink's two estimates from one search: `[`[`mle_with`]` (Search::Thesis), `[`mmse_window_with`]`]`
+/// with the same arguments, bit for bit (the same [`Estimate`]s, evaluation counts included).
+///
+/// The windowed MMSE's window is the thesis' fine window around the same coarse winner, so the
+/// coarse stage runs once and each window column once, for both: its costs are exact up to the
+/// MMSE's bound (costs beyond weigh nothing), raised to the MLE's best cost when that is larger
+/// (it only can be when the window's shifts differ from the coarse grid's), so every cost that
+/// could beat the MLE's best is exact too; the MLE's winner is then the first smallest of the
+/// window's non-coarse points (the thesis skips the coarse ones) under the strict `<`, as in
+/// the thesis search. Costs ≈ the windowed MMSE's cycles, and one copy of the search code in
+/// flash (what `sink-fw` links).
+#[inline(never)]
+pub fn mle_and_mmse_window_with<K: TermKernel>(
+    obs: &Observations,
+    model: PathLoss,
+    area: AreaCm,
+    sigma: u16,
+) -> Result<[Estimate; 2], LocError> {
+    check(obs)?;
+    let cost = Cost::new(obs, model, area);
+    let mut srch = Searcher::<K>::new(&cost);
+    let (w, start) = srch.fine_window();
+    let rows = w.rows();
+    let mut mle_evals = srch.evals;
+    let mut post = Posterior::new(Weights::for_cost(&cost, sigma), start);
+    let mut fine = start;
+    // The coarse rows of the window (j a multiple of RATIO), as in `Searcher::thesis`.
+    let (mut coarse_rows, mut n_coarse) = (0u16, 0);
+    let mut r = (RATIO - w.j0 % RATIO) % RATIO;
+    while r < rows {
+        coarse_rows |= 1 << r;
+        n_coarse += 1;
+        r += RATIO;
+    }
+    let mut phase = w.i0 % RATIO;
+    for i in w.i0..=w.i1 {
+        srch.column(i, post.bound().max(fine.cost), 0);
+        srch.evals += rows;
+        post.add_column(i, w.j0, &srch.sums[..rows]);
+        let skip = if phase == 0 { coarse_rows } else { 0 };
+        mle_evals += rows - if phase == 0 { n_coarse } else { 0 };
+        for (r, &c) in srch.sums[..rows].iter().enumerate() {
+            if skip & (1 << r) == 0 && c < fine.cost {
+                fine = LatticeMin {
+                    i,
+                    j: w.j0 + r,
+                    cost: c,
+                };
+            }
+        }
+        phase = if phase == RATIO - 1 { 0 } else { phase + 1 };
+    }
+    let mle_cost = if cost.flat {
+        Cost::flat_cost(obs, model)
+    } else {
+        cost.report(fine.cost)
+    };
+    let mle = Estimate {
+        pos: area.lattice_mm(fine.i, fine.j),
+        lattice: lattice_u8(&fine),
+        min_cost: mle_cost.saturating_add(obs.const_cost),
+        estimator: Estimator::Mle(Search::Thesis),
+        anchors: obs.len() as u8,
+        total_weight: obs.total_weight(),
+        evaluations: mle_evals as u16,
+    };
+    let mmse = post.estimate(
+        obs,
+        model,
+        &cost,
+        area,
+        Estimator::MmseWindow { sigma },
+        srch.evals,
+    );
+    Ok([mle, mmse])
+}
+
 /// The MMSE searches' posterior sums: weights relative to a reference cost that only ever
 /// decreases (the sums are rescaled when a lower cost appears, see [`Weights`]), and the
 /// smallest cost seen.
@@ -948,9 +1029,11 @@ impl Posterior {
     }
 
     /// Adds column `i`'s rows `j0…` with costs `sums`.
+    #[inline(never)]
     fn add_column(&mut self, i: usize, j0: usize, sums: &[u32]) {
-        // This column's Σw and Σw·j (< 2^30, < 2^36).
-        let (mut cs, mut csj) = (0u64, 0u64);
+        // This column's Σw and Σw·j (< 2^30, < 2^36), rescaled with the totals: one loop over
+        // the five sums (one call site of the 64-bit `scale` in flash).
+        let mut col = [0u64; 2];
         for (r, &c) in sums.iter().enumerate() {
             let j = j0 + r;
             if c >= self.bound() {
@@ -958,27 +1041,29 @@ impl Posterior {
             }
             if c < self.cref {
                 let f = self.wts.rescale(self.cref - c);
-                self.s = scale(self.s, f);
-                self.sx = scale(self.sx, f);
-                self.sy = scale(self.sy, f);
-                cs = scale(cs, f);
-                csj = scale(csj, f);
+                for v in [&mut self.s, &mut self.sx, &mut self.sy]
+                    .into_iter()
+                    .chain(col.iter_mut())
+                {
+                    *v = scale(*v, f);
+                }
                 self.cref = c;
             }
             if c < self.best.cost {
                 self.best = LatticeMin { i, j, cost: c };
             }
             let wt = self.wts.weight(c - self.cref);
-            cs += wt as u64;
-            csj += (wt * j as u32) as u64; // < 2^26 · 51 < 2^32
+            col[0] += wt as u64;
+            col[1] += (wt * j as u32) as u64; // < 2^26 · 51 < 2^32
         }
-        self.s += cs;
-        self.sx += cs * i as u64;
-        self.sy += csj;
+        self.s += col[0];
+        self.sx += col[0] * i as u64;
+        self.sy += col[1];
     }
 
     /// The estimate: the posterior mean (the smallest cost's lattice point if every weight is
     /// 0) and the smallest cost.
+    #[inline(never)]
     fn estimate(
         &self,
         obs: &Observations,

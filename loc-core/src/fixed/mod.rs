@@ -53,6 +53,13 @@
 //!   [`mmse`] over the full lattice, weights `2^(−y)` from a 32-entry table, and
 //!   [`mmse_window`] over the thesis' fine window only, the sink's MMSE; [`estimate`],
 //!   [`locate`]); [`sink_fix`] runs the whole sink step (fit, smoothing, refinement, estimate).
+//! * The sink's two estimates at once ([`mle_and_mmse_window_with`]): the windowed MMSE's window
+//!   *is* the thesis' fine window around the same coarse winner, so one coarse stage and one pass
+//!   over the window give both the thesis MLE and the windowed MMSE, bit for bit the
+//!   [`Estimate`]s of [`mle_with`] (`Search::Thesis`) and [`mmse_window_with`] (tested on
+//!   random inputs, evaluation counts included). `sink-fw` runs this: one copy of the search in
+//!   flash (the sink must fit 16 KB with its radio code, SPEC §8) and about the MMSE's cycles
+//!   for both instead of the MLE's plus the MMSE's.
 //!
 //! Errors are [`LocError`]: fewer than three usable anchors is
 //! [`LocError::TooFewAnchors`]; a fit without samples [`LocError::NoCalibrationData`]. Nothing
@@ -68,10 +75,13 @@
 //! divisions, nine 64-bit products), Extended refinement ≈ 6 k, thesis MLE ≈ 129 k (312 anchor
 //! terms of the 932 a full evaluation takes, ≈ 300 cycles each with their row's share of the
 //! loop), ≈ 157 k in all (9.8 ms, 25.2× fewer than the same algorithm in f32): within the 160 k
-//! budget. The windowed MMSE (the sink's, [`mmse_window`]) is ≈ 326 k (≈ 355 k for the whole
+//! budget. The windowed MMSE (the sink's, [`mmse_window`]) is ≈ 330 k (≈ 358 k for the whole
 //! step): its weights need every window cost up to 27 bits of weight below the best, so the
 //! early exits hardly ever fire; the full-lattice [`mmse`] is ≈ 7.9 M. Code ≈ 30 KB of flash
-//! with both estimators linked (32.1 KB of the 32 KB in all); stack peak ≈ 1.1 KB.
+//! with both estimators linked (31.7 KB of the 32 KB in all); stack peak ≈ 1.1 KB. The sink
+//! itself runs [`mle_and_mmse_window_with`] (both estimates, ≈ the MMSE's cycles); its whole
+//! report path is the `est-sink` firmware (`cargo fw-sink`): 36.6 KB with its line writing, not
+//! yet within the sink's 16 KB.
 //!
 //! ```ignore
 //! // The lean sink step (what a firmware calls; `sink_fix` does the same from a `Measurements`):
@@ -92,8 +102,8 @@ mod refine;
 mod tables;
 
 pub use grid::{
-    estimate, estimate_with, locate, mle, mle_with, mmse, mmse_window, mmse_window_with, mmse_with,
-    sink_fix, Estimate, Estimator,
+    estimate, estimate_with, locate, mle, mle_and_mmse_window_with, mle_with, mmse, mmse_window,
+    mmse_window_with, mmse_with, sink_fix, Estimate, Estimator,
 };
 pub use kernel::{
     log2_segment_table, portable_column, portable_term, AnchorTerm, ColumnJob, Portable,
