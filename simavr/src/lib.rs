@@ -5,6 +5,7 @@
 //! [`Avr`] for what the harness does about simavr's quirks (sleep, UART pacing, resets, threads).
 
 pub mod avr;
+pub mod medium;
 pub mod radio;
 pub mod xbee;
 
