@@ -6,6 +6,7 @@
 
 pub mod avr;
 pub mod medium;
+pub mod network;
 pub mod radio;
 pub mod xbee;
 
