@@ -20,7 +20,7 @@
 //! Within a quantum the nodes do not interact, so they are stepped in parallel
 //! ([`NetworkConfig::threads`]; each [`Avr`] is `Send`): worker threads live for the whole of a
 //! [`Network::run_until`] call, take nodes from a shared counter, and meet the main thread at a
-//! barrier twice per quantum. Everything between quanta (the medium, deliveries, the log) runs on
+//! barrier (spinning briefly, then sleeping) twice per quantum. Everything between quanta (the medium, deliveries, the log) runs on
 //! the main thread in node order, so results are identical for any number of threads.
 //!
 //! # Power
@@ -38,7 +38,7 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Barrier, Mutex};
+use std::sync::{Condvar, Mutex};
 
 use crate::avr::{cycles_to_ms, ms_to_cycles, Avr, Error, State};
 use crate::medium::{Heard, Medium, NodeRadio};
@@ -523,7 +523,7 @@ impl Network {
             (0..self.nodes.len()).map(|_| Mutex::new(None)).collect();
         let goal = AtomicU64::new(STOP);
         let cursor = AtomicUsize::new(0);
-        let barrier = Barrier::new(threads);
+        let barrier = SpinBarrier::new(threads);
         let lock = |i: usize| slots[i].lock().unwrap_or_else(|e| e.into_inner());
         let work = |t: u64| loop {
             let i = cursor.fetch_add(1, Ordering::Relaxed);
@@ -637,6 +637,54 @@ impl Network {
                 collided: r.collided,
                 receivers,
             });
+        }
+    }
+}
+
+/// A barrier for the short waits between quanta: spins a little (a quantum's work is tens of
+/// microseconds, a futex wake-up costs several), then sleeps on a condition variable (so a busy
+/// machine does not lose a core to spinning).
+struct SpinBarrier {
+    n: usize,
+    count: AtomicUsize,
+    generation: AtomicUsize,
+    lock: Mutex<()>,
+    wake: Condvar,
+}
+
+impl SpinBarrier {
+    const SPINS: u32 = 4000;
+
+    fn new(n: usize) -> Self {
+        SpinBarrier {
+            n,
+            count: AtomicUsize::new(0),
+            generation: AtomicUsize::new(0),
+            lock: Mutex::new(()),
+            wake: Condvar::new(),
+        }
+    }
+
+    fn wait(&self) {
+        let generation = self.generation.load(Ordering::Acquire);
+        if self.count.fetch_add(1, Ordering::AcqRel) + 1 == self.n {
+            self.count.store(0, Ordering::Relaxed);
+            {
+                let _held = self.lock.lock().unwrap_or_else(|e| e.into_inner());
+                self.generation.fetch_add(1, Ordering::Release);
+            }
+            self.wake.notify_all();
+            return;
+        }
+        for _ in 0..Self::SPINS {
+            if self.generation.load(Ordering::Acquire) != generation {
+                return;
+            }
+            std::hint::spin_loop();
+        }
+        let mut held = self.lock.lock().unwrap_or_else(|e| e.into_inner());
+        while self.generation.load(Ordering::Acquire) == generation {
+            held = self.wake.wait(held).unwrap_or_else(|e| e.into_inner());
         }
     }
 }
