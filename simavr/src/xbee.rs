@@ -16,6 +16,8 @@
 //! A radio medium plugs in by draining [`XBee::take_transmissions`] of every node and calling
 //! [`XBee::deliver`] on the receivers with an [`RxPacket`] (e.g.
 //! [`RxPacket::from_transmission`]) at the transmission's end cycle.
+//! [`crate::network::Network`] does exactly that, with [`crate::medium::Medium`] deciding who
+//! hears what.
 //!
 //! # What is modelled
 //!
