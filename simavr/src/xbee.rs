@@ -16,6 +16,8 @@
 //! A radio medium plugs in by draining [`XBee::take_transmissions`] of every node and calling
 //! [`XBee::deliver`] on the receivers with an [`RxPacket`] (e.g.
 //! [`RxPacket::from_transmission`]) at the transmission's end cycle.
+//! [`crate::network::Network`] does exactly that, with [`crate::medium::Medium`] deciding who
+//! hears what.
 //!
 //! # What is modelled
 //!
@@ -80,6 +82,8 @@ pub mod regs;
 
 use std::collections::VecDeque;
 
+use rand_xoshiro::rand_core::{Rng, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
 use xbee_api::{Decoder, Mode};
 
 use crate::avr::{ms_to_cycles, Avr, State, UartByte};
@@ -120,6 +124,28 @@ pub struct XBee {
     pending: VecDeque<(u64, u8)>,
     lines: Lines,
     sent: Vec<UartByte>,
+    noise: Option<LineNoise>,
+}
+
+/// Bit errors on the UART lines between the firmware and the radio (see
+/// [`XBee::set_line_errors`]).
+#[derive(Debug)]
+struct LineNoise {
+    rate: f64,
+    rng: Xoshiro256PlusPlus,
+    flipped: u64,
+}
+
+impl LineNoise {
+    fn pass(&mut self, byte: u8) -> u8 {
+        let u = (self.rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
+        if u < self.rate {
+            self.flipped += 1;
+            byte ^ (1 << (self.rng.next_u64() % 8))
+        } else {
+            byte
+        }
+    }
 }
 
 impl XBee {
@@ -134,7 +160,25 @@ impl XBee {
                 text: LineSplitter::default(),
             },
             sent: Vec::new(),
+            noise: None,
         }
+    }
+
+    /// Line noise: from now on each byte on either UART line (firmware → radio and radio →
+    /// firmware) has one random bit flipped with probability `rate`, from a generator seeded
+    /// with `seed` (reproducible). The text lines ([`XBee::text_lines`]) are what the firmware
+    /// wrote, [`XBee::sent`] what the radio sent, before the noise. `rate` 0 turns it off.
+    pub fn set_line_errors(&mut self, rate: f64, seed: u64) {
+        self.noise = (rate > 0.0).then(|| LineNoise {
+            rate,
+            rng: Xoshiro256PlusPlus::seed_from_u64(seed),
+            flipped: 0,
+        });
+    }
+
+    /// Bytes the line noise has corrupted so far (both directions).
+    pub fn line_errors(&self) -> u64 {
+        self.noise.as_ref().map_or(0, |n| n.flipped)
     }
 
     /// The model itself.
@@ -197,11 +241,19 @@ impl XBee {
                 break;
             }
             self.pending.pop_front();
+            let byte = match &mut self.noise {
+                Some(n) => n.pass(byte),
+                None => byte,
+            };
             self.core.rx_byte(end.max(self.core.now()), byte);
         }
         self.core.advance(now);
         for b in self.core.take_output() {
-            avr.uart_send_at(b.cycle, &[b.byte]);
+            let byte = match &mut self.noise {
+                Some(n) => n.pass(b.byte),
+                None => b.byte,
+            };
+            avr.uart_send_at(b.cycle, &[byte]);
             self.sent.push(b);
         }
     }
