@@ -1,6 +1,7 @@
 //! agent-fw: the hoploc agent firmware for the Arduino Uno.
 //!
-//! Wiring only (the logic is `agent_fw::Agent`, host-tested): boot line, node config, radio
+//! Wiring only (the node config: `HOPLOC_*` variables at build time, see
+//! `loc_proto::config::from_env`, or EEPROM, see `uno_board::load_config`; the logic is `agent_fw::Agent`, host-tested): boot line, node config, radio
 //! bring-up, then the loop — feed the µs clock to the agent and do what it asks (tune to an
 //! anchor channel or the sink channel, send the report to the sink), feed it the beacons and
 //! TX statuses the radio hands over, idle until its next event. Build: `cargo fw` (all
@@ -13,42 +14,41 @@ fn main() {}
 #[cfg(target_arch = "avr")]
 uno_board::link_avr_libc!();
 
+/// The build-time config (`BUILT_IN`) and its `.eeprom` image, from build.rs.
+#[cfg(target_arch = "avr")]
+mod built_in {
+    include!(concat!(env!("OUT_DIR"), "/config.rs"));
+}
+
 #[cfg(target_arch = "avr")]
 #[uno_board::entry]
 fn main() -> ! {
     use agent_fw::{Action, Agent, Heard, Tune};
-    use loc_proto::config::Config;
     use loc_proto::line::BootLine;
     use loc_proto::msg::{Beacon, MAX_PAYLOAD};
     use loc_proto::schedule::{beacon_latency_us, Schedule};
     use loc_proto::Role;
     use uno_board::node::{self, Event};
     use uno_board::NodeRadio;
-    use uno_board::{bring_up_radio, now_us, reset, write_line, Board, SysClock, WdtTimeout};
-    use xbee_api::driver::{BringUpConfig, Radio};
-
-    const CONFIG: Config = Config {
-        role: Role::Agent,
-        ..Config::DEFAULT
+    use uno_board::{
+        bring_up_radio, load_config, now_us, radio_config, reset, write_line, Board, SysClock,
+        WdtTimeout,
     };
+    use xbee_api::driver::Radio;
+
     let Some(board) = Board::take() else { reset() };
     let Board {
         mut serial,
         mut led,
+        mut eeprom,
         mut watchdog,
         ..
     } = board;
     write_line(&mut serial, &BootLine::Boot { role: Role::Agent });
-    let config = CONFIG;
+    let config = load_config(&mut serial, &mut eeprom, &mut led, &built_in::BUILT_IN);
     let channels = config.channels;
     let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
-    let bring_up = BringUpConfig {
-        my: Some(Role::Agent.address(config.id)),
-        pan_id: Some(config.pan_id),
-        channel: loc_proto::xbee_channel(channels.as_slice()[0]),
-        ..BringUpConfig::new()
-    };
-    bring_up_radio(&mut radio, &mut led, Role::Agent, &bring_up);
+    bring_up_radio(&mut radio, &mut led, Role::Agent, &radio_config(&config));
     let Ok(sched) = Schedule::for_config(&config) else {
         reset()
     };

@@ -23,7 +23,8 @@
 //! It answers with [`answer`]: after an ACK it writes `hoploc <role> provisioned` and goes on
 //! with the stored config.
 //!
-//! Neither contains 0x7E, so the radio, which shares the node's TX line, ignores them.
+//! The node follows its reply with `\r\n`, so its text lines after it start on a line of their
+//! own in a terminal; the host takes the 4 bytes. Neither reply contains 0x7E, so the radio, which shares the node's TX line, ignores them.
 //! [`ProvisionParser`] finds frames in any byte stream: it skips garbage, and after a corrupt
 //! frame rescans the bytes it had taken for that frame, so the next good frame is never lost.
 
@@ -181,6 +182,14 @@ impl ProvisionParser {
         self.errors
     }
 
+    /// The stored bytes of the config in the frame [`ProvisionParser::push`] has just returned
+    /// `Some(Ok(_))` for (what to write to EEPROM, without encoding it again); meaningless after
+    /// any other result or once the next byte is pushed.
+    pub fn config_bytes(&self) -> &[u8] {
+        let l = self.buf[4] as usize;
+        self.buf.get(5..5 + l).unwrap_or(&[])
+    }
+
     /// Feeds one byte. Returns `Some(Ok(config))` at the end of a good frame, `Some(Err(_))` when a
     /// frame (delimiter seen) turns out broken or holds an invalid config, and `None` otherwise
     /// (garbage is skipped silently). Never panics.
@@ -249,6 +258,7 @@ mod tests {
         assert_eq!(buf[..27], DEFAULT_FRAME);
         let mut p = ProvisionParser::new();
         assert_eq!(feed(&mut p, &DEFAULT_FRAME), [Ok(Config::DEFAULT)]);
+        assert_eq!(p.config_bytes(), &DEFAULT_FRAME[5..25]);
         assert_eq!(
             encode(&Config::DEFAULT, &mut buf[..26]),
             Err(Error::BufferTooSmall { need: 27 })
