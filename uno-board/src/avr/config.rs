@@ -53,6 +53,9 @@ fn serve(
             }
         }
         serial.write_bytes(&reply.bytes());
+        // Ends the reply's terminal line: the lines that follow start on their own.
+        serial.write_byte(b'\r');
+        serial.write_byte(b'\n');
         if reply == Reply::Ack {
             write_line(serial, &BootLine::Provisioned { role });
             stored_one = true;
