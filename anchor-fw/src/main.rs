@@ -12,36 +12,37 @@ fn main() {}
 #[cfg(target_arch = "avr")]
 uno_board::link_avr_libc!();
 
+/// The build-time config (`BUILT_IN`) and its `.eeprom` image, from build.rs.
+#[cfg(target_arch = "avr")]
+mod built_in {
+    include!(concat!(env!("OUT_DIR"), "/config.rs"));
+}
+
 #[cfg(target_arch = "avr")]
 #[uno_board::entry]
 fn main() -> ! {
     use anchor_fw::Anchor;
-    use loc_proto::config::Config;
     use loc_proto::line::BootLine;
     use loc_proto::schedule::{beacon_latency_us, Schedule};
     use loc_proto::Role;
-    use uno_board::{bring_up_radio, now_us, reset, write_line, Board, SysClock, WdtTimeout};
-    use xbee_api::driver::{BringUpConfig, Radio};
+    use uno_board::{
+        bring_up_radio, load_config, now_us, radio_config, reset, write_line, Board, SysClock,
+        WdtTimeout,
+    };
+    use xbee_api::driver::Radio;
 
-    const CONFIG: Config = Config::DEFAULT;
     let Some(board) = Board::take() else { reset() };
     let Board {
         mut serial,
         mut led,
+        mut eeprom,
         mut watchdog,
         ..
     } = board;
     write_line(&mut serial, &BootLine::Boot { role: Role::Anchor });
-    let config = CONFIG;
-    let channels = config.channels;
+    let config = load_config(&mut serial, &mut eeprom, &mut led, &built_in::BUILT_IN);
     let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
-    let bring_up = BringUpConfig {
-        my: Some(Role::Anchor.address(config.id)),
-        pan_id: Some(config.pan_id),
-        channel: loc_proto::xbee_channel(channels.as_slice()[0]),
-        ..BringUpConfig::new()
-    };
-    bring_up_radio(&mut radio, &mut led, Role::Anchor, &bring_up);
+    bring_up_radio(&mut radio, &mut led, Role::Anchor, &radio_config(&config));
     let Ok(sched) = Schedule::for_config(&config) else {
         reset()
     };

@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use loc_proto::line::{BootLine, RadioFound};
+use loc_proto::line::{BootLine, ConfigSource, RadioFound};
 use simavr::xbee::{baud_of_bd, XBee, XBeeConfig};
 use simavr::{ms_to_cycles, Avr};
 use xbee_api::driver::Error as RadioError;
@@ -62,6 +62,20 @@ pub fn describe_line(text: &str) -> String {
         Ok(BootLine::RadioError { code, attempt, .. }) => format!(
             "radio error {code} on try {attempt} ({}); the LED blinks {code} times, then it retries",
             RadioError::describe_code(code).unwrap_or("unknown error")
+        ),
+        Ok(BootLine::Provisioned { .. }) => "provisioned: a config was stored in EEPROM".to_string(),
+        Ok(BootLine::Config {
+            source: ConfigSource::Eeprom,
+            id,
+            ..
+        }) => format!("config from EEPROM: node {id}"),
+        Ok(BootLine::Config {
+            source: ConfigSource::BuiltIn,
+            id,
+            ..
+        }) => format!("config built in (EEPROM erased): node {id}"),
+        Ok(BootLine::ConfigError { code, .. }) => format!(
+            "config error {code}: the EEPROM holds a config it must not run with; it waits for `hoploc provision`"
         ),
         Err(_) => format!("sends \"{text}\""),
     }

@@ -5,6 +5,7 @@
 pub mod demo;
 pub mod firmware;
 pub mod footprint;
+pub mod provision;
 pub mod report;
 pub mod simulate;
 pub mod study;

@@ -1,6 +1,6 @@
 //! The hoploc command line.
 
-use hoploc::{demo, firmware, footprint, simulate};
+use hoploc::{demo, firmware, footprint, provision, simulate};
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -21,11 +21,11 @@ enum Command {
     ///
     /// Builds the firmware first if needed (cargo fw). Example:
     ///
-    ///     hoploc demo --seconds 8
+    ///     hoploc demo --seconds 10
     #[command(verbatim_doc_comment)]
     Demo {
         /// Simulated time to run, in seconds.
-        #[arg(long, default_value_t = 8.0)]
+        #[arg(long, default_value_t = 10.0)]
         seconds: f64,
         /// Directory with anchor-fw.elf, agent-fw.elf and sink-fw.elf
         /// [default: target/avr-none/fw, or $HOPLOC_FIRMWARE_DIR].
@@ -62,6 +62,18 @@ enum Command {
     ///     hoploc simulate --report docs/study     # the docs page: docs/study/README.md + plots
     #[command(verbatim_doc_comment)]
     Simulate(simulate::Args),
+    /// Write a node's config into its EEPROM over the Uno's USB serial.
+    ///
+    /// Opening the port resets the board; its firmware listens for a provisioning frame for
+    /// 2 s after the `hoploc <role> boot` line, stores a valid config of its role, and answers
+    /// ACK or NAK (a node whose EEPROM holds a bad config keeps listening). The node uses the new
+    /// config at once and at every boot after (`hoploc <role> config eeprom id <id>`).
+    /// Unset options take the defaults shown. Example:
+    ///
+    ///     hoploc provision --port /dev/ttyACM0 --role anchor --id 2 --x 700 --y 0
+    ///     hoploc provision --port /dev/ttyACM1 --role sink --id 1 --channels 1,12 --pan 0x3332
+    #[command(verbatim_doc_comment)]
+    Provision(provision::Args),
 }
 
 fn main() -> ExitCode {
@@ -75,6 +87,7 @@ fn main() -> ExitCode {
             footprint::run(&firmware_dir.unwrap_or_else(firmware::default_dir))
         }
         Command::Simulate(args) => simulate::run(&args),
+        Command::Provision(args) => provision::run(&args).map_err(|e| e.to_string()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -6,7 +6,7 @@ use std::process::Command;
 #[test]
 fn demo_brings_every_radio_up_in_simavr() {
     let out = Command::new(env!("CARGO_BIN_EXE_hoploc"))
-        .args(["demo", "--seconds", "6.5"])
+        .args(["demo", "--seconds", "8.5"])
         .output()
         .expect("run hoploc");
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -36,9 +36,11 @@ fn demo_brings_every_radio_up_in_simavr() {
                 .position(|e| e == what)
                 .unwrap_or_else(|| panic!("{role}: no \"{what}\" in {ev:#?}"))
         };
-        // In order: boot, command mode, then the API settings, then the radio line.
+        // In order: boot, the config (simavr loads the ELF's `.eeprom` section: the built-in
+        // config), command mode, then the API settings, then the radio line.
         let order = [
             pos("boot"),
+            pos("config from EEPROM: node 1"),
             pos("sends \"ATAP2\""),
             pos("sends \"ATCN\""),
             pos("API AT AP?"),
@@ -67,5 +69,5 @@ fn every_command_has_help_with_an_example() {
         .expect("run hoploc");
     let help = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success());
-    assert!(help.contains("hoploc demo --seconds 8"), "{help}");
+    assert!(help.contains("hoploc demo --seconds 10"), "{help}");
 }

@@ -19,6 +19,7 @@ fn every_firmware_is_measured_within_budget() {
             r.factory_lines,
             [
                 format!("hoploc {} boot", r.role.name()),
+                format!("hoploc {} config eeprom id 1", r.role.name()),
                 format!("hoploc {} radio ok 9600", r.role.name())
             ],
             "{name}"

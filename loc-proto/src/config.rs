@@ -24,6 +24,23 @@
 //! Testbed channel *n* is XBee `CH` = 0x0A + *n* ([`crate::xbee_channel`]). Channel 1 (`CH`
 //! 0x0B) exists on the XBee S1 but not on the S1 Pro, which only has channels 2…13: a network
 //! with an S1 Pro must not list channel 1 (nor 14…16).
+//!
+//! For a **sink**, `position` is the room size instead: width (x) and height (y) in cm of the
+//! area the estimator searches, from (0, 0); (0, 0) means the anchors' bounding box.
+//!
+//! ## Where a node's config comes from
+//!
+//! * **Built in**: each firmware is built with a config from the environment of `cargo build` /
+//!   `cargo run` ([`from_env`]: `HOPLOC_ID`, `HOPLOC_X`, … listed in [`ENV_VARS`]; unset means
+//!   [`Config::default_for`] the role). The firmware also puts its bytes in the ELF's `.eeprom`
+//!   section, so an ISP programmer can write them (`avrdude -U eeprom:w:anchor-fw.elf:e`; the
+//!   stock bootloader cannot write EEPROM).
+//! * **EEPROM** (from address 0): written by a provisioning frame ([`crate::provision`],
+//!   `hoploc provision`) or by ISP. At boot [`stored`] decides: a valid config of the node's role
+//!   is used; an erased EEPROM (first byte 0xFF) means the built-in config; anything else
+//!   (corrupt, another role, another version) is an error the node reports and does not run with.
+
+use core::fmt;
 
 use crate::error::{crc16, Error, Field};
 use crate::msg::{bad, ChannelList, Position, Reader, Writer, MAX_ANCHORS, MAX_CHANNEL};
@@ -195,6 +212,191 @@ impl Config {
     }
 }
 
+impl Config {
+    /// The default config of `role`: [`Config::DEFAULT`] with that role (node 1).
+    pub const fn default_for(role: Role) -> Config {
+        Config {
+            role,
+            ..Config::DEFAULT
+        }
+    }
+}
+
+/// The code of a config that is valid but belongs to another role: a provisioning NAK
+/// (`HLN` 10) and a `config error 10` line. The [`Error::code`]s are 1…9.
+pub const WRONG_ROLE: u8 = 10;
+
+/// What a node of some role finds in its EEPROM ([`stored`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Stored {
+    /// A valid config of this role: run with it.
+    Valid(Config),
+    /// Erased (the first byte is 0xFF): run with the built-in config.
+    Erased,
+    /// Anything else: do not run; the code is [`Error::code`] (1…9) or [`WRONG_ROLE`].
+    Invalid(u8),
+}
+
+/// Decides what the EEPROM block `bytes` (from address 0, at least [`MAX_LEN`] bytes for a
+/// four-channel config) means for a node of `role`.
+pub fn stored(bytes: &[u8], role: Role) -> Stored {
+    if bytes.first() == Some(&0xFF) {
+        return Stored::Erased;
+    }
+    match Config::from_bytes(bytes) {
+        Ok(c) if c.role == role => Stored::Valid(c),
+        Ok(_) => Stored::Invalid(WRONG_ROLE),
+        Err(e) => Stored::Invalid(e.code()),
+    }
+}
+
+/// The environment variables [`from_env`] reads, for `cargo:rerun-if-env-changed`.
+pub const ENV_VARS: [&str; 8] = [
+    "HOPLOC_ID",
+    "HOPLOC_X",
+    "HOPLOC_Y",
+    "HOPLOC_ANCHORS",
+    "HOPLOC_SLOT_MS",
+    "HOPLOC_CHANNELS",
+    "HOPLOC_SINK_CHANNEL",
+    "HOPLOC_PAN",
+];
+
+/// Why [`from_env`] rejected a variable: which one, and what it should hold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct EnvError {
+    /// The variable, e.g. `HOPLOC_X`.
+    pub var: &'static str,
+    /// What it must hold, e.g. `an integer -32768…32767 (cm)`.
+    pub expected: &'static str,
+}
+
+impl fmt::Display for EnvError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "invalid {}: expected {}", self.var, self.expected)
+    }
+}
+
+impl core::error::Error for EnvError {}
+
+const EXPECT_ID: &str = "a node id 1…255 (an anchor's at most HOPLOC_ANCHORS)";
+const EXPECT_POS: &str = "an integer -32768…32767 (cm)";
+const EXPECT_ANCHORS: &str = "the number of anchors, 3…8";
+const EXPECT_SLOT: &str = "a slot length in ms, 2…10000";
+const EXPECT_CHANNELS: &str =
+    "1…4 distinct testbed channels 1…16, comma separated, e.g. 1,12 (the S1 Pro has 2…13 only)";
+const EXPECT_SINK: &str = "a testbed channel 1…16";
+const EXPECT_PAN: &str = "a PAN id, decimal or 0x-hex, not 0xFFFF";
+
+/// A PAN id as the tools take it: decimal (`13106`) or hex with `0x` (`0x3332`); 0xFFFF (the
+/// broadcast PAN) is refused.
+pub fn parse_pan(s: &str) -> Option<u16> {
+    let s = s.trim();
+    let pan = match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
+        Some(hex) => u16::from_str_radix(hex, 16).ok()?,
+        None => s.parse().ok()?,
+    };
+    (pan != 0xFFFF).then_some(pan)
+}
+
+/// A channel list as the tools take it: testbed channels separated by commas (`1,12`).
+pub fn parse_channels(s: &str) -> Result<ChannelList, Error> {
+    let mut list = [0u8; 4];
+    let mut n = 0;
+    for part in s.split(',') {
+        let c = part.trim().parse().map_err(|_| bad(Field::Channel))?;
+        *list.get_mut(n).ok_or(bad(Field::ChannelCount))? = c;
+        n += 1;
+    }
+    ChannelList::new(&list[..n])
+}
+
+/// `v` parsed by `parse`; `None` if unset or empty.
+fn env_value<V: AsRef<str>, T>(
+    v: Option<V>,
+    var: &'static str,
+    expected: &'static str,
+    parse: impl Fn(&str) -> Option<T>,
+) -> Result<Option<T>, EnvError> {
+    match v.as_ref().map(|v| v.as_ref().trim()) {
+        None | Some("") => Ok(None),
+        Some(s) => parse(s).map(Some).ok_or(EnvError { var, expected }),
+    }
+}
+
+/// The config of a `role` firmware from build-time variables ([`ENV_VARS`]), read through
+/// `lookup` (in a build script, `|name| std::env::var(name).ok()`):
+///
+/// | variable | field | example |
+/// |---|---|---|
+/// | `HOPLOC_ID` | node id | `2` |
+/// | `HOPLOC_X`, `HOPLOC_Y` | position in cm (a sink: the room size, 0 0 = the anchors' bounding box) | `700` |
+/// | `HOPLOC_ANCHORS` | number of anchors N | `4` |
+/// | `HOPLOC_SLOT_MS` | slot length (ms) | `62` |
+/// | `HOPLOC_CHANNELS` | anchor channels in hop order | `1,12` |
+/// | `HOPLOC_SINK_CHANNEL` | sink channel | `3` |
+/// | `HOPLOC_PAN` | PAN id, decimal or `0x` hex | `0x3332` |
+///
+/// An unset (or empty) variable keeps the field of [`Config::default_for`] `role`. Values may
+/// have surrounding spaces. The first invalid variable is the error, naming it; a config whose
+/// fields disagree (an anchor id above N) names the variable to change.
+pub fn from_env<V: AsRef<str>>(
+    role: Role,
+    mut lookup: impl FnMut(&str) -> Option<V>,
+) -> Result<Config, EnvError> {
+    let mut c = Config::default_for(role);
+    macro_rules! var {
+        ($var:literal, $expected:expr, $parse:expr) => {
+            env_value(lookup($var), $var, $expected, $parse)?
+        };
+    }
+    if let Some(v) = var!("HOPLOC_ID", EXPECT_ID, |s| s.parse().ok()) {
+        c.id = v;
+    }
+    if let Some(v) = var!("HOPLOC_X", EXPECT_POS, |s| s.parse().ok()) {
+        c.position.x = v;
+    }
+    if let Some(v) = var!("HOPLOC_Y", EXPECT_POS, |s| s.parse().ok()) {
+        c.position.y = v;
+    }
+    if let Some(v) = var!("HOPLOC_ANCHORS", EXPECT_ANCHORS, |s| s.parse().ok()) {
+        c.anchors = v;
+    }
+    if let Some(v) = var!("HOPLOC_SLOT_MS", EXPECT_SLOT, |s| s.parse().ok()) {
+        c.slot_ms = v;
+    }
+    if let Some(v) = var!("HOPLOC_CHANNELS", EXPECT_CHANNELS, |s| parse_channels(s)
+        .ok())
+    {
+        c.channels = v;
+    }
+    if let Some(v) = var!("HOPLOC_SINK_CHANNEL", EXPECT_SINK, |s| s.parse().ok()) {
+        c.sink_channel = v;
+    }
+    if let Some(v) = var!("HOPLOC_PAN", EXPECT_PAN, parse_pan) {
+        c.pan_id = v;
+    }
+    c.validate().map_err(|e| {
+        let (var, expected) = match e {
+            Error::BadValue {
+                field: Field::Anchors,
+            } => ("HOPLOC_ANCHORS", EXPECT_ANCHORS),
+            Error::BadValue {
+                field: Field::SlotLength,
+            } => ("HOPLOC_SLOT_MS", EXPECT_SLOT),
+            Error::BadValue {
+                field: Field::SinkChannel,
+            } => ("HOPLOC_SINK_CHANNEL", EXPECT_SINK),
+            Error::BadValue {
+                field: Field::PanId,
+            } => ("HOPLOC_PAN", EXPECT_PAN),
+            _ => ("HOPLOC_ID", EXPECT_ID),
+        };
+        EnvError { var, expected }
+    })?;
+    Ok(c)
+}
+
 impl Default for Config {
     fn default() -> Self {
         Config::DEFAULT
@@ -222,6 +424,7 @@ fn role_of(b: u8) -> Result<Role, Error> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::msg::{ChannelList, Position};
 
     #[rustfmt::skip]
     const DEFAULT_BYTES: [u8; 20] = [
@@ -331,5 +534,129 @@ mod tests {
         let mut b = golden();
         b[19] ^= 1;
         assert_eq!(Config::from_bytes(&b), Err(Error::BadCrc));
+    }
+
+    fn env(vars: &[(&str, &str)]) -> impl FnMut(&str) -> Option<&'static str> {
+        let owned: std::vec::Vec<(std::string::String, &'static str)> = vars
+            .iter()
+            .map(|&(k, v)| {
+                let v: &'static str = std::boxed::Box::leak(v.into());
+                (k.into(), v)
+            })
+            .collect();
+        move |name| owned.iter().find(|(k, _)| k == name).map(|&(_, v)| v)
+    }
+
+    #[test]
+    fn from_env_unset_is_the_role_default() {
+        for role in Role::ALL {
+            assert_eq!(from_env(role, env(&[])), Ok(Config::default_for(role)));
+            // Empty counts as unset.
+            assert_eq!(
+                from_env(role, env(&[("HOPLOC_X", ""), ("HOPLOC_PAN", " ")])),
+                Ok(Config::default_for(role))
+            );
+        }
+    }
+
+    #[test]
+    fn from_env_reads_every_variable() {
+        let c = from_env(
+            Role::Anchor,
+            env(&[
+                ("HOPLOC_ID", "2"),
+                ("HOPLOC_X", "700"),
+                ("HOPLOC_Y", "-5"),
+                ("HOPLOC_ANCHORS", "3"),
+                ("HOPLOC_SLOT_MS", " 25 "),
+                ("HOPLOC_CHANNELS", "5, 9,12"),
+                ("HOPLOC_SINK_CHANNEL", "4"),
+                ("HOPLOC_PAN", "0x1234"),
+            ]),
+        )
+        .unwrap();
+        assert_eq!(
+            c,
+            Config {
+                role: Role::Anchor,
+                id: 2,
+                anchors: 3,
+                position: Position { x: 700, y: -5 },
+                slot_ms: 25,
+                channels: ChannelList::new(&[5, 9, 12]).unwrap(),
+                sink_channel: 4,
+                pan_id: 0x1234,
+            }
+        );
+        let sink = from_env(Role::Sink, env(&[("HOPLOC_PAN", "13106")])).unwrap();
+        assert_eq!(sink.pan_id, 0x3332);
+        assert_eq!(sink.role, Role::Sink);
+    }
+
+    #[test]
+    fn from_env_names_the_bad_variable() {
+        let bad = |role, k, v| from_env(role, env(&[(k, v)])).map_err(|e| e.var);
+        for (k, v) in [
+            ("HOPLOC_ID", "0"),
+            ("HOPLOC_ID", "5"), // anchor 5 of 4
+            ("HOPLOC_ID", "256"),
+            ("HOPLOC_ID", "one"),
+            ("HOPLOC_X", "40000"),
+            ("HOPLOC_Y", "1.5"),
+            ("HOPLOC_ANCHORS", "2"),
+            ("HOPLOC_ANCHORS", "9"),
+            ("HOPLOC_SLOT_MS", "1"),
+            ("HOPLOC_SLOT_MS", "10001"),
+            ("HOPLOC_CHANNELS", ""),
+            ("HOPLOC_CHANNELS", "1,1"),
+            ("HOPLOC_CHANNELS", "0"),
+            ("HOPLOC_CHANNELS", "1,2,3,4,5"),
+            ("HOPLOC_CHANNELS", "1;12"),
+            ("HOPLOC_CHANNELS", "1,"),
+            ("HOPLOC_SINK_CHANNEL", "17"),
+            ("HOPLOC_PAN", "0xFFFF"),
+            ("HOPLOC_PAN", "65535"),
+            ("HOPLOC_PAN", "0x10000"),
+            ("HOPLOC_PAN", "3332h"),
+        ] {
+            if v.is_empty() {
+                continue; // empty = unset
+            }
+            assert_eq!(bad(Role::Anchor, k, v), Err(k), "{k}={v}");
+        }
+        // An agent's id is not bounded by N.
+        assert_eq!(
+            bad(Role::Agent, "HOPLOC_ID", "200"),
+            Ok(Config {
+                role: Role::Agent,
+                id: 200,
+                ..Config::DEFAULT
+            })
+        );
+        // Fewer anchors than the anchor id: the message says which variable.
+        let e = from_env(
+            Role::Anchor,
+            env(&[("HOPLOC_ID", "4"), ("HOPLOC_ANCHORS", "3")]),
+        )
+        .unwrap_err();
+        assert_eq!(e.var, "HOPLOC_ID");
+        assert_eq!(
+            std::format!("{e}"),
+            "invalid HOPLOC_ID: expected a node id 1…255 (an anchor's at most HOPLOC_ANCHORS)"
+        );
+    }
+
+    #[test]
+    fn what_the_eeprom_holds() {
+        let mut block = [0xFF; 32];
+        assert_eq!(stored(&block, Role::Anchor), Stored::Erased);
+        let n = Config::DEFAULT.to_bytes(&mut block).unwrap();
+        assert_eq!(stored(&block, Role::Anchor), Stored::Valid(Config::DEFAULT));
+        assert_eq!(stored(&block, Role::Agent), Stored::Invalid(WRONG_ROLE));
+        block[n - 1] ^= 1;
+        assert_eq!(stored(&block, Role::Anchor), Stored::Invalid(7));
+        assert_eq!(stored(&[0; 32], Role::Anchor), Stored::Invalid(2));
+        assert_eq!(stored(&patched(1, 2), Role::Anchor), Stored::Invalid(3));
+        assert_eq!(stored(&[], Role::Anchor), Stored::Invalid(1));
     }
 }

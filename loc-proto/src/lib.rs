@@ -9,6 +9,8 @@
 //! * [`config`]: the node config as stored in EEPROM ([`config::Config`]).
 //! * [`provision`]: the provisioning frame that writes a config over the USB serial, its
 //!   streaming parser and the node's ACK/NAK.
+//! * `build` (feature `build`, for the firmwares' build scripts): the build-time config from
+//!   `HOPLOC_*` variables as Rust source.
 //! * [`error`]: their one error type [`Error`], and the CRC-16 of configs and provisioning frames.
 //!
 //! The sink firmware writes its lines with the same crate.
@@ -16,9 +18,11 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-#[cfg(test)]
+#[cfg(any(test, feature = "build"))]
 extern crate std;
 
+#[cfg(feature = "build")]
+pub mod build;
 pub mod config;
 pub mod error;
 pub mod line;

@@ -10,9 +10,16 @@
 //! | `hoploc anchor radio ok api` | the radio already answered in API mode at 57600 |
 //! | `hoploc anchor radio ok 9600` | the radio was found in command mode at 9600 baud and configured |
 //! | `hoploc anchor radio error 9 try 2` | bring-up attempt 2 failed with driver error code 9 |
+//! | `hoploc anchor provisioned` | a provisioning frame was stored in EEPROM (after its ACK) |
+//! | `hoploc anchor config eeprom id 2` | the node runs with the config in its EEPROM, node id 2 |
+//! | `hoploc anchor config built-in id 1` | the EEPROM is erased: the node runs with the config it was built with |
+//! | `hoploc anchor config error 7` | the EEPROM holds a config the node must not run with; it waits for a provisioning frame |
 //!
-//! The error code is `xbee_api::driver::Error::code` (9: no answer at any baud rate, 10: only
-//! garbage), the same number the node blinks on its LED. The firmware writes lines with
+//! The radio error code is `xbee_api::driver::Error::code` (9: no answer at any baud rate, 10:
+//! only garbage), the same number the node blinks on its LED. The config error code is
+//! `loc_proto::Error::code` of the stored block (2 bad magic, 3 another layout version, 7 bad
+//! CRC, …) or 10 ([`crate::config::WRONG_ROLE`]: a valid config of another role); the node
+//! blinks it too. The firmware writes lines with
 //! [`BootLine::write`] (no `core::fmt`, words read from flash); the host tools read them with
 //! [`BootLine::parse`], which never panics and says what was wrong.
 
@@ -22,7 +29,7 @@ use crate::Role;
 
 avr_progmem::progmem! {
     /// Every word of the lines, space separated; [`Word`] numbers them.
-    static progmem WORDS: [u8; 52] = *b"hoploc anchor agent sink boot radio ok api error try";
+    static progmem WORDS: [u8; 90] = *b"hoploc anchor agent sink boot radio ok api error try config eeprom built-in id provisioned";
 }
 
 /// Indices into [`WORDS`].
@@ -37,6 +44,11 @@ enum Word {
     Api = 7,
     Error = 8,
     Try = 9,
+    Config = 10,
+    Eeprom = 11,
+    BuiltIn = 12,
+    Id = 13,
+    Provisioned = 14,
 }
 
 /// How the radio was found at boot.
@@ -76,6 +88,38 @@ pub enum BootLine {
         /// Which attempt failed, from 1 (saturates at 65535).
         attempt: u16,
     },
+    /// `hoploc <role> provisioned`: a provisioning frame was stored (the ACK went first).
+    Provisioned {
+        /// The node's role.
+        role: Role,
+    },
+    /// `hoploc <role> config eeprom|built-in id <id>`: the config the node runs with.
+    Config {
+        /// The node's role.
+        role: Role,
+        /// Where it came from.
+        source: ConfigSource,
+        /// Its node id.
+        id: u8,
+    },
+    /// `hoploc <role> config error <code>`: the EEPROM holds a config the node must not run with
+    /// (`loc_proto::Error::code`, or [`crate::config::WRONG_ROLE`]); the node blinks `code` and
+    /// waits for a provisioning frame.
+    ConfigError {
+        /// The node's role.
+        role: Role,
+        /// Why (1…10).
+        code: u8,
+    },
+}
+
+/// Where the config a node runs with came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ConfigSource {
+    /// Its EEPROM (provisioned, or written by ISP).
+    Eeprom,
+    /// The firmware's build-time config (the EEPROM is erased).
+    BuiltIn,
 }
 
 /// Longest line [`BootLine::write`] produces, `\r\n` included
@@ -87,7 +131,7 @@ pub const MAX_BOOT_LINE: usize = 41;
 pub enum LineError {
     /// Not a hoploc boot line (another line, or noise): safe to skip.
     NotBootLine,
-    /// It starts like one (`hoploc <role> boot|radio`) but its fields are wrong or missing.
+    /// It starts like one (`hoploc <role> boot|radio|provisioned|config`) but its fields are wrong or missing.
     Malformed,
 }
 
@@ -142,7 +186,10 @@ impl BootLine {
         match *self {
             BootLine::Boot { role }
             | BootLine::RadioUp { role, .. }
-            | BootLine::RadioError { role, .. } => role,
+            | BootLine::RadioError { role, .. }
+            | BootLine::Provisioned { role }
+            | BootLine::Config { role, .. }
+            | BootLine::ConfigError { role, .. } => role,
         }
     }
 
@@ -176,6 +223,26 @@ impl BootLine {
                 word(Word::Try as u8, out);
                 out(b' ');
                 put_decimal(attempt.into(), out);
+            }
+            BootLine::Provisioned { .. } => word(Word::Provisioned as u8, out),
+            BootLine::Config { source, id, .. } => {
+                word(Word::Config as u8, out);
+                word(
+                    match source {
+                        ConfigSource::Eeprom => Word::Eeprom,
+                        ConfigSource::BuiltIn => Word::BuiltIn,
+                    } as u8,
+                    out,
+                );
+                word(Word::Id as u8, out);
+                out(b' ');
+                put_decimal(id.into(), out);
+            }
+            BootLine::ConfigError { code, .. } => {
+                word(Word::Config as u8, out);
+                word(Word::Error as u8, out);
+                out(b' ');
+                put_decimal(code.into(), out);
             }
         }
         out(b'\r');
@@ -213,7 +280,24 @@ impl BootLine {
                     attempt: number(attempt)?,
                 }
             }
-            ("boot" | "radio", _) => return Err(LineError::Malformed),
+            ("provisioned", [None, ..]) => BootLine::Provisioned { role },
+            (
+                "config",
+                [Some(source @ ("eeprom" | "built-in")), Some("id"), Some(id), None, ..],
+            ) => BootLine::Config {
+                role,
+                source: if source == "eeprom" {
+                    ConfigSource::Eeprom
+                } else {
+                    ConfigSource::BuiltIn
+                },
+                id: number(id)?,
+            },
+            ("config", [Some("error"), Some(code), None, ..]) => BootLine::ConfigError {
+                role,
+                code: number(code)?,
+            },
+            ("boot" | "radio" | "provisioned" | "config", _) => return Err(LineError::Malformed),
             _ => return Err(LineError::NotBootLine),
         };
         Ok(parsed)
@@ -288,6 +372,33 @@ mod tests {
                 },
                 "hoploc anchor radio error 9 try 2\r\n",
             ),
+            (
+                BootLine::Provisioned { role: Role::Agent },
+                "hoploc agent provisioned\r\n",
+            ),
+            (
+                BootLine::Config {
+                    role: Role::Anchor,
+                    source: ConfigSource::Eeprom,
+                    id: 2,
+                },
+                "hoploc anchor config eeprom id 2\r\n",
+            ),
+            (
+                BootLine::Config {
+                    role: Role::Sink,
+                    source: ConfigSource::BuiltIn,
+                    id: 255,
+                },
+                "hoploc sink config built-in id 255\r\n",
+            ),
+            (
+                BootLine::ConfigError {
+                    role: Role::Anchor,
+                    code: 10,
+                },
+                "hoploc anchor config error 10\r\n",
+            ),
         ];
         for (line, text) in cases {
             assert_eq!(written(&line), text);
@@ -342,6 +453,20 @@ mod tests {
             "hoploc anchor radio error 9 try 1 more",
             "hoploc anchor radio error 9 retry 1",
             "hoploc anchor radio ok api extra",
+            "hoploc anchor provisioned now",
+            "hoploc anchor config",
+            "hoploc anchor config eeprom",
+            "hoploc anchor config eeprom id",
+            "hoploc anchor config eeprom id 256",
+            "hoploc anchor config eeprom id 02",
+            "hoploc anchor config eeprom id 2 more",
+            "hoploc anchor config flash id 2",
+            "hoploc anchor config builtin id 2",
+            "hoploc anchor config eeprom 2",
+            "hoploc anchor config error",
+            "hoploc anchor config error x",
+            "hoploc anchor config error 256",
+            "hoploc anchor config error 7 more",
         ] {
             assert_eq!(BootLine::parse(text), Err(LineError::Malformed), "{text:?}");
         }

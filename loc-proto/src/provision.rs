@@ -16,14 +16,30 @@
 //! | reply | bytes | meaning |
 //! |---|---|---|
 //! | ACK | `HLA` 0x01 | the config was valid and has been stored; the 0x01 is [`VERSION`] |
-//! | NAK | `HLN` *code* | rejected; *code* is [`Error::code`] (1…9: 3 bad version, 5 bad length, 6 bad field, 7 bad CRC …) |
+//! | NAK | `HLN` *code* | rejected; *code* is [`Error::code`] (1…9: 3 bad version, 5 bad length, 6 bad field, 7 bad CRC …), 10 ([`WRONG_ROLE`]): a valid config for another role, or 11 ([`WRITE_FAILED`]): the EEPROM did not read back what was written |
 //!
-//! Neither contains 0x7E, so the radio, which shares the node's TX line, ignores them.
+//! A node listens for frames during the first [`PROVISION_WINDOW_MS`] after reset (opening the
+//! Uno's USB serial resets it), and for as long as its EEPROM holds a config it cannot run with.
+//! It answers with [`answer`]: after an ACK it writes `hoploc <role> provisioned` and goes on
+//! with the stored config.
+//!
+//! The node follows its reply with `\r\n`, so its text lines after it start on a line of their
+//! own in a terminal; the host takes the 4 bytes. Neither reply contains 0x7E, so the radio, which shares the node's TX line, ignores them.
 //! [`ProvisionParser`] finds frames in any byte stream: it skips garbage, and after a corrupt
 //! frame rescans the bytes it had taken for that frame, so the next good frame is never lost.
 
+pub use crate::config::WRONG_ROLE;
 use crate::config::{Config, MAX_LEN, MIN_LEN};
 use crate::error::{crc16, Error};
+use crate::Role;
+
+/// NAK code: the config was valid but reading the EEPROM back after writing it gave other bytes
+/// (a worn-out or failing EEPROM).
+pub const WRITE_FAILED: u8 = 11;
+
+/// How long a node listens for a provisioning frame after reset, ms (it brings its radio up
+/// after). The host sends its frame once it has read the node's `boot` line.
+pub const PROVISION_WINDOW_MS: u16 = 2000;
 
 /// The start delimiter of a provisioning frame.
 pub const DELIMITER: [u8; 3] = *b"HLP";
@@ -83,6 +99,16 @@ impl Reply {
             [b'H', b'L', b'N', code] => Some(Reply::Nak(code)),
             _ => None,
         }
+    }
+}
+
+/// What a node of `role` answers to a [`ProvisionParser`] outcome, and the config to store
+/// (only with [`Reply::Ack`]): a valid config of another role is `Nak(`[`WRONG_ROLE`]`)`.
+pub fn answer(outcome: Result<Config, Error>, role: Role) -> (Reply, Option<Config>) {
+    match outcome {
+        Ok(c) if c.role == role => (Reply::Ack, Some(c)),
+        Ok(_) => (Reply::Nak(WRONG_ROLE), None),
+        Err(e) => (Reply::Nak(e.code()), None),
     }
 }
 
@@ -156,6 +182,14 @@ impl ProvisionParser {
         self.errors
     }
 
+    /// The stored bytes of the config in the frame [`ProvisionParser::push`] has just returned
+    /// `Some(Ok(_))` for (what to write to EEPROM, without encoding it again); meaningless after
+    /// any other result or once the next byte is pushed.
+    pub fn config_bytes(&self) -> &[u8] {
+        let l = self.buf[4] as usize;
+        self.buf.get(5..5 + l).unwrap_or(&[])
+    }
+
     /// Feeds one byte. Returns `Some(Ok(config))` at the end of a good frame, `Some(Err(_))` when a
     /// frame (delimiter seen) turns out broken or holds an invalid config, and `None` otherwise
     /// (garbage is skipped silently). Never panics.
@@ -224,6 +258,7 @@ mod tests {
         assert_eq!(buf[..27], DEFAULT_FRAME);
         let mut p = ProvisionParser::new();
         assert_eq!(feed(&mut p, &DEFAULT_FRAME), [Ok(Config::DEFAULT)]);
+        assert_eq!(p.config_bytes(), &DEFAULT_FRAME[5..25]);
         assert_eq!(
             encode(&Config::DEFAULT, &mut buf[..26]),
             Err(Error::BufferTooSmall { need: 27 })
@@ -242,6 +277,18 @@ mod tests {
         }
         assert_eq!(Reply::parse(b"HLP\x01"), None);
         assert_eq!(Reply::parse(b"HLA"), None);
+    }
+
+    #[test]
+    fn answers_by_role() {
+        let anchor = Config::DEFAULT;
+        assert_eq!(answer(Ok(anchor), Role::Anchor), (Reply::Ack, Some(anchor)));
+        assert_eq!(answer(Ok(anchor), Role::Sink), (Reply::Nak(10), None));
+        assert_eq!(
+            answer(Err(Error::BadCrc), Role::Anchor),
+            (Reply::Nak(7), None)
+        );
+        assert_eq!(Reply::Nak(WRONG_ROLE).bytes(), *b"HLN\x0A");
     }
 
     #[test]

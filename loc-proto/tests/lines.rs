@@ -1,6 +1,6 @@
 //! Every boot line survives write → parse, and no input makes the parser panic.
 
-use loc_proto::line::{BootLine, LineError, RadioFound, MAX_BOOT_LINE};
+use loc_proto::line::{BootLine, ConfigSource, LineError, RadioFound, MAX_BOOT_LINE};
 use loc_proto::Role;
 use proptest::prelude::*;
 use proptest::sample::select;
@@ -15,13 +15,26 @@ fn boot_line() -> impl Strategy<Value = BootLine> {
                 found: baud.map_or(RadioFound::Api, |baud| RadioFound::Configured { baud }),
             }
         }),
-        (role, any::<u8>(), any::<u16>()).prop_map(|(role, code, attempt)| {
+        (role.clone(), any::<u8>(), any::<u16>()).prop_map(|(role, code, attempt)| {
             BootLine::RadioError {
                 role,
                 code,
                 attempt,
             }
         }),
+        role.clone().prop_map(|role| BootLine::Provisioned { role }),
+        (role.clone(), any::<bool>(), any::<u8>()).prop_map(|(role, eeprom, id)| {
+            BootLine::Config {
+                role,
+                source: if eeprom {
+                    ConfigSource::Eeprom
+                } else {
+                    ConfigSource::BuiltIn
+                },
+                id,
+            }
+        }),
+        (role, any::<u8>()).prop_map(|(role, code)| BootLine::ConfigError { role, code }),
     ]
 }
 

@@ -1,5 +1,8 @@
 //! Each node firmware boots in simavr against a scripted XBee (`simavr::ScriptedRadio`), and
-//! these tests assert the exact frames it writes and what it says on the UART and the LED:
+//! these tests assert the exact frames it writes and what it says on the UART and the LED.
+//! Every node first listens for a provisioning frame for `PROVISION_WINDOW_MS` (2 s) after its
+//! boot line, then says which config it runs with (here `config eeprom id 1`: simavr loads the
+//! ELF's `.eeprom` section, the built-in config, into the EEPROM), then brings the radio up:
 //!
 //! * a radio already in API mode 2: `AP` query, then `MY`, `ID`, `CH` each set and read back, the
 //!   `radio ok api` line, the first channel (`CH`, anchors and agents), then a quiet, listening
@@ -10,13 +13,14 @@
 //!   code 10 on the LED, next attempt.
 
 use hoploc_tests::{boot, led_on};
-use loc_proto::line::{BootLine, RadioFound};
+use loc_proto::line::{BootLine, ConfigSource, RadioFound};
+use loc_proto::provision::PROVISION_WINDOW_MS;
 use loc_proto::{xbee_channel, Role, DEFAULT_PAN_ID};
 use simavr::{cycles_to_ms, ms_to_cycles, Avr, Match, ScriptedRadio};
 use xbee_api::Mode;
 
-/// The settings each boot firmware gives its radio (`uno_board::boot_radio_config`): node 1 of
-/// its role on the default PAN, on the role's boot channel.
+/// The settings each firmware gives its radio with its built-in config
+/// (`uno_board::radio_config`): node 1 of its role on the default PAN, on the role's boot channel.
 fn settings(role: Role) -> (u16, u8) {
     (role.address(1), xbee_channel(role.boot_channel()).unwrap())
 }
@@ -41,6 +45,18 @@ fn parsed_lines(radio: &ScriptedRadio) -> Vec<(f64, String)> {
         .collect()
 }
 
+/// When the first frame is due: after the provisioning window (and the config line).
+const FIRST_FRAME_MS: f64 = PROVISION_WINDOW_MS as f64 + 20.0;
+
+/// The line saying which config the node runs with.
+fn config_line(role: Role) -> BootLine {
+    BootLine::Config {
+        role,
+        source: ConfigSource::Eeprom,
+        id: 1,
+    }
+}
+
 /// The script of a radio that is already in API mode 2 at 57600 and takes every setting.
 fn api_radio(role: Role) -> ScriptedRadio {
     let (my, ch) = settings(role);
@@ -50,8 +66,8 @@ fn api_radio(role: Role) -> ScriptedRadio {
         (*b"CH", vec![ch]),
     ];
     let mut s = ScriptedRadio::new(Mode::Escaped)
-        // The first frame comes right after the boot line.
-        .expect(Match::data(&at(1, b"AP", &[])), 20.0)
+        // The first frame comes right after the config line, when the window is over.
+        .expect(Match::data(&at(1, b"AP", &[])), FIRST_FRAME_MS)
         .reply(&at_ok(1, b"AP", &[0x02]), 1.0);
     let mut id = 2;
     for (cmd, value) in &regs {
@@ -74,7 +90,9 @@ fn api_radio(role: Role) -> ScriptedRadio {
 fn boots_against_a_radio_in_api_mode(role: Role) {
     let mut avr = boot(role);
     let mut radio = api_radio(role);
-    radio.run_to_end(&mut avr, 2000.0).unwrap();
+    radio
+        .run_to_end(&mut avr, PROVISION_WINDOW_MS as f64 + 2000.0)
+        .unwrap();
     // The AP query, byte for byte on the wire (AP=2 escaping; nothing to escape here).
     let first = &radio.frames()[0];
     let wire: Vec<u8> = avr
@@ -95,19 +113,23 @@ fn boots_against_a_radio_in_api_mode(role: Role) {
         texts,
         [
             BootLine::Boot { role }.to_string(),
+            config_line(role).to_string(),
             BootLine::RadioUp {
                 role,
                 found: RadioFound::Api
             }
             .to_string()
         ],
-        "one boot (no watchdog reset), one radio line"
+        "one boot (no watchdog reset), one config line, one radio line"
     );
+    // The config line closes the window.
+    let window = PROVISION_WINDOW_MS as f64;
+    assert!((window..window + 20.0).contains(&lines[1].0), "{lines:?}");
     // The radio line follows the last read-back's answer.
-    assert!(lines[1].0 > radio.frames()[6].end_ms());
+    assert!(lines[2].0 > radio.frames()[6].end_ms());
     assert!(radio.decode_errors().is_empty());
     // Whole bring-up in well under 100 ms against a radio that answers within 1 ms.
-    assert!(lines[1].0 < 100.0, "{lines:?}");
+    assert!(lines[2].0 - lines[1].0 < 100.0, "{lines:?}");
 }
 
 /// Runs `radio` on `avr` until the script is done, sampling the LED every 5 ms; returns
@@ -137,7 +159,7 @@ fn run_watching_led(avr: &mut Avr, radio: &mut ScriptedRadio, timeout_ms: f64) -
 /// silence; the error line with `code`; `code` blinks of 200 ms between it and the retry.
 fn failed_attempt(role: Role, mut radio: ScriptedRadio, code: u8) {
     let mut avr = boot(role);
-    let pulses = run_watching_led(&mut avr, &mut radio, 30_000.0);
+    let pulses = run_watching_led(&mut avr, &mut radio, PROVISION_WINDOW_MS as f64 + 30_000.0);
     let lines = parsed_lines(&radio);
     let plus: Vec<f64> = lines
         .iter()
@@ -159,12 +181,15 @@ fn failed_attempt(role: Role, mut radio: ScriptedRadio, code: u8) {
         attempt: 1,
     };
     let texts: Vec<&str> = lines.iter().map(|(_, t)| t.as_str()).collect();
-    let mut expected = vec![BootLine::Boot { role }.to_string()];
+    let mut expected = vec![
+        BootLine::Boot { role }.to_string(),
+        config_line(role).to_string(),
+    ];
     expected.extend(std::iter::repeat_n("+++".to_string(), 5));
     expected.push(error.to_string());
     assert_eq!(texts, expected);
-    assert_eq!(BootLine::parse(texts[6]), Ok(error));
-    let error_ms = lines[6].0;
+    assert_eq!(BootLine::parse(texts[7]), Ok(error));
+    let error_ms = lines[7].0;
     // The retry's AP query is the last frame the script expected.
     let retry = radio.frames().last().unwrap().ms();
     let blinks: Vec<_> = pulses
@@ -175,16 +200,19 @@ fn failed_attempt(role: Role, mut radio: ScriptedRadio, code: u8) {
     for &&(_, len) in &blinks {
         assert!((195.0..=210.0).contains(&len), "blink of {len} ms");
     }
-    // The LED was on for the whole first attempt (about 14.5 s).
+    // The LED was on for the whole first attempt (about 14.5 s, after the window).
+    let window = PROVISION_WINDOW_MS as f64;
     assert!(
-        pulses.iter().any(|&(t, len)| t < 10.0 && len > 14_000.0),
+        pulses
+            .iter()
+            .any(|&(t, len)| (window..window + 30.0).contains(&t) && len > 14_000.0),
         "{pulses:?}"
     );
 }
 
 fn silent_radio_gives_error_9_and_retries(role: Role) {
     let radio = ScriptedRadio::new(Mode::Escaped)
-        .expect(Match::data(&at(1, b"AP", &[])), 20.0)
+        .expect(Match::data(&at(1, b"AP", &[])), FIRST_FRAME_MS)
         // Asked twice (a radio still powering up may miss the first), 500 ms apart.
         .expect(Match::data(&at(2, b"AP", &[])), 520.0)
         // Nothing until the second attempt: 5 × (1100 + 1600) ms of command mode, the line, and
@@ -197,13 +225,16 @@ fn garbage_radio_gives_error_10_and_retries(role: Role) {
     // An AT response with a bad checksum, then noise, never a valid frame nor `OK\r`.
     let bad_checksum = [0x7E, 0x00, 0x06, 0x88, 0x01, b'A', b'P', 0x00, 0x02, 0x00];
     let mut radio = ScriptedRadio::new(Mode::Escaped)
-        .expect(Match::data(&at(1, b"AP", &[])), 20.0)
+        .expect(Match::data(&at(1, b"AP", &[])), FIRST_FRAME_MS)
         .reply_raw(&bad_checksum, 1.0)
         .expect(Match::data(&at(2, b"AP", &[])), 520.0)
         .reply_raw(b"\x55\xAA\x00garbage\r\n", 1.0);
     // Noise throughout the command-mode search (every 400 ms, so inside each wait for `OK`).
     for i in 0..35 {
-        radio = radio.send_raw_at(1100.0 + 400.0 * i as f64, b"\xF0?\x0FERR\r");
+        radio = radio.send_raw_at(
+            PROVISION_WINDOW_MS as f64 + 1100.0 + 400.0 * i as f64,
+            b"\xF0?\x0FERR\r",
+        );
     }
     let radio = radio.expect(Match::data(&at(3, b"AP", &[])), 21_000.0);
     failed_attempt(role, radio, 10);

@@ -1,6 +1,7 @@
 //! The AVR half of the crate: peripherals, interrupt handlers, panic handler.
 
 mod cell;
+mod config;
 mod cost_term;
 mod eeprom;
 mod led;
@@ -12,11 +13,12 @@ mod serial;
 mod time;
 mod watchdog;
 
+pub use config::{load_config, radio_config};
 pub use cost_term::AvrTerm;
 pub use eeprom::Eeprom;
 pub use led::Led;
 pub use power::{sleep_idle, sleep_unless};
-pub use radio::{boot_and_listen, boot_radio_config, bring_up_radio, write_line, NodeRadio};
+pub use radio::{boot_and_listen, bring_up_radio, write_line, NodeRadio};
 pub use serial::{rx_frame_start_us, rx_pending, RxStats, Serial};
 pub use time::{delay_ms, now_ms, now_us, SysClock};
 pub use watchdog::{reset, ResetCause, Watchdog};

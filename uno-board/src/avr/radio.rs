@@ -1,11 +1,13 @@
 //! The radio at boot: bring it up through the xbee-api driver, say how it went on the UART
 //! (`loc_proto::line::BootLine`) and on the LED, and retry until it answers.
 
+use loc_proto::config::Config;
 use loc_proto::line::{BootLine, RadioFound};
-use loc_proto::{xbee_channel, Role, DEFAULT_PAN_ID};
+use loc_proto::Role;
 use xbee_api::driver::{BringUp, BringUpConfig, Radio};
 use xbee_api::Mode;
 
+use super::config::{load_config, radio_config};
 use super::{now_ms, reset, rx_pending, sleep_unless, Board, Led, Serial, SysClock};
 use crate::{WdtTimeout, DEFAULT_BAUD};
 
@@ -59,45 +61,26 @@ pub fn bring_up_radio(radio: &mut NodeRadio, led: &mut Led, role: Role, config: 
     }
 }
 
-/// The radio settings until node config lands: node 1 of `role` on the default PAN, on the
-/// role's boot channel (`Role::boot_channel`).
-pub const fn boot_radio_config(role: Role) -> BringUpConfig {
-    BringUpConfig {
-        my: Some(role.address(1)),
-        pan_id: Some(DEFAULT_PAN_ID),
-        channel: xbee_channel(role.boot_channel()),
-        ..BringUpConfig::new()
-    }
-}
-
-/// The boot firmware of every role until its node logic lands: write `hoploc <role> boot`, bring
-/// the radio up ([`bring_up_radio`] with [`boot_radio_config`]), then listen with the watchdog
-/// running (1 s), draining received frames and toggling the LED once a second.
-#[inline(always)] // so `role` is a constant and its settings fold away
-pub fn boot_and_listen(role: Role) -> ! {
+/// The boot firmware of a node until its logic lands: write `hoploc <role> boot`, settle the
+/// config ([`load_config`]: the provisioning window, then EEPROM or `built_in`), bring the radio
+/// up with it ([`bring_up_radio`] with [`radio_config`]), then listen with the watchdog running
+/// (1 s), draining received frames and toggling the LED once a second.
+#[inline(always)] // so the role is a constant and its settings fold away
+pub fn boot_and_listen(built_in: &Config) -> ! {
+    let role = built_in.role;
     let Some(board) = Board::take() else { reset() };
     let Board {
         mut serial,
         mut led,
+        mut eeprom,
         mut watchdog,
         ..
     } = board;
     write_line(&mut serial, &BootLine::Boot { role });
+    let config = load_config(&mut serial, &mut eeprom, &mut led, built_in);
     // Built here and lent out: the driver (with its 130-byte decoder) lives once, on this stack.
     let mut radio = Radio::new(serial, SysClock, Mode::Escaped);
-    // From a constant table rather than built on the stack: with `role` a constant the driver's
-    // reads of it fold away (100 B of flash, measured).
-    const CONFIGS: [BringUpConfig; 3] = [
-        boot_radio_config(Role::Anchor),
-        boot_radio_config(Role::Agent),
-        boot_radio_config(Role::Sink),
-    ];
-    let config = match role {
-        Role::Anchor => &CONFIGS[0],
-        Role::Agent => &CONFIGS[1],
-        Role::Sink => &CONFIGS[2],
-    };
-    bring_up_radio(&mut radio, &mut led, role, config);
+    bring_up_radio(&mut radio, &mut led, role, &radio_config(&config));
     watchdog.start(WdtTimeout::S1);
     let mut last_blink = now_ms();
     loop {

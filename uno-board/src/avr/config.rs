@@ -1,0 +1,132 @@
+//! The node config at boot: a provisioning window on the UART, then the config in EEPROM or the
+//! firmware's built-in one (`loc_proto::config` says which; `loc_proto::provision` the frame).
+
+use loc_proto::config::{stored, Config, Stored, MAX_LEN};
+use loc_proto::line::{BootLine, ConfigSource};
+use loc_proto::provision::{answer, ProvisionParser, Reply, PROVISION_WINDOW_MS, WRITE_FAILED};
+use loc_proto::{xbee_channel, Role};
+use xbee_api::driver::BringUpConfig;
+
+use super::{now_ms, write_line, Eeprom, Led, Serial};
+
+/// The radio settings of `config`: `MY` = the role's address of the node id, `ID` = the PAN,
+/// `CH` = the first anchor channel (anchors, agents: where the first beacons go) or the sink
+/// channel (the sink: where reports come).
+pub fn radio_config(config: &Config) -> BringUpConfig {
+    let channel = match config.role {
+        Role::Sink => Some(config.sink_channel),
+        Role::Anchor | Role::Agent => config.channels.as_slice().first().copied(),
+    };
+    BringUpConfig {
+        my: Some(config.role.address(config.id)),
+        pan_id: Some(config.pan_id),
+        channel: channel.and_then(xbee_channel),
+        ..BringUpConfig::new()
+    }
+}
+
+/// Answers every provisioning frame received so far: a valid config of `role` is written to
+/// EEPROM (address 0), read back, and acknowledged (`HLA`, then `hoploc <role> provisioned`);
+/// anything else gets its NAK. Returns whether a config was stored.
+fn serve(
+    serial: &mut Serial,
+    eeprom: &mut Eeprom,
+    parser: &mut ProvisionParser,
+    role: Role,
+) -> bool {
+    let mut stored_one = false;
+    while let Some(byte) = serial.try_read() {
+        let Some(outcome) = parser.push(byte) else {
+            continue;
+        };
+        let (mut reply, config) = answer(outcome, role);
+        if config.is_some() {
+            // The frame's own config bytes (checked by the parser), written and read back.
+            let bytes = parser.config_bytes();
+            let mut back = [0u8; MAX_LEN];
+            let n = bytes.len().min(MAX_LEN);
+            let ok = eeprom.write(0, bytes).is_ok()
+                && eeprom.read(0, &mut back[..n]).is_ok()
+                && back[..n] == *bytes;
+            if !ok {
+                reply = Reply::Nak(WRITE_FAILED);
+            }
+        }
+        serial.write_bytes(&reply.bytes());
+        // Ends the reply's terminal line: the lines that follow start on their own.
+        serial.write_byte(b'\r');
+        serial.write_byte(b'\n');
+        if reply == Reply::Ack {
+            write_line(serial, &BootLine::Provisioned { role });
+            stored_one = true;
+        }
+    }
+    stored_one
+}
+
+/// The config a `role` node runs with.
+///
+/// 1. For [`PROVISION_WINDOW_MS`] after the call (made right after the boot line), answers
+///    provisioning frames on the UART (a stored one ends the window early).
+/// 2. Then reads the EEPROM: a valid config of `role` is used (`hoploc <role> config eeprom id
+///    <id>`); an erased one means `built_in` (`hoploc <role> config built-in id <id>`).
+/// 3. Anything else (corrupt, another role, another layout version) is never run with: the node
+///    writes `hoploc <role> config error <code>`, blinks `code` on the LED, and goes on answering
+///    provisioning frames (so `hoploc provision` can fix it), repeating line and code, until one
+///    is stored; then back to 2.
+///
+/// The watchdog must be off (it is after `Board::take`).
+pub fn load_config(
+    serial: &mut Serial,
+    eeprom: &mut Eeprom,
+    led: &mut Led,
+    built_in: &Config,
+) -> Config {
+    let role = built_in.role;
+    let mut parser = ProvisionParser::new();
+    let start = now_ms();
+    while now_ms().wrapping_sub(start) < PROVISION_WINDOW_MS as u32 {
+        if serve(serial, eeprom, &mut parser, role) {
+            break;
+        }
+    }
+    loop {
+        let mut block = [0xFF; MAX_LEN];
+        let _ = eeprom.read(0, &mut block);
+        let (config, source) = match stored(&block, role) {
+            Stored::Valid(c) => (c, ConfigSource::Eeprom),
+            Stored::Erased => (*built_in, ConfigSource::BuiltIn),
+            Stored::Invalid(code) => {
+                // One round of the code per line, answering frames all along.
+                'wait: loop {
+                    write_line(serial, &BootLine::ConfigError { role, code });
+                    for phase in 0..=2 * code {
+                        let (on, ms) = match phase {
+                            p if p == 2 * code => (false, 1500),
+                            p if p % 2 == 0 => (true, 200),
+                            _ => (false, 300),
+                        };
+                        led.set(on);
+                        let t = now_ms();
+                        while now_ms().wrapping_sub(t) < ms {
+                            if serve(serial, eeprom, &mut parser, role) {
+                                led.off();
+                                break 'wait;
+                            }
+                        }
+                    }
+                }
+                continue;
+            }
+        };
+        write_line(
+            serial,
+            &BootLine::Config {
+                role,
+                source,
+                id: config.id,
+            },
+        );
+        return config;
+    }
+}
