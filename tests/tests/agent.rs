@@ -40,13 +40,15 @@ fn the_agent_reports_every_superframe_in_its_sub_slot_and_marks_what_it_missed()
     let sf = us(s.superframe_us());
     let mut avr = boot(Role::Agent);
     let mut radio = XBee::new(XBeeConfig::api(2));
-    radio.run_for_ms(&mut avr, 700.0);
+    // The provisioning window, then the bring-up.
+    let up = loc_proto::provision::PROVISION_WINDOW_MS as f64 + 700.0;
+    radio.run_for_ms(&mut avr, up);
     assert_eq!(
         radio.registers().get(*b"MY"),
         Some(Role::Agent.address(1) as u32)
     );
     // The anchors' timeline: superframe 100 starts at t0. Anchor 4 is silent on channel 12.
-    let t0 = 800.0;
+    let t0 = up + 100.0;
     let superframes = 6u16;
     for k in 0..superframes {
         for c in 0..2u8 {
