@@ -118,7 +118,7 @@ fn four_anchors_share_one_timeline_and_the_agent_reports_every_superframe() {
     }
     let medium = net.medium();
     for r in &reports[1..] {
-        for i in 0..4 {
+        for (i, corner) in CORNERS.iter().enumerate() {
             let want = -Medium::quantise(medium.mean_level_dbm(i, 4, 0x0B, 0));
             for c in 0..2 {
                 assert_eq!(r.rssi[c][i] as i16, want, "anchor {} ch {c}", i + 1);
@@ -126,8 +126,8 @@ fn four_anchors_share_one_timeline_and_the_agent_reports_every_superframe() {
             assert_eq!(
                 r.positions[i],
                 Position {
-                    x: CORNERS[i][0],
-                    y: CORNERS[i][1]
+                    x: corner[0],
+                    y: corner[1]
                 }
             );
         }
