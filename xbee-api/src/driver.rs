@@ -295,11 +295,15 @@ impl AtValue {
     }
     /// The value as a big-endian number of 1 to 4 bytes.
     pub fn as_u32(&self) -> Option<u32> {
-        let b = self.as_bytes();
-        (1..=4)
-            .contains(&b.len())
-            .then(|| b.iter().fold(0u32, |v, &x| (v << 8) | x as u32))
+        be_u32(self.as_bytes())
     }
+}
+
+/// `bytes` as a big-endian number of 1 to 4 bytes.
+fn be_u32(bytes: &[u8]) -> Option<u32> {
+    (1..=4)
+        .contains(&bytes.len())
+        .then(|| bytes.iter().fold(0u32, |v, &x| (v << 8) | x as u32))
 }
 
 /// The settings [`Radio::read_config`] reads.
@@ -377,6 +381,9 @@ pub struct DriverStats {
     pub serial_errors: u32,
 }
 
+/// Adds to a counter, saturating. Out of line: on AVR each inlined saturating `u32` add costs
+/// about 20 bytes of flash.
+#[inline(never)]
 fn bump(c: &mut u32, by: u32) {
     *c = c.saturating_add(by);
 }
@@ -597,29 +604,22 @@ where
     /// At most one frame per call; bytes after it stay in the UART for the next call. TX status
     /// frames are noted (see [`Radio::tx_pending`]) and still handed to `f`.
     pub fn poll<R>(&mut self, f: impl FnOnce(RawFrame<'_>) -> R) -> Option<Result<R, Error>> {
-        let mut f = Some(f);
-        let mut out = None;
-        let ev = self.poll_dyn(&mut |raw| {
-            if let Some(f) = f.take() {
-                out = Some(f(raw));
-            }
-        })?;
-        match ev {
-            // `f` ran: poll_dyn hands over every frame it returns `Ok` for.
-            Ok(()) => out.map(Ok),
-            Err(e) => Some(Err(e)),
-        }
+        Some(match self.next_frame()? {
+            Ok(len) => Ok(f(self.decoder.frame(len))),
+            Err(e) => Err(e),
+        })
     }
 
-    /// [`Radio::poll`] with one code path for every caller (it is the driver's inner loop).
-    fn poll_dyn(&mut self, f: &mut dyn FnMut(RawFrame<'_>)) -> Option<Result<(), Error>> {
+    /// The driver's inner loop, with one code path for every caller: [`Radio::poll`] without
+    /// the closure. A frame comes out as its length; [`Decoder::frame`] reads it.
+    #[inline(never)]
+    fn next_frame(&mut self) -> Option<Result<u8, Error>> {
         let mut budget = POLL_BUDGET;
         loop {
-            match self.decoder.poll() {
-                Some(Ok(raw)) => {
-                    note_tx_status(&mut self.pending_tx, raw);
-                    f(raw);
-                    return Some(Ok(()));
+            match self.decoder.poll_len() {
+                Some(Ok(len)) => {
+                    note_tx_status(&mut self.pending_tx, self.decoder.frame(len));
+                    return Some(Ok(len));
                 }
                 Some(Err(e)) => return Some(Err(Error::Decode(e))),
                 None => {}
@@ -653,6 +653,12 @@ where
         }
     }
 
+    /// Milliseconds since `start` (wrapping).
+    #[inline(never)]
+    fn elapsed(&mut self, start: u32) -> u32 {
+        self.clock.now_ms().wrapping_sub(start)
+    }
+
     /// Sends AT command `command` (with `parameter`; empty to query) in a 0x08 frame with a fresh
     /// frame id, and waits up to `timeout_ms` for the 0x88 response with the same frame id and
     /// command. Every other frame that arrives meanwhile goes to `on_other`.
@@ -666,45 +672,53 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<AtValue, Error> {
-        self.at_dyn(command, parameter, timeout_ms, &mut on_other)
+        let mut value = AtValue::new(&[]);
+        self.at_dyn(command, parameter, timeout_ms, &mut on_other, Some(&mut value))?;
+        Ok(value)
     }
 
+    /// [`Radio::at_command`] for every caller: the value is copied to `value` if given, and
+    /// returned as a number if it is one of 1 to 4 bytes (what [`AtValue::as_u32`] gives).
+    #[inline(never)]
     fn at_dyn(
         &mut self,
         command: [u8; 2],
         parameter: &[u8],
         timeout_ms: u32,
         on_other: &mut dyn FnMut(RawFrame<'_>),
-    ) -> Result<AtValue, Error> {
+        value: Option<&mut AtValue>,
+    ) -> Result<Option<u32>, Error> {
         let id = self.next_frame_id();
         let [c0, c1] = command;
         self.send_parts(&[AT_COMMAND, id, c0, c1], parameter)?;
         let start = self.clock.now_ms();
         loop {
-            let (mut reply, mut unexpected, mut malformed) = (None, false, false);
-            let ev = self.poll_dyn(&mut |raw| match raw.at_response() {
-                Some(r) if r.frame_id == id && r.command == command => {
-                    reply = Some((r.status, AtValue::new(r.data)))
-                }
-                other => {
-                    unexpected = other.is_some();
-                    malformed = other.is_none() && raw.frame_type() == AT_RESPONSE;
+            match self.next_frame() {
+                Some(Ok(len)) => {
+                    let raw = self.decoder.frame(len);
+                    match raw.at_response() {
+                        Some(r) if r.frame_id == id && r.command == command => {
+                            if !r.status.is_ok() {
+                                return Err(Error::At {
+                                    command,
+                                    status: r.status,
+                                });
+                            }
+                            if let Some(value) = value {
+                                *value = AtValue::new(r.data);
+                            }
+                            return Ok(be_u32(r.data));
+                        }
+                        Some(_) => bump(&mut self.unexpected, 1),
+                        None if raw.frame_type() == AT_RESPONSE => bump(&mut self.malformed, 1),
+                        None => {}
+                    }
                     on_other(raw);
                 }
-            });
-            bump(&mut self.unexpected, unexpected as u32);
-            bump(&mut self.malformed, malformed as u32);
-            if let Some((status, value)) = reply {
-                return if status.is_ok() {
-                    Ok(value)
-                } else {
-                    Err(Error::At { command, status })
-                };
+                Some(Err(e @ (Error::Serial(_) | Error::WriteTimeout))) => return Err(e),
+                _ => {}
             }
-            if let Some(Err(e @ (Error::Serial(_) | Error::WriteTimeout))) = ev {
-                return Err(e);
-            }
-            if self.clock.now_ms().wrapping_sub(start) >= timeout_ms {
+            if self.elapsed(start) >= timeout_ms {
                 return Err(Error::Timeout { command });
             }
         }
@@ -728,11 +742,12 @@ where
     ) -> Result<(), Error> {
         let start = self.clock.now_ms();
         while self.tx_pending() {
-            if let Some(Err(e @ (Error::Serial(_) | Error::WriteTimeout))) = self.poll_dyn(on_other)
-            {
-                return Err(e);
+            match self.next_frame() {
+                Some(Ok(len)) => on_other(self.decoder.frame(len)),
+                Some(Err(e @ (Error::Serial(_) | Error::WriteTimeout))) => return Err(e),
+                _ => {}
             }
-            if self.tx_pending() && self.clock.now_ms().wrapping_sub(start) >= timeout_ms {
+            if self.tx_pending() && self.elapsed(start) >= timeout_ms {
                 self.pending_tx = [0; TRACKED];
                 return Err(Error::TxStatusTimeout);
             }
@@ -751,7 +766,7 @@ where
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<(), Error> {
         self.wait_tx_dyn(timeout_ms, &mut on_other)?;
-        self.at_dyn(*b"CH", &[channel], timeout_ms, &mut on_other)
+        self.at_dyn(*b"CH", &[channel], timeout_ms, &mut on_other, None)
             .map(|_| ())
     }
 
@@ -772,8 +787,7 @@ where
         timeout_ms: u32,
         on_other: &mut dyn FnMut(RawFrame<'_>),
     ) -> Result<u32, Error> {
-        let v = self.at_dyn(command, &[], timeout_ms, on_other)?;
-        v.as_u32()
+        self.at_dyn(command, &[], timeout_ms, on_other, None)?
             .filter(|&v| v <= max)
             .ok_or(Error::Unexpected { command })
     }
@@ -793,30 +807,31 @@ where
 
     /// Reads and discards input for `ms`; true if any came (or the UART reported errors).
     fn quiet(&mut self, ms: u32) -> bool {
-        let start = self.clock.now_ms();
-        let mut heard = false;
-        while self.clock.now_ms().wrapping_sub(start) < ms {
-            heard |= !matches!(self.serial.read(), Err(nb::Error::WouldBlock));
-        }
-        heard
+        !matches!(self.listen(ms, false), Reply::Silent)
     }
 
     /// Command mode: reads up to `ms` for a line `OK\r` (anything before it on the line is
     /// ignored) or `ERROR\r`.
     fn expect_ok(&mut self, ms: u32) -> Reply {
+        self.listen(ms, true)
+    }
+
+    /// Reads for `ms`; if `lines`, returns as soon as `OK\r` or `ERROR\r` came.
+    #[inline(never)]
+    fn listen(&mut self, ms: u32, lines: bool) -> Reply {
         let start = self.clock.now_ms();
         let mut window = [0u8; 6];
         let mut heard = false;
-        while self.clock.now_ms().wrapping_sub(start) < ms {
+        while self.elapsed(start) < ms {
             match self.serial.read() {
                 Ok(b) => {
                     heard = true;
                     window.copy_within(1.., 0);
                     window[5] = b;
-                    if window == *b"ERROR\r" {
+                    if lines && window == *b"ERROR\r" {
                         return Reply::Error;
                     }
-                    if window[3..] == *b"OK\r" {
+                    if lines && window[3..] == *b"OK\r" {
                         return Reply::Ok;
                     }
                 }
@@ -835,8 +850,7 @@ where
     fn query_ap(&mut self, timeout_ms: u32, drop: &mut dyn FnMut(RawFrame<'_>)) -> Option<u32> {
         // Twice: a radio still starting up may miss the first.
         (0..2)
-            .find_map(|_| self.at_dyn(*b"AP", &[], timeout_ms, drop).ok())?
-            .as_u32()
+            .find_map(|_| self.at_dyn(*b"AP", &[], timeout_ms, drop, None).ok())?
     }
 }
 
@@ -921,7 +935,7 @@ where
     ) -> Result<(), Error> {
         let bytes = value.to_be_bytes();
         let param = if wide { &bytes[..] } else { &bytes[1..] };
-        self.at_dyn(command, param, timeout_ms, drop)?;
+        self.at_dyn(command, param, timeout_ms, drop, None)?;
         if self.query(command, 0xFFFF, timeout_ms, drop)? != u32::from(value) {
             return Err(Error::Unexpected { command });
         }
