@@ -673,19 +673,20 @@ where
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<AtValue, Error> {
         let mut value = AtValue::new(&[]);
-        self.at_dyn(command, parameter, timeout_ms, &mut on_other, Some(&mut value))?;
+        self.at_dyn(command, parameter, timeout_ms, Some(&mut on_other), Some(&mut value))?;
         Ok(value)
     }
 
     /// [`Radio::at_command`] for every caller: the value is copied to `value` if given, and
     /// returned as a number if it is one of 1 to 4 bytes (what [`AtValue::as_u32`] gives).
+    /// Without `on_other` (bring-up), other frames are dropped and counted in `dropped`.
     #[inline(never)]
     fn at_dyn(
         &mut self,
         command: [u8; 2],
         parameter: &[u8],
         timeout_ms: u32,
-        on_other: &mut dyn FnMut(RawFrame<'_>),
+        mut on_other: Option<&mut dyn FnMut(RawFrame<'_>)>,
         value: Option<&mut AtValue>,
     ) -> Result<Option<u32>, Error> {
         let id = self.next_frame_id();
@@ -713,7 +714,10 @@ where
                         None if raw.frame_type() == AT_RESPONSE => bump(&mut self.malformed, 1),
                         None => {}
                     }
-                    on_other(raw);
+                    match on_other.as_mut() {
+                        Some(f) => f(raw),
+                        None => bump(&mut self.dropped, 1),
+                    }
                 }
                 Some(Err(e @ (Error::Serial(_) | Error::WriteTimeout))) => return Err(e),
                 _ => {}
@@ -766,7 +770,7 @@ where
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<(), Error> {
         self.wait_tx_dyn(timeout_ms, &mut on_other)?;
-        self.at_dyn(*b"CH", &[channel], timeout_ms, &mut on_other, None)
+        self.at_dyn(*b"CH", &[channel], timeout_ms, Some(&mut on_other), None)
             .map(|_| ())
     }
 
@@ -785,7 +789,7 @@ where
         command: [u8; 2],
         max: u32,
         timeout_ms: u32,
-        on_other: &mut dyn FnMut(RawFrame<'_>),
+        on_other: Option<&mut dyn FnMut(RawFrame<'_>)>,
     ) -> Result<u32, Error> {
         self.at_dyn(command, &[], timeout_ms, on_other, None)?
             .filter(|&v| v <= max)
@@ -798,10 +802,10 @@ where
         on_other: &mut dyn FnMut(RawFrame<'_>),
     ) -> Result<RadioConfig, Error> {
         Ok(RadioConfig {
-            my: self.query(*b"MY", 0xFFFF, timeout_ms, on_other)? as u16,
-            pan_id: self.query(*b"ID", 0xFFFF, timeout_ms, on_other)? as u16,
-            channel: self.query(*b"CH", 0xFF, timeout_ms, on_other)? as u8,
-            ap: self.query(*b"AP", 0xFF, timeout_ms, on_other)? as u8,
+            my: self.query(*b"MY", 0xFFFF, timeout_ms, Some(&mut *on_other))? as u16,
+            pan_id: self.query(*b"ID", 0xFFFF, timeout_ms, Some(&mut *on_other))? as u16,
+            channel: self.query(*b"CH", 0xFF, timeout_ms, Some(&mut *on_other))? as u8,
+            ap: self.query(*b"AP", 0xFF, timeout_ms, Some(&mut *on_other))? as u8,
         })
     }
 
@@ -847,10 +851,9 @@ where
     }
 
     /// Queries `AP` in API mode: the radio's mode if it answered.
-    fn query_ap(&mut self, timeout_ms: u32, drop: &mut dyn FnMut(RawFrame<'_>)) -> Option<u32> {
+    fn query_ap(&mut self, timeout_ms: u32) -> Option<u32> {
         // Twice: a radio still starting up may miss the first.
-        (0..2)
-            .find_map(|_| self.at_dyn(*b"AP", &[], timeout_ms, drop, None).ok())?
+        (0..2).find_map(|_| self.at_dyn(*b"AP", &[], timeout_ms, None, None).ok())?
     }
 }
 
@@ -883,66 +886,62 @@ where
     /// a valid answer). Frames received during bring-up are dropped (counted in
     /// [`DriverStats::dropped`]).
     pub fn bring_up(&mut self, config: &BringUpConfig) -> Result<BringUp, Error> {
-        let mut dropped = 0u32;
-        let result = self.bring_up_dyn(config, &mut |_| dropped += 1);
-        bump(&mut self.dropped, dropped);
-        result
+        self.bring_up_dyn(config)
     }
 
-    fn bring_up_dyn(
-        &mut self,
-        cfg: &BringUpConfig,
-        drop: &mut dyn FnMut(RawFrame<'_>),
-    ) -> Result<BringUp, Error> {
+    #[inline(never)]
+    fn bring_up_dyn(&mut self, cfg: &BringUpConfig) -> Result<BringUp, Error> {
         let mode = self.mode();
         let ap = u32::from(mode.ap());
         self.serial.set_baud(BAUD);
         self.decoder.set_mode(mode);
-        let how = if self.query_ap(cfg.timeout_ms, drop) == Some(ap) {
+        let how = if self.query_ap(cfg.timeout_ms) == Some(ap) {
             BringUp::AlreadyApi
         } else {
             let baud = self.configure_in_command_mode(cfg)?;
             self.serial.set_baud(BAUD);
             self.decoder.set_mode(mode);
-            match self.query_ap(cfg.timeout_ms, drop) {
+            match self.query_ap(cfg.timeout_ms) {
                 Some(v) if v == ap => {}
                 Some(_) => return Err(Error::Unexpected { command: *b"AP" }),
                 None => return Err(Error::NotConfirmed),
             }
             BringUp::Configured { baud }
         };
-        let t = cfg.timeout_ms;
-        if let Some(my) = cfg.my {
-            self.set_register(*b"MY", my, true, t, drop)?;
-        }
-        if let Some(id) = cfg.pan_id {
-            self.set_register(*b"ID", id, true, t, drop)?;
-        }
-        if let Some(ch) = cfg.channel {
-            self.set_register(*b"CH", ch.into(), false, t, drop)?;
+        // (command, value, two bytes wide), in this order.
+        let registers = [
+            (*b"MY", cfg.my, true),
+            (*b"ID", cfg.pan_id, true),
+            (*b"CH", cfg.channel.map(u16::from), false),
+        ];
+        for (command, value, wide) in registers {
+            if let Some(value) = value {
+                self.set_register(command, value, wide, cfg.timeout_ms)?;
+            }
         }
         Ok(how)
     }
 
     /// Sets a register to `value` (two bytes if `wide`, else one) and reads it back.
+    #[inline(never)]
     fn set_register(
         &mut self,
         command: [u8; 2],
         value: u16,
         wide: bool,
         timeout_ms: u32,
-        drop: &mut dyn FnMut(RawFrame<'_>),
     ) -> Result<(), Error> {
         let bytes = value.to_be_bytes();
         let param = if wide { &bytes[..] } else { &bytes[1..] };
-        self.at_dyn(command, param, timeout_ms, drop, None)?;
-        if self.query(command, 0xFFFF, timeout_ms, drop)? != u32::from(value) {
+        self.at_dyn(command, param, timeout_ms, None, None)?;
+        if self.query(command, 0xFFFF, timeout_ms, None)? != u32::from(value) {
             return Err(Error::Unexpected { command });
         }
         Ok(())
     }
 
     /// Step 2 of [`Radio::bring_up`]: the baud rate the radio was found at.
+    #[inline(never)]
     fn configure_in_command_mode(&mut self, cfg: &BringUpConfig) -> Result<u32, Error> {
         let mut heard = false;
         for baud in BAUD_RATES {
@@ -957,13 +956,24 @@ where
                     continue;
                 }
             }
-            let set_ap = [b'A', b'T', b'A', b'P', b'0' + self.mode().ap(), b'\r'];
-            for line in [&set_ap[..], b"ATBD6\r", b"ATWR\r", b"ATCN\r"] {
-                self.write_escaped(line, false, &mut 0)?;
-                let command = [
-                    line.get(2).copied().unwrap_or(0),
-                    line.get(3).copied().unwrap_or(0),
-                ];
+            // `AT` + command + parameter (none if 0) + `\r`, each answered `OK\r`.
+            let lines = [
+                (*b"AP", b'0' + self.mode().ap()),
+                (*b"BD", b'6'),
+                (*b"WR", 0),
+                (*b"CN", 0),
+            ];
+            for (command, parameter) in lines {
+                let [c0, c1] = command;
+                let line = [b'A', b'T', c0, c1, parameter, b'\r'];
+                let line = if parameter == 0 {
+                    [&line[..4], b"\r"]
+                } else {
+                    [&line[..], &[]]
+                };
+                for part in line {
+                    self.write_escaped(part, false, &mut 0)?;
+                }
                 match self.expect_ok(cfg.timeout_ms) {
                     Reply::Ok => {}
                     Reply::Error => return Err(Error::Rejected { command }),
