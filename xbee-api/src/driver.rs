@@ -536,6 +536,7 @@ where
     /// and the lean senders ([`Radio::send_tx16`], [`Radio::at_command`]) all end here; the
     /// latter build their few header bytes themselves, so firmware that only uses them does not
     /// link the serializer for every frame type.
+    #[inline(never)]
     fn send_parts(&mut self, head: &[u8], rest: &[u8]) -> Result<(), Error> {
         let len = head.len() + rest.len();
         // A TX64/TX16 request's frame id (0: no TX status wanted).
@@ -546,7 +547,7 @@ where
         if len > MAX_FRAME_DATA || (tx_id.is_some() && rest.len() > MAX_RF_PAYLOAD) {
             return Err(Error::TooLong { len });
         }
-        if let Err(e) = self.write_frame(len as u16, head, rest) {
+        if let Err(e) = self.write_frame(len as u8, head, rest) {
             if let Error::Serial(_) = e {
                 bump(&mut self.serial_errors, 1);
             }
@@ -559,30 +560,29 @@ where
     }
 
     /// Writes start delimiter, length, frame data (`head` then `rest`) and checksum.
-    fn write_frame(&mut self, len: u16, head: &[u8], rest: &[u8]) -> Result<(), Error> {
-        let mut sum = 0;
-        self.write_escaped(&[START], false, &mut sum)?;
-        self.write_escaped(&len.to_be_bytes(), true, &mut sum)?;
-        sum = 0;
-        self.write_escaped(head, true, &mut sum)?;
-        self.write_escaped(rest, true, &mut sum)?;
-        self.write_escaped(&[0xFF - sum], true, &mut sum)
+    fn write_frame(&mut self, len: u8, head: &[u8], rest: &[u8]) -> Result<(), Error> {
+        // The length's high byte is 0: `len` is at most MAX_FRAME_DATA.
+        for b in [START, 0, len] {
+            // The start delimiter is never escaped; the length bytes are, like any other.
+            self.put(b, b != START)?;
+        }
+        let mut sum = 0u8;
+        for &b in head.iter().chain(rest) {
+            sum = sum.wrapping_add(b);
+            self.put(b, true)?;
+        }
+        self.put(0xFF - sum, true)
     }
 
-    /// Writes `bytes`, escaped if `escape` and the radio is in API mode 2, adding them to `sum`.
+    /// Writes `b`, escaped if `escape` and the radio is in API mode 2.
     #[inline(never)]
-    fn write_escaped(&mut self, bytes: &[u8], escape: bool, sum: &mut u8) -> Result<(), Error> {
-        let escape = escape && self.decoder.mode() == Mode::Escaped;
-        for &b in bytes {
-            *sum = sum.wrapping_add(b);
-            if escape && needs_escape(b) {
-                write_byte(&mut self.serial, &mut self.clock, ESCAPE)?;
-                write_byte(&mut self.serial, &mut self.clock, b ^ ESCAPE_XOR)?;
-            } else {
-                write_byte(&mut self.serial, &mut self.clock, b)?;
-            }
+    fn put(&mut self, b: u8, escape: bool) -> Result<(), Error> {
+        if escape && self.decoder.mode() == Mode::Escaped && needs_escape(b) {
+            write_byte(&mut self.serial, &mut self.clock, ESCAPE)?;
+            write_byte(&mut self.serial, &mut self.clock, b ^ ESCAPE_XOR)
+        } else {
+            write_byte(&mut self.serial, &mut self.clock, b)
         }
-        Ok(())
     }
 
     /// Sends `data` to 16-bit address `dest` (0xFFFF: broadcast) with a fresh frame id, which it
@@ -824,18 +824,18 @@ where
     #[inline(never)]
     fn listen(&mut self, ms: u32, lines: bool) -> Reply {
         let start = self.clock.now_ms();
-        let mut window = [0u8; 6];
+        // How much of `ERROR\r` and of `OK\r` the last bytes read match. Neither has a proper
+        // prefix that is also a suffix, so on a mismatch the match restarts from the byte itself.
+        let (mut error, mut ok) = (0, 0);
         let mut heard = false;
         while self.elapsed(start) < ms {
             match self.serial.read() {
                 Ok(b) => {
                     heard = true;
-                    window.copy_within(1.., 0);
-                    window[5] = b;
-                    if lines && window == *b"ERROR\r" {
+                    if lines && advance(&mut error, b"ERROR\r", b) {
                         return Reply::Error;
                     }
-                    if lines && window[3..] == *b"OK\r" {
+                    if lines && advance(&mut ok, b"OK\r", b) {
                         return Reply::Ok;
                     }
                 }
@@ -855,6 +855,29 @@ where
         // Twice: a radio still starting up may miss the first.
         (0..2).find_map(|_| self.at_dyn(*b"AP", &[], timeout_ms, None, None).ok())?
     }
+}
+
+/// What [`Radio::bring_up`] configures in command mode, line by line, each answered `OK\r`:
+/// the API mode (the digit at [`AP_DIGIT`] is replaced by the driver's mode), 57600 baud, write
+/// to non-volatile memory, leave command mode.
+const COMMAND_MODE_LINES: &[u8; 22] = b"ATAP2\rATBD6\rATWR\rATCN\r";
+/// Index of the `AP` value in [`COMMAND_MODE_LINES`].
+const AP_DIGIT: usize = 4;
+
+/// Advances the match `progress` of `pattern` (which has no proper prefix that is also a
+/// suffix) by `b`; true when the pattern is complete (it then starts over).
+#[inline(never)]
+fn advance(progress: &mut usize, pattern: &[u8], b: u8) -> bool {
+    *progress = if pattern.get(*progress) == Some(&b) {
+        *progress + 1
+    } else {
+        usize::from(pattern.first() == Some(&b))
+    };
+    if *progress == pattern.len() {
+        *progress = 0;
+        return true;
+    }
+    false
 }
 
 /// A command-mode answer.
@@ -947,7 +970,9 @@ where
         for baud in BAUD_RATES {
             self.serial.set_baud(baud);
             heard |= self.quiet(cfg.guard_ms);
-            self.write_escaped(b"+++", false, &mut 0)?;
+            for &b in b"+++" {
+                write_byte(&mut self.serial, &mut self.clock, b)?;
+            }
             match self.expect_ok(cfg.guard_ms + cfg.timeout_ms) {
                 Reply::Ok => {}
                 Reply::Silent => continue,
@@ -956,24 +981,22 @@ where
                     continue;
                 }
             }
-            // `AT` + command + parameter (none if 0) + `\r`, each answered `OK\r`.
-            let lines = [
-                (*b"AP", b'0' + self.mode().ap()),
-                (*b"BD", b'6'),
-                (*b"WR", 0),
-                (*b"CN", 0),
-            ];
-            for (command, parameter) in lines {
-                let [c0, c1] = command;
-                let line = [b'A', b'T', c0, c1, parameter, b'\r'];
-                let line = if parameter == 0 {
-                    [&line[..4], b"\r"]
-                } else {
-                    [&line[..], &[]]
-                };
-                for part in line {
-                    self.write_escaped(part, false, &mut 0)?;
+            // Each line is answered `OK\r`; the `AP` digit is the driver's mode.
+            let (mut command, mut column) = ([0; 2], 0u8);
+            for (i, &b) in COMMAND_MODE_LINES.iter().enumerate() {
+                let b = if i == AP_DIGIT { b'0' + self.mode().ap() } else { b };
+                write_byte(&mut self.serial, &mut self.clock, b)?;
+                // The command: the two letters after `AT`.
+                match column {
+                    2 => command[0] = b,
+                    3 => command[1] = b,
+                    _ => {}
                 }
+                column += 1;
+                if b != b'\r' {
+                    continue;
+                }
+                column = 0;
                 match self.expect_ok(cfg.timeout_ms) {
                     Reply::Ok => {}
                     Reply::Error => return Err(Error::Rejected { command }),
