@@ -405,6 +405,30 @@ pub struct Radio<S, C> {
     malformed: u32,
     dropped: u32,
     serial_errors: u32,
+    /// What went wrong, when an inner step returned [`Failed`].
+    error: Error,
+}
+
+/// An inner step of the driver failed; what went wrong is in `Radio::error`.
+///
+/// Why not return [`Error`] itself: rustc's AVR calling convention returns every value that
+/// is not one or two scalars through memory, and `Result<_, Error>` is such a value. With the
+/// error kept in the driver, `Result<(), Failed>`, `Result<u32, Failed>` and the like come back
+/// in registers: on the ATmega328P that saved hundreds of bytes of flash across the driver.
+#[derive(Clone, Copy, Debug)]
+struct Failed;
+
+/// What [`Radio::next_frame`] found.
+#[derive(Clone, Copy)]
+enum Next {
+    /// A frame of this length: [`Decoder::frame`] reads it.
+    Frame(u8),
+    /// Nothing more for now.
+    Idle,
+    /// A stream error, in `Radio::error` (the decoder has resynchronised).
+    Decode,
+    /// A UART error, in `Radio::error`.
+    Serial,
 }
 
 impl<S, C> Radio<S, C> {
@@ -422,7 +446,19 @@ impl<S, C> Radio<S, C> {
             malformed: 0,
             dropped: 0,
             serial_errors: 0,
+            error: Error::NoResponse,
         }
+    }
+
+    /// Records `error` for the caller of the public method to pick up.
+    fn fail(&mut self, error: Error) -> Failed {
+        self.error = error;
+        Failed
+    }
+
+    /// The public face of an inner result.
+    fn public<T>(&self, result: Result<T, Failed>) -> Result<T, Error> {
+        result.map_err(|Failed| self.error)
     }
 
     /// The API mode frames are written and read in.
@@ -502,24 +538,6 @@ fn note_tx_status(pending: &mut [u8; TRACKED], raw: RawFrame<'_>) {
     }
 }
 
-/// Writes one byte, waiting at most [`WRITE_TIMEOUT_MS`] for the UART to take it.
-#[inline(never)]
-fn write_byte<S: Write<u8>, C: Clock>(serial: &mut S, clock: &mut C, b: u8) -> Result<(), Error> {
-    let mut start = None;
-    loop {
-        match serial.write(b) {
-            Ok(()) => return Ok(()),
-            Err(nb::Error::Other(e)) => return Err(Error::Serial(e.kind())),
-            Err(nb::Error::WouldBlock) => {
-                let now = clock.now_ms();
-                if now.wrapping_sub(*start.get_or_insert(now)) >= WRITE_TIMEOUT_MS {
-                    return Err(Error::WriteTimeout);
-                }
-            }
-        }
-    }
-}
-
 impl<S, C> Radio<S, C>
 where
     S: Read<u8> + Write<u8>,
@@ -529,7 +547,26 @@ where
     /// is remembered until its TX status arrives (see [`Radio::wait_tx_status`]).
     pub fn send(&mut self, frame: &Frame<'_>) -> Result<(), Error> {
         let (header, rest) = Header::split(frame);
-        self.send_parts(header.as_bytes(), rest)
+        let result = self.send_parts(header.as_bytes(), rest);
+        self.public(result)
+    }
+
+    /// Writes one byte, waiting at most [`WRITE_TIMEOUT_MS`] for the UART to take it.
+    #[inline(never)]
+    fn write_byte(&mut self, b: u8) -> Result<(), Failed> {
+        let mut start = None;
+        loop {
+            match self.serial.write(b) {
+                Ok(()) => return Ok(()),
+                Err(nb::Error::Other(e)) => return Err(self.fail(Error::Serial(e.kind()))),
+                Err(nb::Error::WouldBlock) => {
+                    let now = self.clock.now_ms();
+                    if now.wrapping_sub(*start.get_or_insert(now)) >= WRITE_TIMEOUT_MS {
+                        return Err(self.fail(Error::WriteTimeout));
+                    }
+                }
+            }
+        }
     }
 
     /// Writes the frame whose data is `head` (type byte first) followed by `rest`. [`Radio::send`]
@@ -537,7 +574,7 @@ where
     /// latter build their few header bytes themselves, so firmware that only uses them does not
     /// link the serializer for every frame type.
     #[inline(never)]
-    fn send_parts(&mut self, head: &[u8], rest: &[u8]) -> Result<(), Error> {
+    fn send_parts(&mut self, head: &[u8], rest: &[u8]) -> Result<(), Failed> {
         let len = head.len() + rest.len();
         // A TX64/TX16 request's frame id (0: no TX status wanted).
         let tx_id = match *head {
@@ -545,10 +582,10 @@ where
             _ => None,
         };
         if len > MAX_FRAME_DATA || (tx_id.is_some() && rest.len() > MAX_RF_PAYLOAD) {
-            return Err(Error::TooLong { len });
+            return Err(self.fail(Error::TooLong { len }));
         }
         if let Err(e) = self.write_frame(len as u8, head, rest) {
-            if let Error::Serial(_) = e {
+            if let Error::Serial(_) = self.error {
                 bump(&mut self.serial_errors, 1);
             }
             return Err(e);
@@ -560,7 +597,7 @@ where
     }
 
     /// Writes start delimiter, length, frame data (`head` then `rest`) and checksum.
-    fn write_frame(&mut self, len: u8, head: &[u8], rest: &[u8]) -> Result<(), Error> {
+    fn write_frame(&mut self, len: u8, head: &[u8], rest: &[u8]) -> Result<(), Failed> {
         // The length's high byte is 0: `len` is at most MAX_FRAME_DATA.
         for b in [START, 0, len] {
             // The start delimiter is never escaped; the length bytes are, like any other.
@@ -576,12 +613,12 @@ where
 
     /// Writes `b`, escaped if `escape` and the radio is in API mode 2.
     #[inline(never)]
-    fn put(&mut self, b: u8, escape: bool) -> Result<(), Error> {
+    fn put(&mut self, b: u8, escape: bool) -> Result<(), Failed> {
         if escape && self.decoder.mode() == Mode::Escaped && needs_escape(b) {
-            write_byte(&mut self.serial, &mut self.clock, ESCAPE)?;
-            write_byte(&mut self.serial, &mut self.clock, b ^ ESCAPE_XOR)
+            self.write_byte(ESCAPE)?;
+            self.write_byte(b ^ ESCAPE_XOR)
         } else {
-            write_byte(&mut self.serial, &mut self.clock, b)
+            self.write_byte(b)
         }
     }
 
@@ -590,8 +627,8 @@ where
     pub fn send_tx16(&mut self, dest: u16, data: &[u8]) -> Result<u8, Error> {
         let frame_id = self.next_frame_id();
         let [d0, d1] = dest.to_be_bytes();
-        self.send_parts(&[TX16, frame_id, d0, d1, 0], data)?;
-        Ok(frame_id)
+        let result = self.send_parts(&[TX16, frame_id, d0, d1, 0], data);
+        self.public(result.map(|()| frame_id))
     }
 
     /// Reads what the UART has until a frame is complete, and hands that frame to `f`.
@@ -604,27 +641,34 @@ where
     /// At most one frame per call; bytes after it stay in the UART for the next call. TX status
     /// frames are noted (see [`Radio::tx_pending`]) and still handed to `f`.
     pub fn poll<R>(&mut self, f: impl FnOnce(RawFrame<'_>) -> R) -> Option<Result<R, Error>> {
-        Some(match self.next_frame()? {
-            Ok(len) => Ok(f(self.decoder.frame(len))),
-            Err(e) => Err(e),
-        })
+        match self.next_frame() {
+            Next::Frame(len) => Some(Ok(f(self.decoder.frame(len)))),
+            Next::Idle => None,
+            Next::Decode | Next::Serial => Some(Err(self.error)),
+        }
     }
 
     /// The driver's inner loop, with one code path for every caller: [`Radio::poll`] without
     /// the closure. A frame comes out as its length; [`Decoder::frame`] reads it.
     #[inline(never)]
-    fn next_frame(&mut self) -> Option<Result<u8, Error>> {
+    fn next_frame(&mut self) -> Next {
         let mut budget = POLL_BUDGET;
         loop {
             match self.decoder.poll_len() {
                 Some(Ok(len)) => {
                     note_tx_status(&mut self.pending_tx, self.decoder.frame(len));
-                    return Some(Ok(len));
+                    return Next::Frame(len);
                 }
-                Some(Err(e)) => return Some(Err(Error::Decode(e))),
+                Some(Err(e)) => {
+                    self.error = Error::Decode(e);
+                    return Next::Decode;
+                }
                 None => {}
             }
-            budget = budget.checked_sub(1)?;
+            let Some(left) = budget.checked_sub(1) else {
+                return Next::Idle;
+            };
+            budget = left;
             match self.serial.read() {
                 Ok(b) => {
                     // Cannot fail: the decoder was polled to `None` just above.
@@ -643,11 +687,12 @@ where
                         self.decoder.idle();
                         continue;
                     }
-                    return None;
+                    return Next::Idle;
                 }
                 Err(nb::Error::Other(e)) => {
                     bump(&mut self.serial_errors, 1);
-                    return Some(Err(Error::Serial(e.kind())));
+                    self.error = Error::Serial(e.kind());
+                    return Next::Serial;
                 }
             }
         }
@@ -673,8 +718,14 @@ where
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<AtValue, Error> {
         let mut value = AtValue::new(&[]);
-        self.at_dyn(command, parameter, timeout_ms, Some(&mut on_other), Some(&mut value))?;
-        Ok(value)
+        let result = self.at_dyn(
+            command,
+            parameter,
+            timeout_ms,
+            Some(&mut on_other),
+            Some(&mut value),
+        );
+        self.public(result.map(|_| value))
     }
 
     /// [`Radio::at_command`] for every caller: the value is copied to `value` if given, and
@@ -688,22 +739,20 @@ where
         timeout_ms: u32,
         mut on_other: Option<&mut dyn FnMut(RawFrame<'_>)>,
         value: Option<&mut AtValue>,
-    ) -> Result<Option<u32>, Error> {
+    ) -> Result<Option<u32>, Failed> {
         let id = self.next_frame_id();
         let [c0, c1] = command;
         self.send_parts(&[AT_COMMAND, id, c0, c1], parameter)?;
         let start = self.clock.now_ms();
         loop {
             match self.next_frame() {
-                Some(Ok(len)) => {
+                Next::Frame(len) => {
                     let raw = self.decoder.frame(len);
                     match raw.at_response() {
                         Some(r) if r.frame_id == id && r.command == command => {
                             if !r.status.is_ok() {
-                                return Err(Error::At {
-                                    command,
-                                    status: r.status,
-                                });
+                                let status = r.status;
+                                return Err(self.fail(Error::At { command, status }));
                             }
                             if let Some(value) = value {
                                 *value = AtValue::new(r.data);
@@ -719,11 +768,11 @@ where
                         None => bump(&mut self.dropped, 1),
                     }
                 }
-                Some(Err(e @ (Error::Serial(_) | Error::WriteTimeout))) => return Err(e),
-                _ => {}
+                Next::Serial => return Err(Failed),
+                Next::Idle | Next::Decode => {}
             }
             if self.elapsed(start) >= timeout_ms {
-                return Err(Error::Timeout { command });
+                return Err(self.fail(Error::Timeout { command }));
             }
         }
     }
@@ -736,24 +785,25 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<(), Error> {
-        self.wait_tx_dyn(timeout_ms, &mut on_other)
+        let result = self.wait_tx_dyn(timeout_ms, &mut on_other);
+        self.public(result)
     }
 
     fn wait_tx_dyn(
         &mut self,
         timeout_ms: u32,
         on_other: &mut dyn FnMut(RawFrame<'_>),
-    ) -> Result<(), Error> {
+    ) -> Result<(), Failed> {
         let start = self.clock.now_ms();
         while self.tx_pending() {
             match self.next_frame() {
-                Some(Ok(len)) => on_other(self.decoder.frame(len)),
-                Some(Err(e @ (Error::Serial(_) | Error::WriteTimeout))) => return Err(e),
-                _ => {}
+                Next::Frame(len) => on_other(self.decoder.frame(len)),
+                Next::Serial => return Err(Failed),
+                Next::Idle | Next::Decode => {}
             }
             if self.tx_pending() && self.elapsed(start) >= timeout_ms {
                 self.pending_tx = [0; TRACKED];
-                return Err(Error::TxStatusTimeout);
+                return Err(self.fail(Error::TxStatusTimeout));
             }
         }
         Ok(())
@@ -769,9 +819,10 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<(), Error> {
-        self.wait_tx_dyn(timeout_ms, &mut on_other)?;
-        self.at_dyn(*b"CH", &[channel], timeout_ms, Some(&mut on_other), None)
-            .map(|_| ())
+        let result = self
+            .wait_tx_dyn(timeout_ms, &mut on_other)
+            .and_then(|()| self.at_dyn(*b"CH", &[channel], timeout_ms, Some(&mut on_other), None));
+        self.public(result.map(|_| ()))
     }
 
     /// Reads `MY`, `ID`, `CH` and `AP` (each query bounded by `timeout_ms`).
@@ -780,7 +831,8 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<RadioConfig, Error> {
-        self.read_config_dyn(timeout_ms, &mut on_other)
+        let result = self.read_config_dyn(timeout_ms, &mut on_other);
+        self.public(result)
     }
 
     /// Queries a register that must be a number no larger than `max`.
@@ -790,17 +842,18 @@ where
         max: u32,
         timeout_ms: u32,
         on_other: Option<&mut dyn FnMut(RawFrame<'_>)>,
-    ) -> Result<u32, Error> {
-        self.at_dyn(command, &[], timeout_ms, on_other, None)?
-            .filter(|&v| v <= max)
-            .ok_or(Error::Unexpected { command })
+    ) -> Result<u32, Failed> {
+        match self.at_dyn(command, &[], timeout_ms, on_other, None)? {
+            Some(v) if v <= max => Ok(v),
+            _ => Err(self.fail(Error::Unexpected { command })),
+        }
     }
 
     fn read_config_dyn(
         &mut self,
         timeout_ms: u32,
         on_other: &mut dyn FnMut(RawFrame<'_>),
-    ) -> Result<RadioConfig, Error> {
+    ) -> Result<RadioConfig, Failed> {
         Ok(RadioConfig {
             my: self.query(*b"MY", 0xFFFF, timeout_ms, Some(&mut *on_other))? as u16,
             pan_id: self.query(*b"ID", 0xFFFF, timeout_ms, Some(&mut *on_other))? as u16,
@@ -909,11 +962,12 @@ where
     /// a valid answer). Frames received during bring-up are dropped (counted in
     /// [`DriverStats::dropped`]).
     pub fn bring_up(&mut self, config: &BringUpConfig) -> Result<BringUp, Error> {
-        self.bring_up_dyn(config)
+        let result = self.bring_up_dyn(config);
+        self.public(result)
     }
 
     #[inline(never)]
-    fn bring_up_dyn(&mut self, cfg: &BringUpConfig) -> Result<BringUp, Error> {
+    fn bring_up_dyn(&mut self, cfg: &BringUpConfig) -> Result<BringUp, Failed> {
         let mode = self.mode();
         let ap = u32::from(mode.ap());
         self.serial.set_baud(BAUD);
@@ -926,8 +980,8 @@ where
             self.decoder.set_mode(mode);
             match self.query_ap(cfg.timeout_ms) {
                 Some(v) if v == ap => {}
-                Some(_) => return Err(Error::Unexpected { command: *b"AP" }),
-                None => return Err(Error::NotConfirmed),
+                Some(_) => return Err(self.fail(Error::Unexpected { command: *b"AP" })),
+                None => return Err(self.fail(Error::NotConfirmed)),
             }
             BringUp::Configured { baud }
         };
@@ -953,25 +1007,25 @@ where
         value: u16,
         wide: bool,
         timeout_ms: u32,
-    ) -> Result<(), Error> {
+    ) -> Result<(), Failed> {
         let bytes = value.to_be_bytes();
         let param = if wide { &bytes[..] } else { &bytes[1..] };
         self.at_dyn(command, param, timeout_ms, None, None)?;
         if self.query(command, 0xFFFF, timeout_ms, None)? != u32::from(value) {
-            return Err(Error::Unexpected { command });
+            return Err(self.fail(Error::Unexpected { command }));
         }
         Ok(())
     }
 
     /// Step 2 of [`Radio::bring_up`]: the baud rate the radio was found at.
     #[inline(never)]
-    fn configure_in_command_mode(&mut self, cfg: &BringUpConfig) -> Result<u32, Error> {
+    fn configure_in_command_mode(&mut self, cfg: &BringUpConfig) -> Result<u32, Failed> {
         let mut heard = false;
         for baud in BAUD_RATES {
             self.serial.set_baud(baud);
             heard |= self.quiet(cfg.guard_ms);
             for &b in b"+++" {
-                write_byte(&mut self.serial, &mut self.clock, b)?;
+                self.write_byte(b)?;
             }
             match self.expect_ok(cfg.guard_ms + cfg.timeout_ms) {
                 Reply::Ok => {}
@@ -984,8 +1038,12 @@ where
             // Each line is answered `OK\r`; the `AP` digit is the driver's mode.
             let (mut command, mut column) = ([0; 2], 0u8);
             for (i, &b) in COMMAND_MODE_LINES.iter().enumerate() {
-                let b = if i == AP_DIGIT { b'0' + self.mode().ap() } else { b };
-                write_byte(&mut self.serial, &mut self.clock, b)?;
+                let b = if i == AP_DIGIT {
+                    b'0' + self.mode().ap()
+                } else {
+                    b
+                };
+                self.write_byte(b)?;
                 // The command: the two letters after `AT`.
                 match column {
                     2 => command[0] = b,
@@ -999,16 +1057,18 @@ where
                 column = 0;
                 match self.expect_ok(cfg.timeout_ms) {
                     Reply::Ok => {}
-                    Reply::Error => return Err(Error::Rejected { command }),
-                    Reply::Garbage | Reply::Silent => return Err(Error::Timeout { command }),
+                    Reply::Error => return Err(self.fail(Error::Rejected { command })),
+                    Reply::Garbage | Reply::Silent => {
+                        return Err(self.fail(Error::Timeout { command }))
+                    }
                 }
             }
             return Ok(baud);
         }
-        Err(if heard {
+        Err(self.fail(if heard {
             Error::Garbage
         } else {
             Error::NoResponse
-        })
+        }))
     }
 }
