@@ -183,12 +183,18 @@ pub struct AtResponse<'a> {
     pub data: &'a [u8],
 }
 
-/// What one input byte did.
-enum Step {
+/// What one input byte did, or what [`Decoder::poll_len`] found.
+///
+/// The error itself is kept in the decoder (`Decoder::error`): rustc's AVR calling convention
+/// returns anything bigger than two scalars through memory, and this comes back in registers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Step {
+    /// Nothing yet (from `poll_len`: no more input).
     Nothing,
     /// A good frame of this many data bytes (type byte included) is in `buf[2..]`.
     Frame(u8),
-    Error(DecodeError),
+    /// A stream error, in `Decoder::error`.
+    Error,
 }
 
 /// Indices of the counters in [`Decoder::counts`] (one array, one increment function: on AVR
@@ -235,7 +241,10 @@ pub struct Decoder {
     in_frame: bool,
     escaped: bool,
     garbage: u16,
-    queued: Option<DecodeError>,
+    /// `error` is still to be reported (set by [`Decoder::idle`]).
+    queued: bool,
+    /// The last stream error.
+    error: DecodeError,
     /// Indexed by `FRAMES`, `BAD_CHECKSUM`, `BAD_LENGTH`, `TRUNCATED`, `GARBAGE_BYTES`.
     counts: [u32; 5],
 }
@@ -252,7 +261,8 @@ impl Decoder {
             in_frame: false,
             escaped: false,
             garbage: 0,
-            queued: None,
+            queued: false,
+            error: DecodeError::Garbage { bytes: 0 },
             counts: [0; 5],
         }
     }
@@ -273,7 +283,7 @@ impl Decoder {
         self.in_frame = false;
         self.escaped = false;
         self.garbage = 0;
-        self.queued = None;
+        self.queued = false;
     }
 
     /// The counters so far.
@@ -310,15 +320,19 @@ impl Decoder {
 
     /// Processes queued input up to the next frame or error. Call until it returns `None`.
     pub fn poll(&mut self) -> Option<Result<RawFrame<'_>, DecodeError>> {
-        Some(self.poll_len()?.map(|len| self.frame(len)))
+        match self.poll_len() {
+            Step::Nothing => None,
+            Step::Frame(len) => Some(Ok(self.frame(len))),
+            Step::Error => Some(Err(self.error)),
+        }
     }
 
     /// [`Decoder::poll`] without the borrow: a frame comes out as its length, and
-    /// [`Decoder::frame`] reads it (until the next `push` or `poll`). The driver's wait loops
-    /// use this, so they need no closure.
-    pub(crate) fn poll_len(&mut self) -> Option<Result<u8, DecodeError>> {
-        if let Some(e) = self.queued.take() {
-            return Some(Err(e));
+    /// [`Decoder::frame`] reads it (until the next `push` or `poll`); an error is in
+    /// [`Decoder::error`]. The driver's wait loops use this, so they need no closure.
+    pub(crate) fn poll_len(&mut self) -> Step {
+        if core::mem::take(&mut self.queued) {
+            return Step::Error;
         }
         while self.ps < self.pe {
             let b = self.buf.get(self.ps as usize).copied().unwrap_or(0);
@@ -328,13 +342,16 @@ impl Decoder {
                 self.ps = self.cur;
                 self.pe = self.cur;
             }
-            match step {
-                Step::Nothing => {}
-                Step::Error(e) => return Some(Err(e)),
-                Step::Frame(len) => return Some(Ok(len)),
+            if step != Step::Nothing {
+                return step;
             }
         }
-        None
+        Step::Nothing
+    }
+
+    /// The error [`Decoder::poll_len`] last reported.
+    pub(crate) fn error(&self) -> DecodeError {
+        self.error
     }
 
     /// The frame [`Decoder::poll_len`] just reported as `len` bytes long.
@@ -357,28 +374,30 @@ impl Decoder {
     /// reported as truncated (by the next [`Decoder::poll`]) and, in API mode 1, its bytes are
     /// re-read from the next start delimiter so a good frame inside it comes out.
     pub fn idle(&mut self) {
-        if self.in_frame && self.queued.is_none() {
-            let received = self.cur;
-            self.queued = Some(self.fail(DecodeError::Truncated { received }));
+        if self.in_frame && !self.queued {
+            self.error = DecodeError::Truncated { received: self.cur };
+            self.fail(TRUNCATED);
+            self.queued = true;
         }
     }
 
     fn step(&mut self, b: u8) -> Step {
         if b == START && (!self.in_frame || self.mode == Mode::Escaped) {
-            let err = if self.in_frame {
-                let received = self.cur;
-                Some(self.fail(DecodeError::Truncated { received }))
+            let step = if self.in_frame {
+                self.error = DecodeError::Truncated { received: self.cur };
+                self.fail(TRUNCATED)
             } else if self.garbage > 0 {
-                Some(DecodeError::Garbage {
+                self.error = DecodeError::Garbage {
                     bytes: core::mem::take(&mut self.garbage),
-                })
+                };
+                Step::Error
             } else {
-                None
+                Step::Nothing
             };
             self.in_frame = true;
             self.escaped = false;
             self.cur = 0;
-            return err.map_or(Step::Nothing, Step::Error);
+            return step;
         }
         if !self.in_frame {
             self.garbage = self.garbage.saturating_add(1);
@@ -400,7 +419,8 @@ impl Decoder {
         };
         let Some(slot) = self.buf.get_mut(self.cur as usize) else {
             // Unreachable: the length check below bounds `cur`. Resynchronise anyway.
-            return Step::Error(self.fail(DecodeError::BadLength { length: 0 }));
+            self.error = DecodeError::BadLength { length: 0 };
+            return self.fail(BAD_LENGTH);
         };
         *slot = b;
         self.cur += 1;
@@ -409,7 +429,8 @@ impl Decoder {
         }
         let length = u16::from_be_bytes([self.buf[0], self.buf[1]]);
         if self.cur == 2 && (length == 0 || length as usize > MAX_FRAME_DATA) {
-            return Step::Error(self.fail(DecodeError::BadLength { length }));
+            self.error = DecodeError::BadLength { length };
+            return self.fail(BAD_LENGTH);
         }
         // `length` is 1..=MAX_FRAME_DATA from here on (checked when `cur` was 2).
         let len = length as u8;
@@ -421,23 +442,21 @@ impl Decoder {
             _ => (0, 1), // Unreachable (see above); counted as a bad checksum.
         };
         if computed != received {
-            return Step::Error(self.fail(DecodeError::BadChecksum { computed, received }));
+            self.error = DecodeError::BadChecksum { computed, received };
+            return self.fail(BAD_CHECKSUM);
         }
         self.in_frame = false;
         count(&mut self.counts[FRAMES]);
         Step::Frame(len)
     }
 
-    /// Counts `err`, leaves the frame, and in API mode 1 queues the frame's bytes from the next
-    /// start delimiter for re-reading.
-    fn fail(&mut self, err: DecodeError) -> DecodeError {
-        let counter = match err {
-            DecodeError::BadChecksum { .. } => BAD_CHECKSUM,
-            DecodeError::BadLength { .. } => BAD_LENGTH,
-            DecodeError::Truncated { .. } => TRUNCATED,
-            DecodeError::Garbage { .. } => GARBAGE_BYTES,
-        };
-        count(&mut self.counts[counter]);
+    /// Counts the error just put in `error` on `counter`, leaves the frame, and in API mode 1
+    /// queues the frame's bytes from the next start delimiter for re-reading.
+    #[inline(never)]
+    fn fail(&mut self, counter: usize) -> Step {
+        if let Some(c) = self.counts.get_mut(counter) {
+            count(c);
+        }
         self.in_frame = false;
         self.escaped = false;
         if self.mode == Mode::Api {
@@ -455,6 +474,6 @@ impl Decoder {
             self.ps = 0;
             self.pe = 0;
         }
-        err
+        Step::Error
     }
 }

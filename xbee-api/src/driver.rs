@@ -67,6 +67,7 @@ use core::fmt;
 
 use embedded_hal_nb::serial::{Error as _, ErrorKind, Read, Write};
 
+use crate::decode::Step;
 use crate::frame::ty::{AT as AT_COMMAND, AT_RESPONSE, TX16, TX64};
 use crate::frame::Header;
 use crate::{
@@ -655,15 +656,15 @@ where
         let mut budget = POLL_BUDGET;
         loop {
             match self.decoder.poll_len() {
-                Some(Ok(len)) => {
+                Step::Frame(len) => {
                     note_tx_status(&mut self.pending_tx, self.decoder.frame(len));
                     return Next::Frame(len);
                 }
-                Some(Err(e)) => {
-                    self.error = Error::Decode(e);
+                Step::Error => {
+                    self.error = Error::Decode(self.decoder.error());
                     return Next::Decode;
                 }
-                None => {}
+                Step::Nothing => {}
             }
             let Some(left) = budget.checked_sub(1) else {
                 return Next::Idle;
