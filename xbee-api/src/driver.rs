@@ -971,21 +971,25 @@ where
     fn bring_up_dyn(&mut self, cfg: &BringUpConfig) -> Result<BringUp, Failed> {
         let mode = self.mode();
         let ap = u32::from(mode.ap());
-        self.serial.set_baud(BAUD);
-        self.decoder.set_mode(mode);
-        let how = if self.query_ap(cfg.timeout_ms) == Some(ap) {
-            BringUp::AlreadyApi
-        } else {
-            let baud = self.configure_in_command_mode(cfg)?;
+        // Steps 1 and 3 are the same query: once before configuring, once after.
+        let mut how = BringUp::AlreadyApi;
+        loop {
             self.serial.set_baud(BAUD);
             self.decoder.set_mode(mode);
-            match self.query_ap(cfg.timeout_ms) {
-                Some(v) if v == ap => {}
-                Some(_) => return Err(self.fail(Error::Unexpected { command: *b"AP" })),
-                None => return Err(self.fail(Error::NotConfirmed)),
+            let answer = self.query_ap(cfg.timeout_ms);
+            if answer == Some(ap) {
+                break;
             }
-            BringUp::Configured { baud }
-        };
+            if let BringUp::Configured { .. } = how {
+                return Err(self.fail(match answer {
+                    Some(_) => Error::Unexpected { command: *b"AP" },
+                    None => Error::NotConfirmed,
+                }));
+            }
+            how = BringUp::Configured {
+                baud: self.configure_in_command_mode(cfg)?,
+            };
+        }
         // (command, value, two bytes wide), in this order.
         let registers = [
             (*b"MY", cfg.my, true),
