@@ -228,23 +228,26 @@ fn count(counter: &mut u32) {
 /// assert_eq!(frames, 1);
 /// ```
 #[derive(Clone, Debug)]
+// `repr(C)`, small fields first: on AVR a field within 63 bytes of the struct's start is one
+// `ldd`/`std` instruction away, one further out needs its address computed first.
+#[repr(C)]
 pub struct Decoder {
     mode: Mode,
     /// `buf[..cur]`: raw (unescaped) bytes of the current frame after its start delimiter;
     /// `buf[ps..pe]`: input not yet processed. Always `cur <= ps <= pe <= BUF`. The indices are
     /// `u8` (`BUF` < 256): the ATmega328P is an 8-bit machine, where each `usize` (16-bit)
     /// index costs twice the instructions.
-    buf: [u8; BUF],
     cur: u8,
     ps: u8,
     pe: u8,
     in_frame: bool,
     escaped: bool,
-    garbage: u16,
     /// `error` is still to be reported (set by [`Decoder::idle`]).
     queued: bool,
+    garbage: u16,
     /// The last stream error.
     error: DecodeError,
+    buf: [u8; BUF],
     /// Indexed by `FRAMES`, `BAD_CHECKSUM`, `BAD_LENGTH`, `TRUNCATED`, `GARBAGE_BYTES`.
     counts: [u32; 5],
 }

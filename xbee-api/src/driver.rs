@@ -390,24 +390,26 @@ fn bump(c: &mut u32, by: u32) {
 }
 
 /// An XBee 802.15.4 radio on serial port `S`, timed by clock `C`.
+// `repr(C)`, small fields first, the decoder's buffer and the counters last: see `Decoder`.
+#[repr(C)]
 pub struct Radio<S, C> {
-    serial: S,
-    clock: C,
-    decoder: Decoder,
+    /// What went wrong, when an inner step returned [`Failed`].
+    error: Error,
     /// Last frame id handed out (0 before the first).
     last_id: u8,
+    /// Bytes were read since the clock was last looked at.
+    rx_since_check: bool,
     /// Frame ids of transmit requests still waiting for their TX status (0: free slot).
     pending_tx: [u8; TRACKED],
     /// When bytes were last seen, for [`IDLE_MS`].
     last_rx_ms: u32,
-    /// Bytes were read since the clock was last looked at.
-    rx_since_check: bool,
+    serial: S,
+    clock: C,
+    decoder: Decoder,
     unexpected: u32,
     malformed: u32,
     dropped: u32,
     serial_errors: u32,
-    /// What went wrong, when an inner step returned [`Failed`].
-    error: Error,
 }
 
 /// An inner step of the driver failed; what went wrong is in `Radio::error`.
