@@ -205,10 +205,13 @@ const BAD_LENGTH: usize = 2;
 const TRUNCATED: usize = 3;
 const GARBAGE_BYTES: usize = 4;
 
-/// Adds one to a counter, saturating.
+/// Adds one to a counter, saturating. Every counter of the crate (the decoder's and the
+/// driver's) goes through this one function.
 #[inline(never)]
-fn count(counter: &mut u32) {
-    *counter = counter.saturating_add(1);
+pub(crate) fn count(counter: &mut u32) {
+    if *counter != u32::MAX {
+        *counter += 1;
+    }
 }
 
 /// Byte-at-a-time API frame decoder: bounded buffer, no allocation, never panics.

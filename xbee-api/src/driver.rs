@@ -67,7 +67,7 @@ use core::fmt;
 
 use embedded_hal_nb::serial::{Error as _, ErrorKind, Read, Write};
 
-use crate::decode::Step;
+use crate::decode::{count, Step};
 use crate::frame::ty::{AT as AT_COMMAND, AT_RESPONSE, TX16, TX64};
 use crate::frame::Header;
 use crate::{
@@ -382,13 +382,6 @@ pub struct DriverStats {
     pub serial_errors: u32,
 }
 
-/// Adds to a counter, saturating. Out of line: on AVR each inlined saturating `u32` add costs
-/// about 20 bytes of flash.
-#[inline(never)]
-fn bump(c: &mut u32, by: u32) {
-    *c = c.saturating_add(by);
-}
-
 /// An XBee 802.15.4 radio on serial port `S`, timed by clock `C`.
 // `repr(C)`, small fields first, the decoder's buffer and the counters last: see `Decoder`.
 #[repr(C)]
@@ -589,7 +582,7 @@ where
         }
         if let Err(e) = self.write_frame(len as u8, head, rest) {
             if let Error::Serial(_) = self.error {
-                bump(&mut self.serial_errors, 1);
+                count(&mut self.serial_errors);
             }
             return Err(e);
         }
@@ -693,7 +686,7 @@ where
                     return Next::Idle;
                 }
                 Err(nb::Error::Other(e)) => {
-                    bump(&mut self.serial_errors, 1);
+                    count(&mut self.serial_errors);
                     self.error = Error::Serial(e.kind());
                     return Next::Serial;
                 }
@@ -762,13 +755,13 @@ where
                             }
                             return Ok(be_u32(r.data));
                         }
-                        Some(_) => bump(&mut self.unexpected, 1),
-                        None if raw.frame_type() == AT_RESPONSE => bump(&mut self.malformed, 1),
+                        Some(_) => count(&mut self.unexpected),
+                        None if raw.frame_type() == AT_RESPONSE => count(&mut self.malformed),
                         None => {}
                     }
                     match on_other.as_mut() {
                         Some(f) => f(raw),
-                        None => bump(&mut self.dropped, 1),
+                        None => count(&mut self.dropped),
                     }
                 }
                 Next::Serial => return Err(Failed),
@@ -909,7 +902,12 @@ where
     /// Queries `AP` in API mode: the radio's mode if it answered.
     fn query_ap(&mut self, timeout_ms: u32) -> Option<u32> {
         // Twice: a radio still starting up may miss the first.
-        (0..2).find_map(|_| self.at_dyn(*b"AP", &[], timeout_ms, None, None).ok())?
+        for _ in 0..2 {
+            if let Ok(ap) = self.at_dyn(*b"AP", &[], timeout_ms, None, None) {
+                return ap;
+            }
+        }
+        None
     }
 }
 
@@ -923,13 +921,13 @@ const AP_DIGIT: usize = 4;
 /// Advances the match `progress` of `pattern` (which has no proper prefix that is also a
 /// suffix) by `b`; true when the pattern is complete (it then starts over).
 #[inline(never)]
-fn advance(progress: &mut usize, pattern: &[u8], b: u8) -> bool {
-    *progress = if pattern.get(*progress) == Some(&b) {
+fn advance(progress: &mut u8, pattern: &[u8], b: u8) -> bool {
+    *progress = if pattern.get(*progress as usize) == Some(&b) {
         *progress + 1
     } else {
-        usize::from(pattern.first() == Some(&b))
+        u8::from(pattern.first() == Some(&b))
     };
-    if *progress == pattern.len() {
+    if *progress as usize == pattern.len() {
         *progress = 0;
         return true;
     }
