@@ -280,15 +280,10 @@ pub struct AtValue {
 impl AtValue {
     /// Copies `data`, keeping at most [`AT_VALUE_MAX`] bytes.
     pub fn new(data: &[u8]) -> AtValue {
-        let mut v = AtValue {
-            len: 0,
-            buf: [0; AT_VALUE_MAX],
-        };
-        for (slot, &b) in v.buf.iter_mut().zip(data) {
-            *slot = b;
-            v.len += 1;
-        }
-        v
+        let n = data.len().min(AT_VALUE_MAX);
+        let mut buf = [0; AT_VALUE_MAX];
+        buf[..n].copy_from_slice(&data[..n]);
+        AtValue { len: n as u8, buf }
     }
     /// The value bytes (empty after a set command).
     pub fn as_bytes(&self) -> &[u8] {
