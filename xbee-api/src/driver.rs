@@ -442,6 +442,7 @@ impl<S, C> Radio<S, C> {
     }
 
     /// Records `error` for the caller of the public method to pick up.
+    #[inline(never)]
     fn fail(&mut self, error: Error) -> Failed {
         self.error = error;
         Failed
@@ -662,7 +663,7 @@ where
             budget = left;
             match self.serial.read() {
                 Ok(b) => {
-                    // Cannot fail: the decoder was polled to `None` just above.
+                    // Cannot fail: the decoder was polled to `Step::Nothing` just above.
                     let _ = self.decoder.push(b);
                     self.rx_since_check = true;
                 }
@@ -985,16 +986,15 @@ where
                 baud: self.configure_in_command_mode(cfg)?,
             };
         }
-        // (command, value, two bytes wide), in this order.
-        let registers = [
-            (*b"MY", cfg.my, true),
-            (*b"ID", cfg.pan_id, true),
-            (*b"CH", cfg.channel.map(u16::from), false),
-        ];
-        for (command, value, wide) in registers {
-            if let Some(value) = value {
-                self.set_register(command, value, wide, cfg.timeout_ms)?;
-            }
+        let t = cfg.timeout_ms;
+        if let Some(my) = cfg.my {
+            self.set_register(*b"MY", my, true, t)?;
+        }
+        if let Some(id) = cfg.pan_id {
+            self.set_register(*b"ID", id, true, t)?;
+        }
+        if let Some(ch) = cfg.channel {
+            self.set_register(*b"CH", ch.into(), false, t)?;
         }
         Ok(how)
     }
