@@ -388,6 +388,7 @@ impl Decoder {
         }
     }
 
+    #[inline(never)]
     fn step(&mut self, b: u8) -> Step {
         if b == START && (!self.in_frame || self.mode == Mode::Escaped) {
             let step = if self.in_frame {
