@@ -183,11 +183,36 @@ pub struct AtResponse<'a> {
     pub data: &'a [u8],
 }
 
-/// What one input byte did.
-enum Step {
+/// What one input byte did, or what [`Decoder::poll_len`] found.
+///
+/// The error itself is kept in the decoder (`Decoder::error`): rustc's AVR calling convention
+/// returns anything bigger than two scalars through memory, and this comes back in registers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Step {
+    /// Nothing yet (from `poll_len`: no more input).
     Nothing,
-    Frame(usize),
-    Error(DecodeError),
+    /// A good frame of this many data bytes (type byte included) is in `buf[2..]`.
+    Frame(u8),
+    /// A stream error, in `Decoder::error`.
+    Error,
+}
+
+/// Indices of the counters in [`Decoder::counts`] (one array, one increment function: on AVR
+/// every inlined saturating `u32` increment costs about 20 bytes of flash).
+const FRAMES: usize = 0;
+const BAD_CHECKSUM: usize = 1;
+const BAD_LENGTH: usize = 2;
+const TRUNCATED: usize = 3;
+const GARBAGE_BYTES: usize = 4;
+
+/// Adds one to a counter, saturating. Every counter of the crate (the decoder's and the
+/// driver's) goes through this one function.
+#[inline(never)]
+pub(crate) fn count(counter: &mut u32) {
+    // Not `saturating_add`: that compiles to 68 bytes on AVR, this to 56.
+    if let Some(n) = counter.checked_add(1) {
+        *counter = n;
+    }
 }
 
 /// Byte-at-a-time API frame decoder: bounded buffer, no allocation, never panics.
@@ -207,19 +232,28 @@ enum Step {
 /// assert_eq!(frames, 1);
 /// ```
 #[derive(Clone, Debug)]
+// `repr(C)`, small fields first: on AVR a field within 63 bytes of the struct's start is one
+// `ldd`/`std` instruction away, one further out needs its address computed first.
+#[repr(C)]
 pub struct Decoder {
     mode: Mode,
     /// `buf[..cur]`: raw (unescaped) bytes of the current frame after its start delimiter;
-    /// `buf[ps..pe]`: input not yet processed. Always `cur <= ps <= pe <= BUF`.
-    buf: [u8; BUF],
-    cur: usize,
-    ps: usize,
-    pe: usize,
+    /// `buf[ps..pe]`: input not yet processed. Always `cur <= ps <= pe <= BUF`. The indices are
+    /// `u8` (`BUF` < 256): the ATmega328P is an 8-bit machine, where each `usize` (16-bit)
+    /// index costs twice the instructions.
+    cur: u8,
+    ps: u8,
+    pe: u8,
     in_frame: bool,
     escaped: bool,
+    /// `error` is still to be reported (set by [`Decoder::idle`]).
+    queued: bool,
     garbage: u16,
-    queued: Option<DecodeError>,
-    stats: DecoderStats,
+    /// The last stream error.
+    error: DecodeError,
+    buf: [u8; BUF],
+    /// Indexed by `FRAMES`, `BAD_CHECKSUM`, `BAD_LENGTH`, `TRUNCATED`, `GARBAGE_BYTES`.
+    counts: [u32; 5],
 }
 
 impl Decoder {
@@ -234,14 +268,9 @@ impl Decoder {
             in_frame: false,
             escaped: false,
             garbage: 0,
-            queued: None,
-            stats: DecoderStats {
-                frames: 0,
-                bad_checksum: 0,
-                bad_length: 0,
-                truncated: 0,
-                garbage_bytes: 0,
-            },
+            queued: false,
+            error: DecodeError::Garbage { bytes: 0 },
+            counts: [0; 5],
         }
     }
 
@@ -252,14 +281,28 @@ impl Decoder {
 
     /// Switches the API mode, dropping any partial frame.
     pub fn set_mode(&mut self, mode: Mode) {
-        let stats = self.stats;
-        *self = Decoder::new(mode);
-        self.stats = stats;
+        // Field by field rather than `*self = Decoder::new(mode)`: the buffer's old bytes are
+        // never read again, and not clearing it saves the copy.
+        self.mode = mode;
+        self.cur = 0;
+        self.ps = 0;
+        self.pe = 0;
+        self.in_frame = false;
+        self.escaped = false;
+        self.garbage = 0;
+        self.queued = false;
     }
 
     /// The counters so far.
     pub fn stats(&self) -> DecoderStats {
-        self.stats
+        let c = &self.counts;
+        DecoderStats {
+            frames: c[FRAMES],
+            bad_checksum: c[BAD_CHECKSUM],
+            bad_length: c[BAD_LENGTH],
+            truncated: c[TRUNCATED],
+            garbage_bytes: c[GARBAGE_BYTES],
+        }
     }
 
     /// True while a frame has started but not ended.
@@ -270,12 +313,13 @@ impl Decoder {
     /// Queues one input byte. Fails only if [`Decoder::poll`] was not called to `None` since the
     /// last push.
     pub fn push(&mut self, byte: u8) -> Result<(), PushError> {
-        if self.pe == BUF && self.ps > self.cur {
-            self.buf.copy_within(self.ps..self.pe, self.cur);
+        if self.pe as usize == BUF && self.ps > self.cur {
+            self.buf
+                .copy_within(self.ps as usize..self.pe as usize, self.cur as usize);
             self.pe -= self.ps - self.cur;
             self.ps = self.cur;
         }
-        let slot = self.buf.get_mut(self.pe).ok_or(PushError(byte))?;
+        let slot = self.buf.get_mut(self.pe as usize).ok_or(PushError(byte))?;
         *slot = byte;
         self.pe += 1;
         Ok(())
@@ -283,24 +327,43 @@ impl Decoder {
 
     /// Processes queued input up to the next frame or error. Call until it returns `None`.
     pub fn poll(&mut self) -> Option<Result<RawFrame<'_>, DecodeError>> {
-        if let Some(e) = self.queued.take() {
-            return Some(Err(e));
+        match self.poll_len() {
+            Step::Nothing => None,
+            Step::Frame(len) => Some(Ok(self.frame(len))),
+            Step::Error => Some(Err(self.error)),
+        }
+    }
+
+    /// [`Decoder::poll`] without the borrow: a frame comes out as its length, and
+    /// [`Decoder::frame`] reads it (until the next `push` or `poll`); an error is in
+    /// [`Decoder::error`]. The driver's wait loops use this, so they need no closure.
+    pub(crate) fn poll_len(&mut self) -> Step {
+        if core::mem::take(&mut self.queued) {
+            return Step::Error;
         }
         while self.ps < self.pe {
-            let b = self.buf[self.ps];
+            let b = self.buf.get(self.ps as usize).copied().unwrap_or(0);
             self.ps += 1;
             let step = self.step(b);
             if self.ps == self.pe {
                 self.ps = self.cur;
                 self.pe = self.cur;
             }
-            match step {
-                Step::Nothing => {}
-                Step::Error(e) => return Some(Err(e)),
-                Step::Frame(len) => return self.buf.get(2..2 + len).map(|d| Ok(RawFrame::new(d))),
+            if step != Step::Nothing {
+                return step;
             }
         }
-        None
+        Step::Nothing
+    }
+
+    /// The error [`Decoder::poll_len`] last reported.
+    pub(crate) fn error(&self) -> DecodeError {
+        self.error
+    }
+
+    /// The frame [`Decoder::poll_len`] just reported as `len` bytes long.
+    pub(crate) fn frame(&self, len: u8) -> RawFrame<'_> {
+        RawFrame::new(self.buf.get(2..2 + len as usize).unwrap_or(&[]))
     }
 
     /// Feeds a slice and hands every frame or error to `f`.
@@ -318,32 +381,35 @@ impl Decoder {
     /// reported as truncated (by the next [`Decoder::poll`]) and, in API mode 1, its bytes are
     /// re-read from the next start delimiter so a good frame inside it comes out.
     pub fn idle(&mut self) {
-        if self.in_frame && self.queued.is_none() {
-            let received = self.cur.min(u8::MAX as usize) as u8;
-            self.queued = Some(self.fail(DecodeError::Truncated { received }));
+        if self.in_frame && !self.queued {
+            self.error = DecodeError::Truncated { received: self.cur };
+            self.fail(TRUNCATED);
+            self.queued = true;
         }
     }
 
+    #[inline(never)]
     fn step(&mut self, b: u8) -> Step {
         if b == START && (!self.in_frame || self.mode == Mode::Escaped) {
-            let err = if self.in_frame {
-                let received = self.cur.min(u8::MAX as usize) as u8;
-                Some(self.fail(DecodeError::Truncated { received }))
+            let step = if self.in_frame {
+                self.error = DecodeError::Truncated { received: self.cur };
+                self.fail(TRUNCATED)
             } else if self.garbage > 0 {
-                Some(DecodeError::Garbage {
+                self.error = DecodeError::Garbage {
                     bytes: core::mem::take(&mut self.garbage),
-                })
+                };
+                Step::Error
             } else {
-                None
+                Step::Nothing
             };
             self.in_frame = true;
             self.escaped = false;
             self.cur = 0;
-            return err.map_or(Step::Nothing, Step::Error);
+            return step;
         }
         if !self.in_frame {
             self.garbage = self.garbage.saturating_add(1);
-            self.stats.garbage_bytes = self.stats.garbage_bytes.saturating_add(1);
+            count(&mut self.counts[GARBAGE_BYTES]);
             return Step::Nothing;
         }
         let b = if self.mode == Mode::Escaped {
@@ -359,50 +425,56 @@ impl Decoder {
         } else {
             b
         };
-        let Some(slot) = self.buf.get_mut(self.cur) else {
+        let Some(slot) = self.buf.get_mut(self.cur as usize) else {
             // Unreachable: the length check below bounds `cur`. Resynchronise anyway.
-            return Step::Error(self.fail(DecodeError::BadLength { length: 0 }));
+            self.error = DecodeError::BadLength { length: 0 };
+            return self.fail(BAD_LENGTH);
         };
         *slot = b;
         self.cur += 1;
+        if self.cur < 2 {
+            return Step::Nothing;
+        }
         let length = u16::from_be_bytes([self.buf[0], self.buf[1]]);
         if self.cur == 2 && (length == 0 || length as usize > MAX_FRAME_DATA) {
-            return Step::Error(self.fail(DecodeError::BadLength { length }));
+            self.error = DecodeError::BadLength { length };
+            return self.fail(BAD_LENGTH);
         }
-        let len = length as usize;
+        // `length` is 1..=MAX_FRAME_DATA from here on (checked when `cur` was 2).
+        let len = length as u8;
         if self.cur < len + 3 {
             return Step::Nothing;
         }
-        let received = self.buf[2 + len];
-        let computed = crate::checksum(&self.buf[2..2 + len]);
+        let (received, computed) = match self.buf.get(2..3 + len as usize) {
+            Some([data @ .., received]) => (*received, crate::checksum(data)),
+            _ => (0, 1), // Unreachable (see above); counted as a bad checksum.
+        };
         if computed != received {
-            return Step::Error(self.fail(DecodeError::BadChecksum { computed, received }));
+            self.error = DecodeError::BadChecksum { computed, received };
+            return self.fail(BAD_CHECKSUM);
         }
         self.in_frame = false;
-        self.stats.frames = self.stats.frames.saturating_add(1);
+        count(&mut self.counts[FRAMES]);
         Step::Frame(len)
     }
 
-    /// Counts `err`, leaves the frame, and in API mode 1 queues the frame's bytes from the next
-    /// start delimiter for re-reading.
-    fn fail(&mut self, err: DecodeError) -> DecodeError {
-        let s = &mut self.stats;
-        let counter = match err {
-            DecodeError::BadChecksum { .. } => &mut s.bad_checksum,
-            DecodeError::BadLength { .. } => &mut s.bad_length,
-            DecodeError::Truncated { .. } => &mut s.truncated,
-            DecodeError::Garbage { .. } => &mut s.garbage_bytes,
-        };
-        *counter = counter.saturating_add(1);
+    /// Counts the error just put in `error` on `counter`, leaves the frame, and in API mode 1
+    /// queues the frame's bytes from the next start delimiter for re-reading.
+    #[inline(never)]
+    fn fail(&mut self, counter: usize) -> Step {
+        if let Some(c) = self.counts.get_mut(counter) {
+            count(c);
+        }
         self.in_frame = false;
         self.escaped = false;
         if self.mode == Mode::Api {
-            if let Some(k) = self.buf[..self.cur].iter().position(|&b| b == START) {
-                let pending = self.pe - self.ps;
-                self.buf.copy_within(self.ps..self.pe, self.cur);
-                self.buf.copy_within(k..self.cur + pending, 0);
+            let (cur, ps, pe) = (self.cur as usize, self.ps as usize, self.pe as usize);
+            if let Some(k) = self.buf[..cur].iter().position(|&b| b == START) {
+                let pending = pe - ps;
+                self.buf.copy_within(ps..pe, cur);
+                self.buf.copy_within(k..cur + pending, 0);
                 self.ps = 0;
-                self.pe = self.cur - k + pending;
+                self.pe = (cur - k + pending) as u8;
             }
         }
         self.cur = 0;
@@ -410,6 +482,6 @@ impl Decoder {
             self.ps = 0;
             self.pe = 0;
         }
-        err
+        Step::Error
     }
 }

@@ -67,6 +67,7 @@ use core::fmt;
 
 use embedded_hal_nb::serial::{Error as _, ErrorKind, Read, Write};
 
+use crate::decode::{count, Step};
 use crate::frame::ty::{AT as AT_COMMAND, AT_RESPONSE, TX16, TX64};
 use crate::frame::Header;
 use crate::{
@@ -279,15 +280,10 @@ pub struct AtValue {
 impl AtValue {
     /// Copies `data`, keeping at most [`AT_VALUE_MAX`] bytes.
     pub fn new(data: &[u8]) -> AtValue {
-        let mut v = AtValue {
-            len: 0,
-            buf: [0; AT_VALUE_MAX],
-        };
-        for (slot, &b) in v.buf.iter_mut().zip(data) {
-            *slot = b;
-            v.len += 1;
-        }
-        v
+        let n = data.len().min(AT_VALUE_MAX);
+        let mut buf = [0; AT_VALUE_MAX];
+        buf[..n].copy_from_slice(&data[..n]);
+        AtValue { len: n as u8, buf }
     }
     /// The value bytes (empty after a set command).
     pub fn as_bytes(&self) -> &[u8] {
@@ -295,11 +291,15 @@ impl AtValue {
     }
     /// The value as a big-endian number of 1 to 4 bytes.
     pub fn as_u32(&self) -> Option<u32> {
-        let b = self.as_bytes();
-        (1..=4)
-            .contains(&b.len())
-            .then(|| b.iter().fold(0u32, |v, &x| (v << 8) | x as u32))
+        be_u32(self.as_bytes())
     }
+}
+
+/// `bytes` as a big-endian number of 1 to 4 bytes.
+fn be_u32(bytes: &[u8]) -> Option<u32> {
+    (1..=4)
+        .contains(&bytes.len())
+        .then(|| bytes.iter().fold(0u32, |v, &x| (v << 8) | x as u32))
 }
 
 /// The settings [`Radio::read_config`] reads.
@@ -377,27 +377,49 @@ pub struct DriverStats {
     pub serial_errors: u32,
 }
 
-fn bump(c: &mut u32, by: u32) {
-    *c = c.saturating_add(by);
-}
-
 /// An XBee 802.15.4 radio on serial port `S`, timed by clock `C`.
+// `repr(C)`, small fields first, the decoder's buffer and the counters last: see `Decoder`.
+#[repr(C)]
 pub struct Radio<S, C> {
-    serial: S,
-    clock: C,
-    decoder: Decoder,
+    /// What went wrong, when an inner step returned [`Failed`].
+    error: Error,
     /// Last frame id handed out (0 before the first).
     last_id: u8,
+    /// Bytes were read since the clock was last looked at.
+    rx_since_check: bool,
     /// Frame ids of transmit requests still waiting for their TX status (0: free slot).
     pending_tx: [u8; TRACKED],
     /// When bytes were last seen, for [`IDLE_MS`].
     last_rx_ms: u32,
-    /// Bytes were read since the clock was last looked at.
-    rx_since_check: bool,
+    serial: S,
+    clock: C,
+    decoder: Decoder,
     unexpected: u32,
     malformed: u32,
     dropped: u32,
     serial_errors: u32,
+}
+
+/// An inner step of the driver failed; what went wrong is in `Radio::error`.
+///
+/// Why not return [`Error`] itself: rustc's AVR calling convention returns every value that
+/// is not one or two scalars through memory, and `Result<_, Error>` is such a value. With the
+/// error kept in the driver, `Result<(), Failed>`, `Result<u32, Failed>` and the like come back
+/// in registers: on the ATmega328P that saved hundreds of bytes of flash across the driver.
+#[derive(Clone, Copy, Debug)]
+struct Failed;
+
+/// What [`Radio::next_frame`] found.
+#[derive(Clone, Copy)]
+enum Next {
+    /// A frame of this length: [`Decoder::frame`] reads it.
+    Frame(u8),
+    /// Nothing more for now.
+    Idle,
+    /// A stream error, in `Radio::error` (the decoder has resynchronised).
+    Decode,
+    /// A UART error, in `Radio::error`.
+    Serial,
 }
 
 impl<S, C> Radio<S, C> {
@@ -415,7 +437,20 @@ impl<S, C> Radio<S, C> {
             malformed: 0,
             dropped: 0,
             serial_errors: 0,
+            error: Error::NoResponse,
         }
+    }
+
+    /// Records `error` for the caller of the public method to pick up.
+    #[inline(never)]
+    fn fail(&mut self, error: Error) -> Failed {
+        self.error = error;
+        Failed
+    }
+
+    /// The public face of an inner result.
+    fn public<T>(&self, result: Result<T, Failed>) -> Result<T, Error> {
+        result.map_err(|Failed| self.error)
     }
 
     /// The API mode frames are written and read in.
@@ -495,24 +530,6 @@ fn note_tx_status(pending: &mut [u8; TRACKED], raw: RawFrame<'_>) {
     }
 }
 
-/// Writes one byte, waiting at most [`WRITE_TIMEOUT_MS`] for the UART to take it.
-#[inline(never)]
-fn write_byte<S: Write<u8>, C: Clock>(serial: &mut S, clock: &mut C, b: u8) -> Result<(), Error> {
-    let mut start = None;
-    loop {
-        match serial.write(b) {
-            Ok(()) => return Ok(()),
-            Err(nb::Error::Other(e)) => return Err(Error::Serial(e.kind())),
-            Err(nb::Error::WouldBlock) => {
-                let now = clock.now_ms();
-                if now.wrapping_sub(*start.get_or_insert(now)) >= WRITE_TIMEOUT_MS {
-                    return Err(Error::WriteTimeout);
-                }
-            }
-        }
-    }
-}
-
 impl<S, C> Radio<S, C>
 where
     S: Read<u8> + Write<u8>,
@@ -522,14 +539,34 @@ where
     /// is remembered until its TX status arrives (see [`Radio::wait_tx_status`]).
     pub fn send(&mut self, frame: &Frame<'_>) -> Result<(), Error> {
         let (header, rest) = Header::split(frame);
-        self.send_parts(header.as_bytes(), rest)
+        let result = self.send_parts(header.as_bytes(), rest);
+        self.public(result)
+    }
+
+    /// Writes one byte, waiting at most [`WRITE_TIMEOUT_MS`] for the UART to take it.
+    #[inline(never)]
+    fn write_byte(&mut self, b: u8) -> Result<(), Failed> {
+        let mut start = None;
+        loop {
+            match self.serial.write(b) {
+                Ok(()) => return Ok(()),
+                Err(nb::Error::Other(e)) => return Err(self.fail(Error::Serial(e.kind()))),
+                Err(nb::Error::WouldBlock) => {
+                    let now = self.clock.now_ms();
+                    if now.wrapping_sub(*start.get_or_insert(now)) >= WRITE_TIMEOUT_MS {
+                        return Err(self.fail(Error::WriteTimeout));
+                    }
+                }
+            }
+        }
     }
 
     /// Writes the frame whose data is `head` (type byte first) followed by `rest`. [`Radio::send`]
     /// and the lean senders ([`Radio::send_tx16`], [`Radio::at_command`]) all end here; the
     /// latter build their few header bytes themselves, so firmware that only uses them does not
     /// link the serializer for every frame type.
-    fn send_parts(&mut self, head: &[u8], rest: &[u8]) -> Result<(), Error> {
+    #[inline(never)]
+    fn send_parts(&mut self, head: &[u8], rest: &[u8]) -> Result<(), Failed> {
         let len = head.len() + rest.len();
         // A TX64/TX16 request's frame id (0: no TX status wanted).
         let tx_id = match *head {
@@ -537,11 +574,11 @@ where
             _ => None,
         };
         if len > MAX_FRAME_DATA || (tx_id.is_some() && rest.len() > MAX_RF_PAYLOAD) {
-            return Err(Error::TooLong { len });
+            return Err(self.fail(Error::TooLong { len }));
         }
-        if let Err(e) = self.write_frame(len as u16, head, rest) {
-            if let Error::Serial(_) = e {
-                bump(&mut self.serial_errors, 1);
+        if let Err(e) = self.write_frame(len as u8, head, rest) {
+            if let Error::Serial(_) = self.error {
+                count(&mut self.serial_errors);
             }
             return Err(e);
         }
@@ -552,30 +589,29 @@ where
     }
 
     /// Writes start delimiter, length, frame data (`head` then `rest`) and checksum.
-    fn write_frame(&mut self, len: u16, head: &[u8], rest: &[u8]) -> Result<(), Error> {
-        let mut sum = 0;
-        self.write_escaped(&[START], false, &mut sum)?;
-        self.write_escaped(&len.to_be_bytes(), true, &mut sum)?;
-        sum = 0;
-        self.write_escaped(head, true, &mut sum)?;
-        self.write_escaped(rest, true, &mut sum)?;
-        self.write_escaped(&[0xFF - sum], true, &mut sum)
+    fn write_frame(&mut self, len: u8, head: &[u8], rest: &[u8]) -> Result<(), Failed> {
+        // The length's high byte is 0: `len` is at most MAX_FRAME_DATA.
+        for b in [START, 0, len] {
+            // The start delimiter is never escaped; the length bytes are, like any other.
+            self.put(b, b != START)?;
+        }
+        let mut sum = 0u8;
+        for &b in head.iter().chain(rest) {
+            sum = sum.wrapping_add(b);
+            self.put(b, true)?;
+        }
+        self.put(0xFF - sum, true)
     }
 
-    /// Writes `bytes`, escaped if `escape` and the radio is in API mode 2, adding them to `sum`.
+    /// Writes `b`, escaped if `escape` and the radio is in API mode 2.
     #[inline(never)]
-    fn write_escaped(&mut self, bytes: &[u8], escape: bool, sum: &mut u8) -> Result<(), Error> {
-        let escape = escape && self.decoder.mode() == Mode::Escaped;
-        for &b in bytes {
-            *sum = sum.wrapping_add(b);
-            if escape && needs_escape(b) {
-                write_byte(&mut self.serial, &mut self.clock, ESCAPE)?;
-                write_byte(&mut self.serial, &mut self.clock, b ^ ESCAPE_XOR)?;
-            } else {
-                write_byte(&mut self.serial, &mut self.clock, b)?;
-            }
+    fn put(&mut self, b: u8, escape: bool) -> Result<(), Failed> {
+        if escape && self.decoder.mode() == Mode::Escaped && needs_escape(b) {
+            self.write_byte(ESCAPE)?;
+            self.write_byte(b ^ ESCAPE_XOR)
+        } else {
+            self.write_byte(b)
         }
-        Ok(())
     }
 
     /// Sends `data` to 16-bit address `dest` (0xFFFF: broadcast) with a fresh frame id, which it
@@ -583,8 +619,8 @@ where
     pub fn send_tx16(&mut self, dest: u16, data: &[u8]) -> Result<u8, Error> {
         let frame_id = self.next_frame_id();
         let [d0, d1] = dest.to_be_bytes();
-        self.send_parts(&[TX16, frame_id, d0, d1, 0], data)?;
-        Ok(frame_id)
+        let result = self.send_parts(&[TX16, frame_id, d0, d1, 0], data);
+        self.public(result.map(|()| frame_id))
     }
 
     /// Reads what the UART has until a frame is complete, and hands that frame to `f`.
@@ -597,37 +633,37 @@ where
     /// At most one frame per call; bytes after it stay in the UART for the next call. TX status
     /// frames are noted (see [`Radio::tx_pending`]) and still handed to `f`.
     pub fn poll<R>(&mut self, f: impl FnOnce(RawFrame<'_>) -> R) -> Option<Result<R, Error>> {
-        let mut f = Some(f);
-        let mut out = None;
-        let ev = self.poll_dyn(&mut |raw| {
-            if let Some(f) = f.take() {
-                out = Some(f(raw));
-            }
-        })?;
-        match ev {
-            // `f` ran: poll_dyn hands over every frame it returns `Ok` for.
-            Ok(()) => out.map(Ok),
-            Err(e) => Some(Err(e)),
+        match self.next_frame() {
+            Next::Frame(len) => Some(Ok(f(self.decoder.frame(len)))),
+            Next::Idle => None,
+            Next::Decode | Next::Serial => Some(Err(self.error)),
         }
     }
 
-    /// [`Radio::poll`] with one code path for every caller (it is the driver's inner loop).
-    fn poll_dyn(&mut self, f: &mut dyn FnMut(RawFrame<'_>)) -> Option<Result<(), Error>> {
+    /// The driver's inner loop, with one code path for every caller: [`Radio::poll`] without
+    /// the closure. A frame comes out as its length; [`Decoder::frame`] reads it.
+    #[inline(never)]
+    fn next_frame(&mut self) -> Next {
         let mut budget = POLL_BUDGET;
         loop {
-            match self.decoder.poll() {
-                Some(Ok(raw)) => {
-                    note_tx_status(&mut self.pending_tx, raw);
-                    f(raw);
-                    return Some(Ok(()));
+            match self.decoder.poll_len() {
+                Step::Frame(len) => {
+                    note_tx_status(&mut self.pending_tx, self.decoder.frame(len));
+                    return Next::Frame(len);
                 }
-                Some(Err(e)) => return Some(Err(Error::Decode(e))),
-                None => {}
+                Step::Error => {
+                    self.error = Error::Decode(self.decoder.error());
+                    return Next::Decode;
+                }
+                Step::Nothing => {}
             }
-            budget = budget.checked_sub(1)?;
+            let Some(left) = budget.checked_sub(1) else {
+                return Next::Idle;
+            };
+            budget = left;
             match self.serial.read() {
                 Ok(b) => {
-                    // Cannot fail: the decoder was polled to `None` just above.
+                    // Cannot fail: the decoder was polled to `Step::Nothing` just above.
                     let _ = self.decoder.push(b);
                     self.rx_since_check = true;
                 }
@@ -643,14 +679,21 @@ where
                         self.decoder.idle();
                         continue;
                     }
-                    return None;
+                    return Next::Idle;
                 }
                 Err(nb::Error::Other(e)) => {
-                    bump(&mut self.serial_errors, 1);
-                    return Some(Err(Error::Serial(e.kind())));
+                    count(&mut self.serial_errors);
+                    self.error = Error::Serial(e.kind());
+                    return Next::Serial;
                 }
             }
         }
+    }
+
+    /// Milliseconds since `start` (wrapping).
+    #[inline(never)]
+    fn elapsed(&mut self, start: u32) -> u32 {
+        self.clock.now_ms().wrapping_sub(start)
     }
 
     /// Sends AT command `command` (with `parameter`; empty to query) in a 0x08 frame with a fresh
@@ -666,46 +709,62 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<AtValue, Error> {
-        self.at_dyn(command, parameter, timeout_ms, &mut on_other)
+        let mut value = AtValue::new(&[]);
+        let result = self.at_dyn(
+            command,
+            parameter,
+            timeout_ms,
+            Some(&mut on_other),
+            Some(&mut value),
+        );
+        self.public(result.map(|_| value))
     }
 
+    /// [`Radio::at_command`] for every caller: the value is copied to `value` if given, and
+    /// returned as a number if it is one of 1 to 4 bytes (what [`AtValue::as_u32`] gives).
+    /// Without `on_other` (bring-up), other frames are dropped and counted in `dropped`.
+    #[inline(never)]
     fn at_dyn(
         &mut self,
         command: [u8; 2],
         parameter: &[u8],
         timeout_ms: u32,
-        on_other: &mut dyn FnMut(RawFrame<'_>),
-    ) -> Result<AtValue, Error> {
+        mut on_other: Option<&mut dyn FnMut(RawFrame<'_>)>,
+        value: Option<&mut AtValue>,
+    ) -> Result<Option<u32>, Failed> {
         let id = self.next_frame_id();
         let [c0, c1] = command;
         self.send_parts(&[AT_COMMAND, id, c0, c1], parameter)?;
         let start = self.clock.now_ms();
         loop {
-            let (mut reply, mut unexpected, mut malformed) = (None, false, false);
-            let ev = self.poll_dyn(&mut |raw| match raw.at_response() {
-                Some(r) if r.frame_id == id && r.command == command => {
-                    reply = Some((r.status, AtValue::new(r.data)))
+            match self.next_frame() {
+                Next::Frame(len) => {
+                    let raw = self.decoder.frame(len);
+                    match raw.at_response() {
+                        Some(r) if r.frame_id == id && r.command == command => {
+                            if !r.status.is_ok() {
+                                let status = r.status;
+                                return Err(self.fail(Error::At { command, status }));
+                            }
+                            if let Some(value) = value {
+                                *value = AtValue::new(r.data);
+                            }
+                            return Ok(be_u32(r.data));
+                        }
+                        Some(_) => count(&mut self.unexpected),
+                        None if raw.frame_type() == AT_RESPONSE => count(&mut self.malformed),
+                        None => {}
+                    }
+                    match on_other.as_mut() {
+                        Some(f) => f(raw),
+                        None => count(&mut self.dropped),
+                    }
                 }
-                other => {
-                    unexpected = other.is_some();
-                    malformed = other.is_none() && raw.frame_type() == AT_RESPONSE;
-                    on_other(raw);
-                }
-            });
-            bump(&mut self.unexpected, unexpected as u32);
-            bump(&mut self.malformed, malformed as u32);
-            if let Some((status, value)) = reply {
-                return if status.is_ok() {
-                    Ok(value)
-                } else {
-                    Err(Error::At { command, status })
-                };
+                Next::Serial => return Err(Failed),
+                Next::Idle | Next::Decode => {}
             }
-            if let Some(Err(e @ (Error::Serial(_) | Error::WriteTimeout))) = ev {
-                return Err(e);
-            }
-            if self.clock.now_ms().wrapping_sub(start) >= timeout_ms {
-                return Err(Error::Timeout { command });
+            if self.elapsed(start) >= timeout_ms {
+                return Err(self.fail(Error::Timeout { command }));
             }
         }
     }
@@ -718,23 +777,25 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<(), Error> {
-        self.wait_tx_dyn(timeout_ms, &mut on_other)
+        let result = self.wait_tx_dyn(timeout_ms, &mut on_other);
+        self.public(result)
     }
 
     fn wait_tx_dyn(
         &mut self,
         timeout_ms: u32,
         on_other: &mut dyn FnMut(RawFrame<'_>),
-    ) -> Result<(), Error> {
+    ) -> Result<(), Failed> {
         let start = self.clock.now_ms();
         while self.tx_pending() {
-            if let Some(Err(e @ (Error::Serial(_) | Error::WriteTimeout))) = self.poll_dyn(on_other)
-            {
-                return Err(e);
+            match self.next_frame() {
+                Next::Frame(len) => on_other(self.decoder.frame(len)),
+                Next::Serial => return Err(Failed),
+                Next::Idle | Next::Decode => {}
             }
-            if self.tx_pending() && self.clock.now_ms().wrapping_sub(start) >= timeout_ms {
+            if self.tx_pending() && self.elapsed(start) >= timeout_ms {
                 self.pending_tx = [0; TRACKED];
-                return Err(Error::TxStatusTimeout);
+                return Err(self.fail(Error::TxStatusTimeout));
             }
         }
         Ok(())
@@ -750,9 +811,10 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<(), Error> {
-        self.wait_tx_dyn(timeout_ms, &mut on_other)?;
-        self.at_dyn(*b"CH", &[channel], timeout_ms, &mut on_other)
-            .map(|_| ())
+        let result = self
+            .wait_tx_dyn(timeout_ms, &mut on_other)
+            .and_then(|()| self.at_dyn(*b"CH", &[channel], timeout_ms, Some(&mut on_other), None));
+        self.public(result.map(|_| ()))
     }
 
     /// Reads `MY`, `ID`, `CH` and `AP` (each query bounded by `timeout_ms`).
@@ -761,7 +823,8 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<RadioConfig, Error> {
-        self.read_config_dyn(timeout_ms, &mut on_other)
+        let result = self.read_config_dyn(timeout_ms, &mut on_other);
+        self.public(result)
     }
 
     /// Queries a register that must be a number no larger than `max`.
@@ -770,53 +833,54 @@ where
         command: [u8; 2],
         max: u32,
         timeout_ms: u32,
-        on_other: &mut dyn FnMut(RawFrame<'_>),
-    ) -> Result<u32, Error> {
-        let v = self.at_dyn(command, &[], timeout_ms, on_other)?;
-        v.as_u32()
-            .filter(|&v| v <= max)
-            .ok_or(Error::Unexpected { command })
+        on_other: Option<&mut dyn FnMut(RawFrame<'_>)>,
+    ) -> Result<u32, Failed> {
+        match self.at_dyn(command, &[], timeout_ms, on_other, None)? {
+            Some(v) if v <= max => Ok(v),
+            _ => Err(self.fail(Error::Unexpected { command })),
+        }
     }
 
     fn read_config_dyn(
         &mut self,
         timeout_ms: u32,
         on_other: &mut dyn FnMut(RawFrame<'_>),
-    ) -> Result<RadioConfig, Error> {
+    ) -> Result<RadioConfig, Failed> {
         Ok(RadioConfig {
-            my: self.query(*b"MY", 0xFFFF, timeout_ms, on_other)? as u16,
-            pan_id: self.query(*b"ID", 0xFFFF, timeout_ms, on_other)? as u16,
-            channel: self.query(*b"CH", 0xFF, timeout_ms, on_other)? as u8,
-            ap: self.query(*b"AP", 0xFF, timeout_ms, on_other)? as u8,
+            my: self.query(*b"MY", 0xFFFF, timeout_ms, Some(&mut *on_other))? as u16,
+            pan_id: self.query(*b"ID", 0xFFFF, timeout_ms, Some(&mut *on_other))? as u16,
+            channel: self.query(*b"CH", 0xFF, timeout_ms, Some(&mut *on_other))? as u8,
+            ap: self.query(*b"AP", 0xFF, timeout_ms, Some(&mut *on_other))? as u8,
         })
     }
 
     /// Reads and discards input for `ms`; true if any came (or the UART reported errors).
     fn quiet(&mut self, ms: u32) -> bool {
-        let start = self.clock.now_ms();
-        let mut heard = false;
-        while self.clock.now_ms().wrapping_sub(start) < ms {
-            heard |= !matches!(self.serial.read(), Err(nb::Error::WouldBlock));
-        }
-        heard
+        !matches!(self.listen(ms, false), Reply::Silent)
     }
 
     /// Command mode: reads up to `ms` for a line `OK\r` (anything before it on the line is
     /// ignored) or `ERROR\r`.
     fn expect_ok(&mut self, ms: u32) -> Reply {
+        self.listen(ms, true)
+    }
+
+    /// Reads for `ms`; if `lines`, returns as soon as `OK\r` or `ERROR\r` came.
+    #[inline(never)]
+    fn listen(&mut self, ms: u32, lines: bool) -> Reply {
         let start = self.clock.now_ms();
-        let mut window = [0u8; 6];
+        // How much of `ERROR\r` and of `OK\r` the last bytes read match. Neither has a proper
+        // prefix that is also a suffix, so on a mismatch the match restarts from the byte itself.
+        let (mut error, mut ok) = (0, 0);
         let mut heard = false;
-        while self.clock.now_ms().wrapping_sub(start) < ms {
+        while self.elapsed(start) < ms {
             match self.serial.read() {
                 Ok(b) => {
                     heard = true;
-                    window.copy_within(1.., 0);
-                    window[5] = b;
-                    if window == *b"ERROR\r" {
+                    if lines && advance(&mut error, b"ERROR\r", b) {
                         return Reply::Error;
                     }
-                    if window[3..] == *b"OK\r" {
+                    if lines && advance(&mut ok, b"OK\r", b) {
                         return Reply::Ok;
                     }
                 }
@@ -832,12 +896,38 @@ where
     }
 
     /// Queries `AP` in API mode: the radio's mode if it answered.
-    fn query_ap(&mut self, timeout_ms: u32, drop: &mut dyn FnMut(RawFrame<'_>)) -> Option<u32> {
+    fn query_ap(&mut self, timeout_ms: u32) -> Option<u32> {
         // Twice: a radio still starting up may miss the first.
-        (0..2)
-            .find_map(|_| self.at_dyn(*b"AP", &[], timeout_ms, drop).ok())?
-            .as_u32()
+        for _ in 0..2 {
+            if let Ok(ap) = self.at_dyn(*b"AP", &[], timeout_ms, None, None) {
+                return ap;
+            }
+        }
+        None
     }
+}
+
+/// What [`Radio::bring_up`] configures in command mode, line by line, each answered `OK\r`:
+/// the API mode (the digit at [`AP_DIGIT`] is replaced by the driver's mode), 57600 baud, write
+/// to non-volatile memory, leave command mode.
+const COMMAND_MODE_LINES: &[u8; 22] = b"ATAP2\rATBD6\rATWR\rATCN\r";
+/// Index of the `AP` value in [`COMMAND_MODE_LINES`].
+const AP_DIGIT: usize = 4;
+
+/// Advances the match `progress` of `pattern` (which has no proper prefix that is also a
+/// suffix) by `b`; true when the pattern is complete (it then starts over).
+#[inline(never)]
+fn advance(progress: &mut u8, pattern: &[u8], b: u8) -> bool {
+    *progress = if pattern.get(*progress as usize) == Some(&b) {
+        *progress + 1
+    } else {
+        u8::from(pattern.first() == Some(&b))
+    };
+    if *progress as usize == pattern.len() {
+        *progress = 0;
+        return true;
+    }
+    false
 }
 
 /// A command-mode answer.
@@ -869,72 +959,74 @@ where
     /// a valid answer). Frames received during bring-up are dropped (counted in
     /// [`DriverStats::dropped`]).
     pub fn bring_up(&mut self, config: &BringUpConfig) -> Result<BringUp, Error> {
-        let mut dropped = 0u32;
-        let result = self.bring_up_dyn(config, &mut |_| dropped += 1);
-        bump(&mut self.dropped, dropped);
-        result
+        let result = self.bring_up_dyn(config);
+        self.public(result)
     }
 
-    fn bring_up_dyn(
-        &mut self,
-        cfg: &BringUpConfig,
-        drop: &mut dyn FnMut(RawFrame<'_>),
-    ) -> Result<BringUp, Error> {
+    #[inline(never)]
+    fn bring_up_dyn(&mut self, cfg: &BringUpConfig) -> Result<BringUp, Failed> {
         let mode = self.mode();
         let ap = u32::from(mode.ap());
-        self.serial.set_baud(BAUD);
-        self.decoder.set_mode(mode);
-        let how = if self.query_ap(cfg.timeout_ms, drop) == Some(ap) {
-            BringUp::AlreadyApi
-        } else {
-            let baud = self.configure_in_command_mode(cfg)?;
+        // Steps 1 and 3 are the same query: once before configuring, once after.
+        let mut how = BringUp::AlreadyApi;
+        loop {
             self.serial.set_baud(BAUD);
             self.decoder.set_mode(mode);
-            match self.query_ap(cfg.timeout_ms, drop) {
-                Some(v) if v == ap => {}
-                Some(_) => return Err(Error::Unexpected { command: *b"AP" }),
-                None => return Err(Error::NotConfirmed),
+            let answer = self.query_ap(cfg.timeout_ms);
+            if answer == Some(ap) {
+                break;
             }
-            BringUp::Configured { baud }
-        };
+            if let BringUp::Configured { .. } = how {
+                return Err(self.fail(match answer {
+                    Some(_) => Error::Unexpected { command: *b"AP" },
+                    None => Error::NotConfirmed,
+                }));
+            }
+            how = BringUp::Configured {
+                baud: self.configure_in_command_mode(cfg)?,
+            };
+        }
         let t = cfg.timeout_ms;
         if let Some(my) = cfg.my {
-            self.set_register(*b"MY", my, true, t, drop)?;
+            self.set_register(*b"MY", my, true, t)?;
         }
         if let Some(id) = cfg.pan_id {
-            self.set_register(*b"ID", id, true, t, drop)?;
+            self.set_register(*b"ID", id, true, t)?;
         }
         if let Some(ch) = cfg.channel {
-            self.set_register(*b"CH", ch.into(), false, t, drop)?;
+            self.set_register(*b"CH", ch.into(), false, t)?;
         }
         Ok(how)
     }
 
     /// Sets a register to `value` (two bytes if `wide`, else one) and reads it back.
+    #[inline(never)]
     fn set_register(
         &mut self,
         command: [u8; 2],
         value: u16,
         wide: bool,
         timeout_ms: u32,
-        drop: &mut dyn FnMut(RawFrame<'_>),
-    ) -> Result<(), Error> {
+    ) -> Result<(), Failed> {
         let bytes = value.to_be_bytes();
         let param = if wide { &bytes[..] } else { &bytes[1..] };
-        self.at_dyn(command, param, timeout_ms, drop)?;
-        if self.query(command, 0xFFFF, timeout_ms, drop)? != u32::from(value) {
-            return Err(Error::Unexpected { command });
+        self.at_dyn(command, param, timeout_ms, None, None)?;
+        if self.query(command, 0xFFFF, timeout_ms, None)? != u32::from(value) {
+            return Err(self.fail(Error::Unexpected { command }));
         }
         Ok(())
     }
 
     /// Step 2 of [`Radio::bring_up`]: the baud rate the radio was found at.
-    fn configure_in_command_mode(&mut self, cfg: &BringUpConfig) -> Result<u32, Error> {
+    #[inline(never)]
+    fn configure_in_command_mode(&mut self, cfg: &BringUpConfig) -> Result<u32, Failed> {
         let mut heard = false;
         for baud in BAUD_RATES {
             self.serial.set_baud(baud);
             heard |= self.quiet(cfg.guard_ms);
-            self.write_escaped(b"+++", false, &mut 0)?;
+            for &b in b"+++" {
+                self.write_byte(b)?;
+            }
             match self.expect_ok(cfg.guard_ms + cfg.timeout_ms) {
                 Reply::Ok => {}
                 Reply::Silent => continue,
@@ -943,25 +1035,40 @@ where
                     continue;
                 }
             }
-            let set_ap = [b'A', b'T', b'A', b'P', b'0' + self.mode().ap(), b'\r'];
-            for line in [&set_ap[..], b"ATBD6\r", b"ATWR\r", b"ATCN\r"] {
-                self.write_escaped(line, false, &mut 0)?;
-                let command = [
-                    line.get(2).copied().unwrap_or(0),
-                    line.get(3).copied().unwrap_or(0),
-                ];
+            // Each line is answered `OK\r`; the `AP` digit is the driver's mode.
+            let (mut command, mut column) = ([0; 2], 0u8);
+            for (i, &b) in COMMAND_MODE_LINES.iter().enumerate() {
+                let b = if i == AP_DIGIT {
+                    b'0' + self.mode().ap()
+                } else {
+                    b
+                };
+                self.write_byte(b)?;
+                // The command: the two letters after `AT`.
+                match column {
+                    2 => command[0] = b,
+                    3 => command[1] = b,
+                    _ => {}
+                }
+                column += 1;
+                if b != b'\r' {
+                    continue;
+                }
+                column = 0;
                 match self.expect_ok(cfg.timeout_ms) {
                     Reply::Ok => {}
-                    Reply::Error => return Err(Error::Rejected { command }),
-                    Reply::Garbage | Reply::Silent => return Err(Error::Timeout { command }),
+                    Reply::Error => return Err(self.fail(Error::Rejected { command })),
+                    Reply::Garbage | Reply::Silent => {
+                        return Err(self.fail(Error::Timeout { command }))
+                    }
                 }
             }
             return Ok(baud);
         }
-        Err(if heard {
+        Err(self.fail(if heard {
             Error::Garbage
         } else {
             Error::NoResponse
-        })
+        }))
     }
 }

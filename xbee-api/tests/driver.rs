@@ -690,6 +690,22 @@ fn bring_up_reports_a_radio_silent_after_configuration() {
 }
 
 #[test]
+fn bring_up_reports_a_radio_in_the_wrong_mode_after_configuration() {
+    let (m, mut radio) = setup(0, 57600, Mode::Escaped);
+    // Answers command mode, then answers the confirming AP query (frame id 3: the two queries
+    // before went on air as transparent data) with the other API mode.
+    m.borrow_mut().expect(
+        None,
+        Reply::Frames(vec![at_resp(3, b"AP", AtStatus::OK, &[1])]),
+    );
+    assert_eq!(
+        radio.bring_up(&fast()),
+        Err(Error::Unexpected { command: *b"AP" })
+    );
+    assert_eq!(m.borrow().cmd_lines.len(), 4);
+}
+
+#[test]
 fn error_codes_are_distinct() {
     let all = [
         Error::Serial(embedded_hal_nb::serial::ErrorKind::Overrun),
