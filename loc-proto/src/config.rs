@@ -43,7 +43,7 @@
 use core::fmt;
 
 use crate::error::{crc16, Error, Field};
-use crate::msg::{bad, ChannelList, Position, Reader, Writer, MAX_ANCHORS, MAX_CHANNEL};
+use crate::msg::{bad, ChannelList, Position, Writer, MAX_ANCHORS, MAX_CHANNEL};
 use crate::{Role, DEFAULT_CHANNELS, DEFAULT_PAN_ID, DEFAULT_SINK_CHANNEL};
 
 /// The first byte of a stored config.
@@ -179,33 +179,29 @@ impl Config {
         if crc16(body) != u16::from_be_bytes([crc[0], crc[1]]) {
             return Err(Error::BadCrc);
         }
-        let mut r = Reader::new(body);
-        let [_, _, _] = [r.u8()?, r.u8()?, r.u8()?];
-        let role = role_of(r.u8()?)?;
-        let id = r.u8()?;
-        let anchors = r.u8()?;
-        let position = r.position()?;
-        let slot_ms = r.u16()?;
-        let sink_channel = r.u8()?;
-        let pan_id = r.u16()?;
-        let c = r.u8()? as usize;
+        // Fixed offsets (the length is checked): no reader, so the firmware's decoder stays
+        // small (it runs on every node at boot).
+        let Some(&[_, _, _, role, id, anchors, x0, x1, y0, y1, s0, s1, sink_channel, p0, p1, c]) =
+            body.first_chunk::<16>()
+        else {
+            return Err(Error::TooShort);
+        };
+        let c = c as usize;
         if c + 18 != len {
             return Err(Error::BadLength);
         }
-        let mut list = [0; 4];
-        for ch in &mut list[..c] {
-            *ch = r.u8()?;
-        }
-        r.end()?;
         let cfg = Config {
-            role,
+            role: role_of(role)?,
             id,
             anchors,
-            position,
-            slot_ms,
-            channels: ChannelList::new(&list[..c])?,
+            position: Position {
+                x: i16::from_le_bytes([x0, x1]),
+                y: i16::from_le_bytes([y0, y1]),
+            },
+            slot_ms: u16::from_le_bytes([s0, s1]),
+            channels: ChannelList::new(&body[16..])?,
             sink_channel,
-            pan_id,
+            pan_id: u16::from_le_bytes([p0, p1]),
         };
         cfg.validate()?;
         Ok(cfg)

@@ -51,6 +51,9 @@ enum Word {
     Provisioned = 14,
 }
 
+// `BootLine::write` takes `built-in` as the word after `eeprom`.
+const _: () = assert!(Word::BuiltIn as u8 == Word::Eeprom as u8 + 1);
+
 /// How the radio was found at boot.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum RadioFound {
@@ -227,11 +230,10 @@ impl BootLine {
             BootLine::Provisioned { .. } => word(Word::Provisioned as u8, out),
             BootLine::Config { source, id, .. } => {
                 word(Word::Config as u8, out);
+                // `built-in` follows `eeprom` in WORDS (arithmetic rather than a lookup table,
+                // which would be copied to SRAM on AVR).
                 word(
-                    match source {
-                        ConfigSource::Eeprom => Word::Eeprom,
-                        ConfigSource::BuiltIn => Word::BuiltIn,
-                    } as u8,
+                    Word::Eeprom as u8 + (source == ConfigSource::BuiltIn) as u8,
                     out,
                 );
                 word(Word::Id as u8, out);

@@ -353,6 +353,11 @@ impl fmt::Debug for Avr {
 impl Avr {
     /// Loads `firmware` (an AVR ELF) into a fresh ATmega328P at [`F_CPU`], paints free SRAM for
     /// [`Avr::stack_peak`], and leaves it at cycle 0, ready to run.
+    ///
+    /// simavr's ELF loader also writes the ELF's `.eeprom` section into the EEPROM (the rest
+    /// reads 0xFF, erased), as `avrdude -U eeprom:w:fw.elf:e` would on a board: the hoploc
+    /// firmwares carry their built-in config there. To model a board flashed through the
+    /// bootloader (EEPROM never written), erase it with [`Avr::eeprom_write`] before running.
     pub fn load(firmware: impl AsRef<Path>) -> Result<Avr, Error> {
         install_logger();
         let path = firmware.as_ref().to_path_buf();

@@ -75,7 +75,9 @@ fn serve(
 ///    provisioning frames (so `hoploc provision` can fix it), repeating line and code, until one
 ///    is stored; then back to 2.
 ///
-/// The watchdog must be off (it is after `Board::take`).
+/// The watchdog must be off (it is after `Board::take`). Never inlined: its buffers (the
+/// parser's 29 bytes, the EEPROM block) leave the stack before the node's main loop runs.
+#[inline(never)]
 pub fn load_config(
     serial: &mut Serial,
     eeprom: &mut Eeprom,
