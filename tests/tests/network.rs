@@ -3,7 +3,7 @@
 //! off and on again reboots; UART noise is counted.
 
 use hoploc_tests::firmware_elf;
-use loc_proto::line::{BootLine, RadioFound};
+use loc_proto::line::{BootLine, ConfigSource, RadioFound};
 use loc_proto::{xbee_channel, Role, DEFAULT_PAN_ID};
 use simavr::medium::{Antenna, Medium, MediumConfig, NodeRadio};
 use simavr::ms_to_cycles;
@@ -40,9 +40,9 @@ fn testbed(threads: usize, uart_error_rate: f64) -> Network {
     net
 }
 
-/// The firmware's first frames reach the radio while it powers up (5 ms) and are lost; it
-/// retries after its timeout and is up within this.
-const RADIO_UP_MS: f64 = 700.0;
+/// Each firmware first listens 2 s for a provisioning frame, then brings its radio up (API mode
+/// already, a few tens of ms); up within this.
+const RADIO_UP_MS: f64 = loc_proto::provision::PROVISION_WINDOW_MS as f64 + 300.0;
 
 fn role_of(net: &Network, id: usize) -> Role {
     Role::from_name(
@@ -71,6 +71,11 @@ fn four_firmwares_boot_together_and_bring_their_radios_up() {
             lines.iter().map(|(_, b)| *b).collect::<Vec<_>>(),
             [
                 BootLine::Boot { role },
+                BootLine::Config {
+                    role,
+                    source: ConfigSource::Eeprom,
+                    id: 1
+                },
                 BootLine::RadioUp {
                     role,
                     found: RadioFound::Api
@@ -78,24 +83,25 @@ fn four_firmwares_boot_together_and_bring_their_radios_up() {
             ],
             "node {id}"
         );
-        assert!(lines[1].0 > 5.0, "after the radio's power-up: {lines:?}");
+        assert!(lines[2].0 > 5.0, "after the radio's power-up: {lines:?}");
         let r = net.core(id).registers();
         assert_eq!(r.ap(), 2);
         assert_eq!(r.my(), role.address(1));
         assert_eq!(r.id(), DEFAULT_PAN_ID);
+        // Anchors and agents tune to their first channel after the bring-up, the sink stays.
         assert_eq!(r.ch(), xbee_channel(role.boot_channel()).unwrap());
         assert!(net.state(id).is_alive());
     }
 }
 
-/// 2.3 s: boot, radio bring-up, listening, then both anchors (both anchor 1 with the default config) beacon in
+/// 4.3 s: boot, provisioning window, radio bring-up, listening, then both anchors (both anchor 1 with the default config) beacon in
 /// the same slot and collide. Lines, radio traffic and the medium's log are identical for 1
 /// and 2 threads.
 #[test]
 fn a_network_run_is_the_same_with_one_and_two_threads() {
     let run = |threads| {
         let mut net = testbed(threads, 0.0);
-        net.run_for_ms(2300.0);
+        net.run_for_ms(4300.0);
         let lines: Vec<_> = (0..net.len()).map(|id| net.lines(id)).collect();
         let sent: Vec<_> = (0..net.len())
             .map(|id| net.firmware(id).unwrap().1.sent().to_vec())
@@ -114,24 +120,24 @@ fn a_node_powered_off_and_on_boots_again_with_its_radio() {
     net.run_for_ms(RADIO_UP_MS);
     net.kill(0);
     net.run_for_ms(300.0);
-    assert_eq!(boot_lines(&net, 0).len(), 2, "nothing while off");
+    assert_eq!(boot_lines(&net, 0).len(), 3, "nothing while off");
     net.revive(0).unwrap();
     let back = net.cycle();
     assert_eq!(net.offset(0), back);
     net.run_for_ms(RADIO_UP_MS);
     let lines = boot_lines(&net, 0);
-    assert_eq!(lines.len(), 4, "{lines:?}");
-    assert!(matches!(lines[2].1, BootLine::Boot { .. }));
+    assert_eq!(lines.len(), 6, "{lines:?}");
+    assert!(matches!(lines[3].1, BootLine::Boot { .. }));
     let back_ms = simavr::cycles_to_ms(back);
     assert!(
-        lines[2].0 >= back_ms && lines[2].0 < back_ms + 1.0,
+        lines[3].0 >= back_ms && lines[3].0 < back_ms + 1.0,
         "{lines:?}"
     );
-    assert!(matches!(lines[3].1, BootLine::RadioUp { .. }));
-    assert!(lines[3].0 > back_ms + 5.0, "{lines:?}");
+    assert!(matches!(lines[5].1, BootLine::RadioUp { .. }));
+    assert!(lines[5].0 > back_ms + 5.0, "{lines:?}");
     assert_eq!(net.cycle(), back + ms_to_cycles(RADIO_UP_MS));
     // The others went on meanwhile: one life each.
-    assert_eq!(boot_lines(&net, 3).len(), 2);
+    assert_eq!(boot_lines(&net, 3).len(), 3);
 }
 
 /// A bit error in one UART byte in a hundred on every firmware↔radio line: errors happen,
