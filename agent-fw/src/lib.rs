@@ -191,13 +191,7 @@ impl Agent {
         if !self.synced {
             return if self.tuned { u32::MAX } else { 0 };
         }
-        let sf = self.tl.schedule().superframe_us();
-        let t = self.tl.elapsed_us(now_us);
-        match self.event_time(self.next_ev) {
-            _ if t >= sf => 0,
-            Some(time) => time.saturating_sub(t),
-            None => sf - t,
-        }
+        self.tl.until_us(now_us, self.event_time(self.next_ev))
     }
 
     /// The radio reported the report's transmission (`ok` or not): back to the channel list.

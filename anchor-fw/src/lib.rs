@@ -234,15 +234,7 @@ impl Anchor {
         match self.mode {
             Mode::Listening { .. } if !self.tuned => 0,
             Mode::Listening { until_us } => (until_us.wrapping_sub(now_us) as i32).max(0) as u32,
-            Mode::Running => {
-                let sf = self.tl.schedule().superframe_us();
-                let t = self.tl.elapsed_us(now_us);
-                match self.event_time(self.next_ev) {
-                    _ if t >= sf => 0,
-                    Some(time) => time.saturating_sub(t),
-                    None => sf - t,
-                }
-            }
+            Mode::Running => self.tl.until_us(now_us, self.event_time(self.next_ev)),
         }
     }
 

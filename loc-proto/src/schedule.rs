@@ -312,6 +312,18 @@ impl Timeline {
         now_us.wrapping_sub(self.sf_start)
     }
 
+    /// How long from local time `now_us` until the event `event_us` into the current superframe
+    /// (`None`: until the superframe ends), µs; 0 when it is due or the superframe is over.
+    pub const fn until_us(&self, now_us: u32, event_us: Option<u32>) -> u32 {
+        let sf = self.sched.superframe_us;
+        let t = self.elapsed_us(now_us);
+        match event_us {
+            _ if t >= sf => 0,
+            Some(e) => e.saturating_sub(t),
+            None => sf - t,
+        }
+    }
+
     /// Ends the current superframe: the next one starts where it ends; silence counts grow.
     pub fn roll(&mut self) {
         self.sf_start = self.sf_start.wrapping_add(self.sched.superframe_us());

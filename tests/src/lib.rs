@@ -84,10 +84,3 @@ pub const UART_BYTE_MS: f64 = loc_proto::schedule::UART_BYTE_NS as f64 / 1e6;
 pub fn rx_frame_delivery(tx_ms: f64, payload_len: usize) -> f64 {
     tx_ms + (9 + payload_len) as f64 * UART_BYTE_MS + simavr::xbee::time_on_air_ms(payload_len)
 }
-
-/// The inverse of [`rx_frame_delivery`].
-pub fn tx_time_before(delivery_ms: f64, payload_len: usize) -> f64 {
-    delivery_ms
-        - (9 + payload_len) as f64 * UART_BYTE_MS
-        - simavr::xbee::time_on_air_ms(payload_len)
-}

@@ -5,7 +5,7 @@
 //! The firmware runs its built-in config (built without `HOPLOC_*` variables): anchor 1 of 4, channels [1, 12], 62 ms slots
 //! (`Schedule::for_config`: 620 ms superframes).
 
-use hoploc_tests::{beacon_packet, beacons_sent, boot, rx_frame_delivery, tx_time_before};
+use hoploc_tests::{beacon_packet, beacons_sent, boot, rx_frame_delivery};
 use loc_proto::config::Config;
 use loc_proto::line::BootLine;
 use loc_proto::schedule::{beacon_latency_us, Schedule};
@@ -110,8 +110,7 @@ fn anchor_1_takes_the_timeline_it_hears_and_relays_the_rssi() {
         deliveries.push((rx_frame_delivery(tx + 40.0, cut.len()), ch1, 50, cut));
     }
     for (at, ch, rssi, payload) in deliveries {
-        let mut p = simavr::xbee::RxPacket::broadcast16(ch, 0x3332, 2, -rssi, &payload);
-        p.channel = ch;
+        let p = simavr::xbee::RxPacket::broadcast16(ch, 0x3332, 2, -rssi, &payload);
         radio.deliver(p, ms_to_cycles(at));
     }
     radio.run_until(&mut avr, ms_to_cycles(t0 + 7.0 * sf));
@@ -143,5 +142,4 @@ fn anchor_1_takes_the_timeline_it_hears_and_relays_the_rssi() {
             assert_eq!(b.relayed(), &[0, 0, 0, 0]);
         }
     }
-    let _ = tx_time_before;
 }
