@@ -7,7 +7,7 @@ use loc_proto::provision::{answer, ProvisionParser, Reply, PROVISION_WINDOW_MS, 
 use loc_proto::{xbee_channel, Role};
 use xbee_api::driver::BringUpConfig;
 
-use super::{now_ms, write_line, Eeprom, Led, Serial};
+use super::{now_ms, rx_pending, sleep_unless, write_line, Eeprom, Led, Serial};
 
 /// The radio settings of `config`: `MY` = the role's address of the node id, `ID` = the PAN,
 /// `CH` = the first anchor channel (anchors, agents: where the first beacons go) or the sink
@@ -23,6 +23,25 @@ pub fn radio_config(config: &Config) -> BringUpConfig {
         channel: channel.and_then(xbee_channel),
         ..BringUpConfig::new()
     }
+}
+
+/// [`serve`] for `ms` milliseconds, sleeping (idle) between received bytes and ticks: the window
+/// costs no busy CPU (nor, in simavr, emulation time). Returns whether a config was stored.
+fn serve_for(
+    serial: &mut Serial,
+    eeprom: &mut Eeprom,
+    parser: &mut ProvisionParser,
+    role: Role,
+    ms: u32,
+) -> bool {
+    let start = now_ms();
+    while now_ms().wrapping_sub(start) < ms {
+        if serve(serial, eeprom, parser, role) {
+            return true;
+        }
+        sleep_unless(rx_pending);
+    }
+    false
 }
 
 /// Answers every provisioning frame received so far: a valid config of `role` is written to
@@ -86,12 +105,13 @@ pub fn load_config(
 ) -> Config {
     let role = built_in.role;
     let mut parser = ProvisionParser::new();
-    let start = now_ms();
-    while now_ms().wrapping_sub(start) < PROVISION_WINDOW_MS as u32 {
-        if serve(serial, eeprom, &mut parser, role) {
-            break;
-        }
-    }
+    serve_for(
+        serial,
+        eeprom,
+        &mut parser,
+        role,
+        PROVISION_WINDOW_MS as u32,
+    );
     loop {
         let mut block = [0xFF; MAX_LEN];
         let _ = eeprom.read(0, &mut block);
@@ -109,12 +129,9 @@ pub fn load_config(
                             _ => (false, 300),
                         };
                         led.set(on);
-                        let t = now_ms();
-                        while now_ms().wrapping_sub(t) < ms {
-                            if serve(serial, eeprom, &mut parser, role) {
-                                led.off();
-                                break 'wait;
-                            }
+                        if serve_for(serial, eeprom, &mut parser, role, ms) {
+                            led.off();
+                            break 'wait;
                         }
                     }
                 }
