@@ -191,34 +191,66 @@ fn hex(n: u8) -> u8 {
     }
 }
 
+/// `hoploc sink`, the `kind` word, the fields (`shape` and `values` as [`SinkLine::fields`]
+/// gives them, each after a space), ` *`, the CRC-8 of what came before it in hex, `\r\n`: one
+/// copy in flash for every line kind and every writer.
+#[inline(never)]
+fn write_fields(kind: Word, shape: &[u8], values: &[u32; 9], out: &mut dyn FnMut(u8)) {
+    let mut cs = 0u8;
+    let mut o = |b: u8| {
+        // One byte of the running CRC: crc8 from state `cs` is crc8 of `cs ^ b` from 0.
+        cs = crc8([cs ^ b]);
+        out(b)
+    };
+    put_word(Word::Hoploc, &mut o);
+    o(b' ');
+    put_word(Word::Sink, &mut o);
+    o(b' ');
+    put_word(kind, &mut o);
+    for (&t, &v) in shape.iter().zip(values) {
+        o(b' ');
+        match t {
+            b'e' => put_word(
+                if v == Word::Mle as u32 {
+                    Word::Mle
+                } else {
+                    Word::Mmse
+                },
+                &mut o,
+            ),
+            b'i' if (v as i32) < 0 => {
+                o(b'-');
+                put_decimal((v as i32).unsigned_abs(), &mut o)
+            }
+            _ => put_decimal(v, &mut o),
+        }
+    }
+    out(b' ');
+    out(b'*');
+    out(hex(cs >> 4));
+    out(hex(cs & 15));
+    out(b'\r');
+    out(b'\n');
+}
+
 impl SinkLine {
     /// Writes the line, checksum and `\r\n` included, one byte at a time (at most
     /// [`MAX_SINK_LINE`] bytes).
     pub fn write(&self, mut out: impl FnMut(u8)) {
-        let mut cs = 0u8;
-        let mut body = |b: u8| {
-            // One byte of the running CRC: crc8 from state `cs` is crc8 of `cs ^ b` from 0.
-            cs = crc8([cs ^ b]);
-            out(b)
-        };
-        let o = &mut body;
-        let num = |v: u32, o: &mut dyn FnMut(u8)| {
-            o(b' ');
-            put_decimal(v, &mut |b| o(b));
-        };
-        let signed = |v: i32, o: &mut dyn FnMut(u8)| {
-            o(b' ');
-            if v < 0 {
-                o(b'-');
-            }
-            put_decimal(v.unsigned_abs(), &mut |b| o(b));
-        };
-        let word = |w: Word, o: &mut dyn FnMut(u8)| {
-            o(b' ');
-            put_word(w, &mut |b| o(b));
-        };
-        put_word(Word::Hoploc, o);
-        word(Word::Sink, o);
+        self.write_dyn(&mut out);
+    }
+
+    /// [`SinkLine::write`], one copy for every writer.
+    #[inline(never)]
+    fn write_dyn(&self, out: &mut dyn FnMut(u8)) {
+        let (kind, shape, values) = self.fields();
+        write_fields(kind, shape, &values, out);
+    }
+
+    /// The line's kind word, its fields' shape (`n` a number, `i` a signed number, `e` a word,
+    /// one byte each) and their values (`i` as `i32`, `e` a [`Word`]), for [`write_fields`].
+    fn fields(&self) -> (Word, &'static [u8], [u32; 9]) {
+        let i = |v: i16| v as i32 as u32;
         match *self {
             SinkLine::Fix {
                 agent,
@@ -231,28 +263,26 @@ impl SinkLine {
                 anchors,
                 flags,
             } => {
-                word(Word::Fix, o);
-                num(agent.into(), o);
-                num(seq.into(), o);
-                word(
-                    match estimator {
-                        Estimator::Mle => Word::Mle,
-                        Estimator::Mmse => Word::Mmse,
-                    },
-                    o,
-                );
-                signed(x.into(), o);
-                signed(y.into(), o);
-                num(alpha_x100.into(), o);
-                signed(p0_x100.into(), o);
-                num(anchors.into(), o);
-                num(flags.into(), o);
+                let e = match estimator {
+                    Estimator::Mle => Word::Mle,
+                    Estimator::Mmse => Word::Mmse,
+                };
+                let v = [
+                    agent.into(),
+                    seq.into(),
+                    e as u32,
+                    i(x),
+                    i(y),
+                    alpha_x100.into(),
+                    i(p0_x100),
+                    anchors.into(),
+                    flags.into(),
+                ];
+                (Word::Fix, b"nneiininn", v)
             }
             SinkLine::NoFix { agent, seq, usable } => {
-                word(Word::NoFix, o);
-                num(agent.into(), o);
-                num(seq.into(), o);
-                num(usable.into(), o);
+                let v = [agent.into(), seq.into(), usable.into(), 0, 0, 0, 0, 0, 0];
+                (Word::NoFix, b"nnn", v)
             }
             SinkLine::Status {
                 uptime_s,
@@ -263,8 +293,7 @@ impl SinkLine {
                 foreign,
                 fixes,
             } => {
-                word(Word::Status, o);
-                for v in [
+                let v = [
                     uptime_s,
                     frames,
                     reports,
@@ -272,17 +301,12 @@ impl SinkLine {
                     checksum_errors,
                     foreign,
                     fixes,
-                ] {
-                    num(v, o);
-                }
+                    0,
+                    0,
+                ];
+                (Word::Status, b"nnnnnnn", v)
             }
         }
-        out(b' ');
-        out(b'*');
-        out(hex(cs >> 4));
-        out(hex(cs & 15));
-        out(b'\r');
-        out(b'\n');
     }
 
     /// Reads a line (with or without its `\r\n`). Never panics; any line not starting with

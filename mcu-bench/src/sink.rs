@@ -41,7 +41,7 @@ pub fn report(inp: &Inputs, seq: u16) -> Report {
 #[inline(never)]
 pub fn run_sink<K: TermKernel>(inp: &Inputs, mut mark: impl FnMut(u8)) -> [Option<SinkLine>; 2] {
     let area = AreaCm::new(inp.area[0], inp.area[1]);
-    let mut sink = Sink::<K>::new(area);
+    let mut sink = Sink::<K>::new(Some(area));
     // One report, sent twice (seq 1, then 2): one copy of the bench's scaffolding in flash.
     let mut second = report(core::hint::black_box(inp), 1);
     let _ = core::hint::black_box(sink.on_report(core::hint::black_box(&second)));

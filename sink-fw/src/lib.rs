@@ -27,8 +27,9 @@ use loc_core::fixed::{
     CalStats, ChannelBytes, Estimate, FitMethod, LocError, Measurements, Observations,
     OnlineParams, ParamMode, PathLoss, PointCm, Refinement, TermKernel,
 };
-use loc_proto::msg::Report;
+use loc_proto::msg::{Position, Report};
 use loc_proto::sink_line::{Estimator, SinkLine, FLAG_FITTED};
+use loc_proto::Error;
 
 /// What a [`Report`] measured, for loc-core: anchor positions as the beacons gave them, the
 /// agent's RSSI per anchor and channel, and the relayed anchor-to-anchor RSSI (`a2a[i][j][c]`:
@@ -88,6 +89,36 @@ pub enum BadFrame {
     Corrupt,
     /// Not a hoploc report.
     Foreign,
+}
+
+impl BadFrame {
+    /// Why loc-proto could not decode a frame: not a hoploc message or not a kind this build
+    /// speaks ([`Error::BadMagic`], [`Error::BadVersion`], [`Error::BadKind`]) is
+    /// [`BadFrame::Foreign`]; anything else (checksum, length, values) is [`BadFrame::Corrupt`].
+    pub fn of(e: Error) -> BadFrame {
+        match e {
+            Error::BadMagic | Error::BadVersion { .. } | Error::BadKind { .. } => BadFrame::Foreign,
+            _ => BadFrame::Corrupt,
+        }
+    }
+}
+
+/// The room of a sink whose config `position` is `p` (SPEC §4: the sink's position is the room's
+/// size, cm): `Some` area `[0, x] × [0, y]` when both are positive, else `None` — the room is
+/// then the anchors' bounding box from the origin, per report ([`anchors_box`]).
+pub fn room(p: Position) -> Option<AreaCm> {
+    (p.x > 0 && p.y > 0).then(|| AreaCm::new(p.x as u16, p.y as u16))
+}
+
+/// The anchors' bounding box from the origin: `[0, max x] × [0, max y]` cm over `anchors`
+/// (negative coordinates count as 0).
+pub fn anchors_box(anchors: &[PointCm]) -> AreaCm {
+    let mut a = AreaCm::new(0, 0);
+    for p in anchors {
+        a.width = a.width.max(p.x.max(0) as u16);
+        a.height = a.height.max(p.y.max(0) as u16);
+    }
+    a
 }
 
 /// One report's estimates.
@@ -166,7 +197,8 @@ impl Counters {
 /// The sink state machine over cost kernel `K`.
 #[derive(Clone, Debug)]
 pub struct Sink<K> {
-    area: AreaCm,
+    /// The room, or `None`: each report's anchors' bounding box.
+    area: Option<AreaCm>,
     params: OnlineParams,
     counters: Counters,
     /// Next expected sequence per agent (index agent − 1).
@@ -175,9 +207,10 @@ pub struct Sink<K> {
 }
 
 impl<K: TermKernel> Sink<K> {
-    /// A sink for the room `area`, estimating P0 and α by least squares within the thesis'
-    /// bounds from the thesis' prior.
-    pub fn new(area: AreaCm) -> Sink<K> {
+    /// A sink for the room `area` (`None`: each report's anchors' bounding box, [`anchors_box`];
+    /// see [`room`]), estimating P0 and α by least squares within the thesis' bounds from the
+    /// thesis' prior.
+    pub fn new(area: Option<AreaCm>) -> Sink<K> {
         Sink {
             area,
             params: OnlineParams::new(
@@ -216,7 +249,15 @@ impl<K: TermKernel> Sink<K> {
     /// straight from the report's bytes.
     pub fn on_report(&mut self, r: &Report) -> Result<Fix, LocError> {
         let (stats, obs) = report_inputs(r);
-        self.locate(r.agent, r.seq, &stats, &obs)
+        let area = self.area.unwrap_or_else(|| {
+            let n = (r.anchors as usize).min(loc_core::MAX_ANCHORS);
+            let mut pos = [PointCm::default(); loc_core::MAX_ANCHORS];
+            for (p, q) in pos.iter_mut().zip(&r.positions[..n]) {
+                *p = PointCm::new(q.x, q.y);
+            }
+            anchors_box(&pos[..n])
+        });
+        self.locate(r.agent, r.seq, area, &stats, &obs)
     }
 
     /// Agent `agent`'s report of superframe `seq`, as measurements: fit, smooth, locate.
@@ -228,7 +269,10 @@ impl<K: TermKernel> Sink<K> {
     ) -> Result<Fix, LocError> {
         let stats = CalStats::from_measurements(m, None);
         let obs = observations(m, Refinement::Extended);
-        self.locate(agent, seq, &stats, &obs)
+        let area = self
+            .area
+            .unwrap_or_else(|| anchors_box(&m.anchors[..m.n_anchors]));
+        self.locate(agent, seq, area, &stats, &obs)
     }
 
     /// The report's counters, the least-squares fit of `stats` fed to the AR(1) smoothers, then
@@ -238,6 +282,7 @@ impl<K: TermKernel> Sink<K> {
         &mut self,
         agent: u8,
         seq: u16,
+        area: AreaCm,
         stats: &CalStats,
         obs: &Observations,
     ) -> Result<Fix, LocError> {
@@ -266,7 +311,7 @@ impl<K: TermKernel> Sink<K> {
         let model = self.params.current();
         let sigma = self.params.sigma().unwrap_or(DEFAULT_SIGMA);
         let result =
-            mle_and_mmse_window_with::<K>(obs, model, self.area, sigma).map(|[mle, mmse]| Fix {
+            mle_and_mmse_window_with::<K>(obs, model, area, sigma).map(|[mle, mmse]| Fix {
                 agent,
                 seq,
                 mle,

@@ -38,7 +38,7 @@ fn report(at: (f64, f64), missing: &[usize]) -> Measurements {
 }
 
 fn sink() -> Sink<Portable> {
-    Sink::new(AreaCm::new(1000, 1000))
+    Sink::new(Some(AreaCm::new(1000, 1000)))
 }
 
 #[test]
@@ -339,4 +339,97 @@ fn hundredths_are_the_64_bit_rounding() {
             assert_eq!(centi(v, q), want(v, q), "{v} {q}");
         }
     }
+}
+
+/// The config's position is the room: positive sizes as given, (0, 0) (or anything not
+/// positive) the anchors' bounding box from the origin.
+#[test]
+fn the_configs_position_is_the_room_or_the_anchors_box() {
+    use loc_proto::msg::Position;
+    assert_eq!(
+        room(Position { x: 800, y: 650 }),
+        Some(AreaCm::new(800, 650))
+    );
+    assert_eq!(
+        room(Position { x: 1, y: 32767 }),
+        Some(AreaCm::new(1, 32767))
+    );
+    for (x, y) in [(0, 0), (0, 500), (500, 0), (-3, 500), (500, -1)] {
+        assert_eq!(room(Position { x, y }), None, "{x}, {y}");
+    }
+    let p = |x, y| PointCm::new(x, y);
+    assert_eq!(anchors_box(&[]), AreaCm::new(0, 0));
+    assert_eq!(
+        anchors_box(&[p(0, 0), p(1000, 20), p(-50, 900), p(300, -7)]),
+        AreaCm::new(1000, 900)
+    );
+}
+
+/// A sink without a room locates each report in its anchors' bounding box: the same fixes as a
+/// sink given that box, both from reports and from measurements.
+#[test]
+fn a_sink_without_a_room_uses_each_reports_anchors_box() {
+    use loc_proto::msg::{ChannelList, Position};
+    let mut boxed = Sink::<Portable>::new(None);
+    let mut given = sink();
+    let mut other = Sink::<Portable>::new(Some(AreaCm::new(2000, 1000)));
+    let at = (620.0, 280.0);
+    let m = report(at, &[]);
+    let f = boxed.on_measurements(1, 1, &m).unwrap();
+    assert_eq!(Ok(f), given.on_measurements(1, 1, &m));
+    assert_ne!(Ok(f), other.on_measurements(1, 1, &m), "the area matters");
+    // From a report whose anchors span 1500 × 600 cm only.
+    let mut r = Report::new(1, 2, 4, ChannelList::new(&[1, 12]).unwrap());
+    let corners = [(0, 0), (1500, 0), (1500, 600), (0, 600)];
+    for (i, &(x, y)) in corners.iter().enumerate() {
+        r.positions[i] = Position { x, y };
+        for c in 0..2 {
+            r.rssi[c][i] = byte(dist((x, y), (1200.0, 100.0)));
+        }
+    }
+    let mut in_box = Sink::<Portable>::new(Some(AreaCm::new(1500, 600)));
+    let mut from_m = Sink::<Portable>::new(None);
+    let got = Sink::<Portable>::new(None).on_report(&r).unwrap();
+    assert_eq!(Ok(got), in_box.on_report(&r));
+    assert_eq!(Ok(got), from_m.on_measurements(1, 2, &measurements(&r)));
+    assert!(got.mle.pos.x <= 15_000 && got.mle.pos.y <= 6_000, "{got:?}");
+    assert!(got.mle.pos.x > 10_000, "{got:?}");
+}
+
+/// Frames loc-proto rejects: not hoploc's (magic), or a version or kind this build does not
+/// speak, are foreign; anything else is corrupt.
+#[test]
+fn decode_errors_are_foreign_or_corrupt() {
+    use loc_proto::error::Field;
+    assert_eq!(BadFrame::of(Error::BadMagic), BadFrame::Foreign);
+    assert_eq!(
+        BadFrame::of(Error::BadVersion { found: 9 }),
+        BadFrame::Foreign
+    );
+    assert_eq!(
+        BadFrame::of(Error::BadKind { found: 0x7F }),
+        BadFrame::Foreign
+    );
+    assert_eq!(BadFrame::of(Error::TooShort), BadFrame::Corrupt);
+    assert_eq!(BadFrame::of(Error::BadLength), BadFrame::Corrupt);
+    assert_eq!(BadFrame::of(Error::BadCrc), BadFrame::Corrupt);
+    assert_eq!(
+        BadFrame::of(Error::BadValue {
+            field: Field::Anchors
+        }),
+        BadFrame::Corrupt
+    );
+    // Through the decoder.
+    assert_eq!(
+        Report::decode(b"not a hoploc message").map_err(BadFrame::of),
+        Err(BadFrame::Foreign)
+    );
+    let r = Report::new(1, 1, 4, loc_proto::msg::ChannelList::new(&[1]).unwrap());
+    let mut buf = [0; 100];
+    let n = r.encode(&mut buf).unwrap();
+    assert!(Report::decode(&buf[..n]).is_ok());
+    assert_eq!(
+        Report::decode(&buf[..n - 1]).map_err(BadFrame::of),
+        Err(BadFrame::Corrupt)
+    );
 }

@@ -1,0 +1,122 @@
+//! sink-wired: the hoploc sink firmware for the Arduino Uno as it is meant to be, once it fits
+//! the ATmega328P's flash (it does not yet: ≈ 46 KB; `src/main.rs` is still the boot firmware).
+//! Built only with the `wired` feature, to measure it:
+//! `CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega328p -C link-arg=-Wl,--noinhibit-exec"
+//! cargo fw-build -p sink-fw --features wired --bin sink-wired`.
+//!
+//! Wiring only (the logic is `sink_fw::Sink`, host-tested): boot line, node config, radio
+//! bring-up on the sink channel, then the loop — each report the radio hands over goes to the
+//! sink, and its fix (or why there is none) goes out as loc-proto's sink lines on the UART (the
+//! USB serial); a `status` line every [`STATUS_PERIOD_MS`]. Once it fits, it becomes `src/main.rs`.
+#![cfg_attr(target_arch = "avr", no_std, no_main)]
+
+#[cfg(not(target_arch = "avr"))]
+fn main() {}
+
+/// Time between two status lines, ms.
+#[cfg(target_arch = "avr")]
+const STATUS_PERIOD_MS: u32 = 10_000;
+
+#[cfg(target_arch = "avr")]
+uno_board::link_avr_libc!();
+
+#[cfg(target_arch = "avr")]
+#[uno_board::entry]
+fn main() -> ! {
+    use loc_proto::config::Config;
+    use loc_proto::line::BootLine;
+    use loc_proto::Role;
+    use uno_board::{bring_up_radio, reset, write_line, Board, SysClock, WdtTimeout};
+    use xbee_api::driver::{BringUpConfig, Radio};
+
+    const CONFIG: Config = Config {
+        role: Role::Sink,
+        ..Config::DEFAULT
+    };
+    let Some(board) = Board::take() else { reset() };
+    let Board {
+        mut serial,
+        mut led,
+        mut watchdog,
+        ..
+    } = board;
+    write_line(&mut serial, &BootLine::Boot { role: Role::Sink });
+    let config = CONFIG;
+    let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
+    let bring_up = BringUpConfig {
+        my: Some(Role::Sink.address(config.id)),
+        pan_id: Some(config.pan_id),
+        channel: loc_proto::xbee_channel(config.sink_channel),
+        ..BringUpConfig::new()
+    };
+    bring_up_radio(&mut radio, &mut led, Role::Sink, &bring_up);
+    watchdog.start(WdtTimeout::S1);
+    run(radio, led, watchdog, &config)
+}
+
+/// The node's loop, out of line (on the AVR, far accesses into `main`'s big frame cost code).
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+fn run(
+    mut radio: uno_board::NodeRadio,
+    mut led: uno_board::Led,
+    mut watchdog: uno_board::Watchdog,
+    config: &loc_proto::config::Config,
+) -> ! {
+    use loc_proto::msg::Report;
+    use sink_fw::{BadFrame, Sink};
+    use uno_board::node::{self, Event};
+    use uno_board::{now_ms, rx_pending, sleep_unless, AvrTerm};
+
+    let mut sink = Sink::<AvrTerm>::new(sink_fw::room(config.position));
+    let mut last_status = now_ms();
+    let mut uptime_s = 0u32;
+    loop {
+        watchdog.feed();
+        while let Some(got) = node::poll(&mut radio, |ev| match ev {
+            Event::Packet { data, .. } => Some(Report::decode(data).map_err(BadFrame::of)),
+            _ => None,
+        }) {
+            match got {
+                Some(Ok(report)) => {
+                    led.toggle();
+                    on_report(&mut sink, &report, &mut radio);
+                }
+                Some(Err(kind)) => sink.on_bad_frame(kind),
+                None => {}
+            }
+        }
+        if now_ms().wrapping_sub(last_status) >= STATUS_PERIOD_MS {
+            last_status = last_status.wrapping_add(STATUS_PERIOD_MS);
+            uptime_s += STATUS_PERIOD_MS / 1000;
+            write(&mut radio, &sink.counters().line(uptime_s));
+        }
+        sleep_unless(rx_pending);
+    }
+}
+
+/// A report's lines: two `fix` lines, or a `nofix` line. Out of line, as [`run`].
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+fn on_report(
+    sink: &mut sink_fw::Sink<uno_board::AvrTerm>,
+    report: &loc_proto::msg::Report,
+    radio: &mut uno_board::NodeRadio,
+) {
+    match sink.on_report(report) {
+        Ok(fix) => {
+            for line in fix.lines() {
+                write(radio, &line);
+            }
+        }
+        Err(e) => write(radio, &sink_fw::no_fix_line(report.agent, report.seq, e)),
+    }
+}
+
+/// `line` on the UART.
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+fn write(radio: &mut uno_board::NodeRadio, line: &loc_proto::sink_line::SinkLine) {
+    let serial = radio.serial_mut();
+    line.write(|b| serial.write_byte(b));
+}
