@@ -13,6 +13,15 @@
 //! | `hoploc sink fix 2 417 mle 281 600 282 -4126 4 1 *66` | agent, sequence, estimator (`mle`: thesis MLE, `mmse`: windowed MMSE), x and y (cm), α × 100, P0 × 100 (dBm), anchors used, flags |
 //! | `hoploc sink nofix 2 418 2 *5F` | agent, sequence, usable anchors (fewer than 3) |
 //! | `hoploc sink status 61 1203 240 3 1 17 480 *DB` | uptime (s), frames, reports, drops, checksum errors, foreign frames, estimates |
+//! | `hoploc sink report B50102…5354 *FE` | the report message as received, in upper-case hex ([`RawReport`]) |
+//!
+//! The whole `report` line of that example (agent 2, report 418, four anchors, channels 1 and 12):
+//! `hoploc sink report B501023B02A2010482010C00000000E8030000E803E8030000E8033C3D3E3F3D3E3F404748494A4C4D4E4F515253544748494A4C4D4E4F51525354 *FE`.
+//! The `report` line comes before the report's `fix` or `nofix` line(s). It carries the agent's
+//! measurements ([`crate::msg::Report`]: RSSI per anchor and channel, anchor positions,
+//! anchor-to-anchor relays), so `hoploc replay` can run every host estimator on a recorded log.
+//! It is read with [`SinkOutput::parse`] (which reads every kind), not [`SinkLine::parse`], so a
+//! [`SinkLine`] stays a few bytes on the sink's stack.
 //!
 //! Flags: bit 0 ([`FLAG_FITTED`]): P0 and α were fitted from this report's anchor-to-anchor RSSI
 //! (else the smoothed values of earlier reports, or the prior). The sink writes one `fix` line
@@ -21,10 +30,11 @@
 use core::fmt;
 
 use crate::line::put_decimal;
+use crate::msg::MAX_PAYLOAD;
 
 avr_progmem::progmem! {
     /// Every word of the lines, space separated; [`Word`] numbers them.
-    static progmem WORDS: [u8; 37] = *b"hoploc sink fix nofix status mle mmse";
+    static progmem WORDS: [u8; 44] = *b"hoploc sink fix nofix status mle mmse report";
 }
 
 /// Indices into [`WORDS`].
@@ -38,6 +48,7 @@ enum Word {
     Status = 4,
     Mle = 5,
     Mmse = 6,
+    Report = 7,
 }
 
 /// Flag: P0 and α were fitted from this report.
@@ -192,10 +203,17 @@ fn hex(n: u8) -> u8 {
 }
 
 /// `hoploc sink`, the `kind` word, the fields (`shape` and `values` as [`SinkLine::fields`]
-/// gives them, each after a space), ` *`, the CRC-8 of what came before it in hex, `\r\n`: one
-/// copy in flash for every line kind and every writer.
+/// gives them, each after a space), `hex` as one word of hex digits if not empty, ` *`, the
+/// CRC-8 of what came before it in hex, `\r\n`: one copy in flash for every line kind and every
+/// writer.
 #[inline(never)]
-fn write_fields(kind: Word, shape: &[u8], values: &[u32; 9], out: &mut dyn FnMut(u8)) {
+fn write_fields(
+    kind: Word,
+    shape: &[u8],
+    values: &[u32; 9],
+    hex_word: &[u8],
+    out: &mut dyn FnMut(u8),
+) {
     let mut cs = 0u8;
     let mut o = |b: u8| {
         // One byte of the running CRC: crc8 from state `cs` is crc8 of `cs ^ b` from 0.
@@ -225,6 +243,13 @@ fn write_fields(kind: Word, shape: &[u8], values: &[u32; 9], out: &mut dyn FnMut
             _ => put_decimal(v, &mut o),
         }
     }
+    if !hex_word.is_empty() {
+        o(b' ');
+        for &b in hex_word {
+            o(hex(b >> 4));
+            o(hex(b & 15));
+        }
+    }
     out(b' ');
     out(b'*');
     out(hex(cs >> 4));
@@ -244,7 +269,7 @@ impl SinkLine {
     #[inline(never)]
     fn write_dyn(&self, out: &mut dyn FnMut(u8)) {
         let (kind, shape, values) = self.fields();
-        write_fields(kind, shape, &values, out);
+        write_fields(kind, shape, &values, &[], out);
     }
 
     /// The line's kind word, its fields' shape (`n` a number, `i` a signed number, `e` a word,
@@ -312,25 +337,7 @@ impl SinkLine {
     /// Reads a line (with or without its `\r\n`). Never panics; any line not starting with
     /// `hoploc sink ` is [`SinkLineError::NotSinkLine`].
     pub fn parse(line: &str) -> Result<SinkLine, SinkLineError> {
-        let line = line.strip_suffix('\n').unwrap_or(line);
-        let line = line.strip_suffix('\r').unwrap_or(line);
-        if !line.starts_with("hoploc sink ") {
-            return Err(SinkLineError::NotSinkLine);
-        }
-        let (text, cs) = line.rsplit_once(" *").ok_or(SinkLineError::NoChecksum)?;
-        let found = match cs.as_bytes() {
-            [h, l] => match (unhex(*h), unhex(*l)) {
-                (Some(h), Some(l)) => h << 4 | l,
-                _ => return Err(SinkLineError::NoChecksum),
-            },
-            _ => return Err(SinkLineError::NoChecksum),
-        };
-        let computed = crc8(text.bytes());
-        if found != computed {
-            return Err(SinkLineError::BadChecksum { found, computed });
-        }
-        let mut words = text.split(' ').skip(2);
-        let kind = words.next().ok_or(SinkLineError::UnknownKind)?;
+        let (kind, words) = checked(line)?;
         let mut fields = Fields { words, index: 0 };
         let parsed = match kind {
             "fix" => SinkLine::Fix {
@@ -368,6 +375,124 @@ impl SinkLine {
             return Err(SinkLineError::TooManyFields);
         }
         Ok(parsed)
+    }
+}
+
+/// The kind word and the fields after it of a sink line whose checksum is right (with or
+/// without its `\r\n`).
+fn checked(line: &str) -> Result<(&str, core::str::Split<'_, char>), SinkLineError> {
+    let line = line.strip_suffix('\n').unwrap_or(line);
+    let line = line.strip_suffix('\r').unwrap_or(line);
+    if !line.starts_with("hoploc sink ") {
+        return Err(SinkLineError::NotSinkLine);
+    }
+    let (text, cs) = line.rsplit_once(" *").ok_or(SinkLineError::NoChecksum)?;
+    let found = match cs.as_bytes() {
+        [h, l] => match (unhex(*h), unhex(*l)) {
+            (Some(h), Some(l)) => h << 4 | l,
+            _ => return Err(SinkLineError::NoChecksum),
+        },
+        _ => return Err(SinkLineError::NoChecksum),
+    };
+    let computed = crc8(text.bytes());
+    if found != computed {
+        return Err(SinkLineError::BadChecksum { found, computed });
+    }
+    let mut words = text.split(' ');
+    words.next();
+    words.next();
+    let kind = words.next().ok_or(SinkLineError::UnknownKind)?;
+    Ok((kind, words))
+}
+
+/// Longest `report` line, `\r\n` included: `hoploc sink report `, two hex digits per byte of
+/// the largest message the radio carries, ` *XX\r\n`.
+pub const MAX_REPORT_LINE: usize = 19 + 2 * MAX_PAYLOAD + 6;
+
+/// A `report` line's message: the bytes of a [`crate::msg::Report`] as the sink received them
+/// (decode with [`RawReport::report`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct RawReport {
+    len: u8,
+    bytes: [u8; MAX_PAYLOAD],
+}
+
+impl RawReport {
+    /// The message `msg`, if the radio can carry it (at most [`MAX_PAYLOAD`] bytes, not empty).
+    pub fn new(msg: &[u8]) -> Option<RawReport> {
+        if msg.is_empty() || msg.len() > MAX_PAYLOAD {
+            return None;
+        }
+        let mut bytes = [0; MAX_PAYLOAD];
+        bytes[..msg.len()].copy_from_slice(msg);
+        Some(RawReport {
+            len: msg.len() as u8,
+            bytes,
+        })
+    }
+
+    /// The message bytes.
+    pub fn bytes(&self) -> &[u8] {
+        &self.bytes[..self.len as usize]
+    }
+
+    /// The report the bytes encode.
+    pub fn report(&self) -> Result<crate::msg::Report, crate::Error> {
+        crate::msg::Report::decode(self.bytes())
+    }
+
+    /// Writes the `report` line of message `msg` (the sink does not build a [`RawReport`]: it
+    /// writes the bytes it received). At most [`MAX_REPORT_LINE`] bytes for a message the radio
+    /// carries.
+    pub fn write(msg: &[u8], mut out: impl FnMut(u8)) {
+        write_fields(Word::Report, &[], &[0; 9], msg, &mut out);
+    }
+
+    /// Reads a `report` line (with or without its `\r\n`); never panics.
+    pub fn parse(line: &str) -> Result<RawReport, SinkLineError> {
+        match SinkOutput::parse(line)? {
+            SinkOutput::Report(r) => Ok(r),
+            SinkOutput::Line(_) => Err(SinkLineError::UnknownKind),
+        }
+    }
+}
+
+/// Any line the sink writes: a [`SinkLine`] or a `report` line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SinkOutput {
+    /// A `fix`, `nofix` or `status` line.
+    Line(SinkLine),
+    /// A `report` line.
+    Report(RawReport),
+}
+
+impl SinkOutput {
+    /// Reads any sink line (with or without its `\r\n`). Never panics; a line not starting with
+    /// `hoploc sink ` is [`SinkLineError::NotSinkLine`].
+    pub fn parse(line: &str) -> Result<SinkOutput, SinkLineError> {
+        let (kind, mut words) = checked(line)?;
+        if kind != "report" {
+            return SinkLine::parse(line).map(SinkOutput::Line);
+        }
+        let bad = SinkLineError::BadField { index: 0 };
+        let word = words.next().ok_or(bad)?.as_bytes();
+        if word.len() % 2 != 0 || word.is_empty() || word.len() > 2 * MAX_PAYLOAD {
+            return Err(bad);
+        }
+        let mut bytes = [0; MAX_PAYLOAD];
+        for (b, pair) in bytes.iter_mut().zip(word.chunks(2)) {
+            *b = match (unhex(pair[0]), unhex(pair[1])) {
+                (Some(h), Some(l)) => h << 4 | l,
+                _ => return Err(bad),
+            };
+        }
+        if words.next().is_some() {
+            return Err(SinkLineError::TooManyFields);
+        }
+        Ok(SinkOutput::Report(RawReport {
+            len: (word.len() / 2) as u8,
+            bytes,
+        }))
     }
 }
 

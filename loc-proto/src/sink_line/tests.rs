@@ -236,3 +236,122 @@ proptest! {
         let _ = SinkLine::parse(&std::format!("hoploc sink {s}"));
     }
 }
+
+/// A report of agent 2, superframe 418: 4 anchors on channels 1 and 12, with relays.
+fn sample_report() -> crate::msg::Report {
+    use crate::msg::{ChannelList, Position, Report};
+    let mut r = Report::new(2, 418, 4, ChannelList::new(&[1, 12]).unwrap());
+    let corners = [(0, 0), (1000, 0), (1000, 1000), (0, 1000)];
+    for (i, &(x, y)) in corners.iter().enumerate() {
+        r.positions[i] = Position { x, y };
+        for c in 0..2 {
+            r.rssi[c][i] = 60 + (i + c) as u8;
+            for j in 0..4 {
+                if i != j {
+                    r.relay[c][i][j] = 70 + (i * 4 + j) as u8;
+                }
+            }
+        }
+    }
+    r
+}
+
+fn report_text(msg: &[u8]) -> String {
+    let mut v = Vec::new();
+    RawReport::write(msg, |b| v.push(b));
+    assert!(v.len() <= MAX_REPORT_LINE, "{}", v.len());
+    assert!(!v.contains(&0x7E));
+    String::from_utf8(v).unwrap()
+}
+
+#[test]
+fn report_lines_carry_the_message_both_ways() {
+    let r = sample_report();
+    let mut buf = [0; MAX_PAYLOAD];
+    let n = r.encode(&mut buf).unwrap();
+    let line = report_text(&buf[..n]);
+    // The hex of the message bytes, upper case, between the kind and the checksum.
+    let hex: String = buf[..n].iter().map(|b| std::format!("{b:02X}")).collect();
+    assert!(
+        line.starts_with(&std::format!("hoploc sink report {hex} *")),
+        "{line}"
+    );
+    assert!(line.ends_with("\r\n"));
+    let raw = RawReport::parse(&line).unwrap();
+    assert_eq!(raw.bytes(), &buf[..n]);
+    assert_eq!(raw.report(), Ok(r));
+    assert_eq!(SinkOutput::parse(&line), Ok(SinkOutput::Report(raw)));
+    assert_eq!(RawReport::new(&buf[..n]), Some(raw));
+    // SinkLine::parse reads the three small kinds only; SinkOutput::parse reads them too.
+    assert_eq!(SinkLine::parse(&line), Err(SinkLineError::UnknownKind));
+    assert_eq!(SinkOutput::parse(&text(&FIX)), Ok(SinkOutput::Line(FIX)));
+    assert_eq!(
+        RawReport::parse(&text(&FIX)),
+        Err(SinkLineError::UnknownKind)
+    );
+    // The longest message gives the longest line.
+    assert_eq!(report_text(&[0xFF; MAX_PAYLOAD]).len(), MAX_REPORT_LINE);
+    assert_eq!(RawReport::new(&[]), None);
+    assert_eq!(RawReport::new(&[0; MAX_PAYLOAD + 1]), None);
+}
+
+#[test]
+fn bad_report_lines_are_rejected() {
+    let cases = [
+        ("hoploc sink report", SinkLineError::BadField { index: 0 }),
+        ("hoploc sink report 4", SinkLineError::BadField { index: 0 }),
+        (
+            "hoploc sink report 4G",
+            SinkLineError::BadField { index: 0 },
+        ),
+        (
+            "hoploc sink report 4a",
+            SinkLineError::BadField { index: 0 },
+        ),
+        ("hoploc sink report 48 00", SinkLineError::TooManyFields),
+    ];
+    for (t, e) in cases {
+        assert_eq!(SinkOutput::parse(&signed(t)), Err(e), "{t}");
+    }
+    let long = std::format!("hoploc sink report {}", "00".repeat(MAX_PAYLOAD + 1));
+    assert_eq!(
+        SinkOutput::parse(&signed(&long)),
+        Err(SinkLineError::BadField { index: 0 })
+    );
+    // Damage is caught by the checksum.
+    let line = report_text(&[0x48, 0x01, 0x02]);
+    let damaged = line.replacen("0102", "0201", 1);
+    assert!(matches!(
+        SinkOutput::parse(&damaged),
+        Err(SinkLineError::BadChecksum { .. })
+    ));
+    // A well-formed line whose bytes are not a report: the line reads, the report does not.
+    assert!(RawReport::parse(&line).unwrap().report().is_err());
+}
+
+proptest! {
+    #[test]
+    fn report_lines_round_trip(msg in proptest::collection::vec(any::<u8>(), 1..=MAX_PAYLOAD)) {
+        let raw = RawReport::parse(&report_text(&msg)).unwrap();
+        prop_assert_eq!(raw.bytes(), &msg[..]);
+    }
+
+    #[test]
+    fn parsing_any_output_never_panics(s in ".{0,240}") {
+        let _ = SinkOutput::parse(&s);
+        let _ = SinkOutput::parse(&std::format!("hoploc sink report {s}"));
+    }
+}
+
+#[test]
+fn golden_report_line() {
+    // The module docs show this line: agent 2's report 418 of `sample_report`.
+    let r = sample_report();
+    let mut buf = [0; MAX_PAYLOAD];
+    let n = r.encode(&mut buf).unwrap();
+    assert_eq!(
+        report_text(&buf[..n]),
+        "hoploc sink report B501023B02A2010482010C00000000E8030000E803E8030000E8033C3D3E3F3D3E3F\
+         404748494A4C4D4E4F515253544748494A4C4D4E4F51525354 *FE\r\n"
+    );
+}

@@ -20,36 +20,34 @@ const STATUS_PERIOD_MS: u32 = 10_000;
 #[cfg(target_arch = "avr")]
 uno_board::link_avr_libc!();
 
+/// The build-time config (`BUILT_IN`) and its `.eeprom` image, from build.rs.
+#[cfg(target_arch = "avr")]
+mod built_in {
+    include!(concat!(env!("OUT_DIR"), "/config.rs"));
+}
+
 #[cfg(target_arch = "avr")]
 #[uno_board::entry]
 fn main() -> ! {
-    use loc_proto::config::Config;
     use loc_proto::line::BootLine;
     use loc_proto::Role;
-    use uno_board::{bring_up_radio, reset, write_line, Board, SysClock, WdtTimeout};
-    use xbee_api::driver::{BringUpConfig, Radio};
-
-    const CONFIG: Config = Config {
-        role: Role::Sink,
-        ..Config::DEFAULT
+    use uno_board::{
+        bring_up_radio, load_config, radio_config, reset, write_line, Board, SysClock, WdtTimeout,
     };
+    use xbee_api::driver::Radio;
+
     let Some(board) = Board::take() else { reset() };
     let Board {
         mut serial,
         mut led,
+        mut eeprom,
         mut watchdog,
         ..
     } = board;
     write_line(&mut serial, &BootLine::Boot { role: Role::Sink });
-    let config = CONFIG;
+    let config = load_config(&mut serial, &mut eeprom, &mut led, &built_in::BUILT_IN);
     let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
-    let bring_up = BringUpConfig {
-        my: Some(Role::Sink.address(config.id)),
-        pan_id: Some(config.pan_id),
-        channel: loc_proto::xbee_channel(config.sink_channel),
-        ..BringUpConfig::new()
-    };
-    bring_up_radio(&mut radio, &mut led, Role::Sink, &bring_up);
+    bring_up_radio(&mut radio, &mut led, Role::Sink, &radio_config(&config));
     watchdog.start(WdtTimeout::S1);
     run(radio, led, watchdog, &config)
 }
