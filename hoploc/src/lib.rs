@@ -4,8 +4,11 @@
 
 pub mod demo;
 pub mod firmware;
+pub mod fixes;
 pub mod footprint;
+pub mod monitor;
 pub mod provision;
+pub mod replay;
 pub mod report;
 pub mod simulate;
 pub mod study;

@@ -1,6 +1,6 @@
 //! The hoploc command line.
 
-use hoploc::{demo, firmware, footprint, provision, simulate};
+use hoploc::{demo, firmware, footprint, monitor, provision, replay, simulate};
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -74,6 +74,28 @@ enum Command {
     ///     hoploc provision --port /dev/ttyACM1 --role sink --id 1 --channels 1,12 --pan 0x3332
     #[command(verbatim_doc_comment)]
     Provision(provision::Args),
+    /// Show the sink's lines live: one row per report (MLE and MMSE fixes, α, P0, anchors),
+    /// status lines, damaged lines; a table of the fixes at the end.
+    ///
+    /// Reads the sink's USB serial port, or stdin. Save the lines with --log to replay them
+    /// later. Examples:
+    ///
+    ///     hoploc monitor --port /dev/ttyACM0 --log sink.log
+    ///     hoploc monitor --port /dev/ttyACM0 --truth 3.5,3.5 --seconds 60 --out-dir plots/
+    ///     cat sink.log | hoploc monitor
+    #[command(verbatim_doc_comment)]
+    Monitor(monitor::Args),
+    /// Rerun a recorded sink log through every host estimator.
+    ///
+    /// Per `report` line of the log: the least-squares P0/α fit with AR(1), then MLE, windowed
+    /// and full MMSE, MLE with the thesis' fixed P0/α, trilateration, quadlateration, MDS-MAP;
+    /// the sink's own fixes next to them. RMSE and bias per truth position and algorithm
+    /// (truth from --truth or `# truth X Y` lines in the log), and a plot. Examples:
+    ///
+    ///     hoploc replay sink.log --truth 3.5,3.5
+    ///     hoploc replay sink.log --area 7x7 --out-dir replay/
+    #[command(verbatim_doc_comment)]
+    Replay(replay::Args),
 }
 
 fn main() -> ExitCode {
@@ -88,6 +110,8 @@ fn main() -> ExitCode {
         }
         Command::Simulate(args) => simulate::run(&args),
         Command::Provision(args) => provision::run(&args).map_err(|e| e.to_string()),
+        Command::Monitor(args) => monitor::run(&args),
+        Command::Replay(args) => replay::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
