@@ -4,7 +4,6 @@
 
 pub mod demo;
 pub mod firmware;
-pub mod fixes;
 pub mod footprint;
 pub mod monitor;
 pub mod provision;
@@ -12,3 +11,4 @@ pub mod replay;
 pub mod report;
 pub mod simulate;
 pub mod study;
+pub mod tally;

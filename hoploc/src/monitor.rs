@@ -15,8 +15,8 @@ use loc_core::{Area, Point};
 use loc_proto::line::BootLine;
 use loc_proto::sink_line::{Estimator, SinkLine, SinkLineError, SinkOutput};
 
-use crate::fixes::Tally;
 use crate::replay::{parse_area, parse_point};
+use crate::tally::Tally;
 
 /// `hoploc monitor` options.
 #[derive(clap::Args, Debug, Clone)]
@@ -324,7 +324,7 @@ pub fn run(args: &Args) -> Result<(), String> {
             let (w, h) = pts.fold((1.0f64, 1.0f64), |(w, h), p| (w.max(p.x), h.max(p.y)));
             Area::new(w, h)
         });
-        for f in crate::fixes::plot(&mon.tally, area, &[], "hoploc monitor", dir, "monitor")? {
+        for f in crate::tally::plot(&mon.tally, area, &[], "hoploc monitor", dir, "monitor")? {
             println!("wrote {}", f.display());
         }
     }
@@ -412,7 +412,7 @@ mod tests {
                 other: 2,
             }
         );
-        let k = crate::fixes::truth_key(Some(Point::new(2.0, 3.0)));
+        let k = crate::tally::truth_key(Some(Point::new(2.0, 3.0)));
         assert_eq!(m.tally.get(k, "MLE").unwrap().len(), 3);
         assert_eq!(m.tally.get(k, "MMSE").unwrap().len(), 1);
         assert!(m.summary().contains("4 fix lines, 1 nofix"));

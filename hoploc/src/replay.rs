@@ -27,7 +27,7 @@ use loc_proto::line::BootLine;
 use loc_proto::msg::Report;
 use loc_proto::sink_line::{Estimator, SinkLine, SinkLineError, SinkOutput};
 
-use crate::fixes::Tally;
+use crate::tally::Tally;
 
 /// σ of the MMSE estimates while no fit gave one, dB (the sink's default, the thesis' larger σ).
 pub const DEFAULT_SIGMA_DB: f64 = 4.0;
@@ -332,7 +332,7 @@ pub fn run(args: &Args) -> Result<(), String> {
             .area
             .or(replay.last_area)
             .unwrap_or(Area::new(1.0, 1.0));
-        let files = crate::fixes::plot(
+        let files = crate::tally::plot(
             &replay.tally,
             area,
             &replay.anchors,
@@ -450,7 +450,7 @@ mod tests {
         // α ≈ 3.3, so the estimators on the fitted model are off by up to a few decimetres.
         assert_eq!(r.last_area, Some(Area::new(7.0, 7.0)));
         for (t, p) in [(a, 5), (b, 3)] {
-            let k = crate::fixes::truth_key(Some(t));
+            let k = crate::tally::truth_key(Some(t));
             for algo in HOST_ALGOS {
                 let acc = r.tally.get(k, algo).unwrap_or_else(|| panic!("{algo}"));
                 assert_eq!(acc.len(), p, "{algo}");
@@ -466,7 +466,7 @@ mod tests {
         // The sink's own fixes at the first position: (2.10, 4.90) against (2, 5).
         let sink = r
             .tally
-            .get(crate::fixes::truth_key(Some(a)), "sink MLE")
+            .get(crate::tally::truth_key(Some(a)), "sink MLE")
             .unwrap();
         assert!((sink.rmse(a).unwrap() - 0.02f64.sqrt()).abs() < 1e-9);
         let s = r.summary();
@@ -510,7 +510,7 @@ mod tests {
                 "{d} m: {got} vs {want} ({model:?})"
             );
         }
-        let k = crate::fixes::truth_key(Some(t));
+        let k = crate::tally::truth_key(Some(t));
         let fitted = r.tally.get(k, "MLE").unwrap().rmse(t).unwrap();
         let fixed = r.tally.get(k, "MLE-fixed").unwrap().rmse(t).unwrap();
         assert!(
