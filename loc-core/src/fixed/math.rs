@@ -38,12 +38,13 @@ pub(crate) fn log2_u32(x: u32) -> i32 {
 pub(crate) fn log2_u33(lo: u32, carry: bool) -> i32 {
     // With a carry the value is 2^32 + lo: its top 32 bits (the dropped lowest bit is 2^−32 of
     // it), exponent 32.
-    let (mut n, mut e) = ((lo >> 1) | 1 << 31, 32i32);
-    if !carry {
+    let (mut n, mut e) = (lo, 31i32);
+    if carry {
+        (n, e) = ((lo >> 1) | 1 << 31, 32);
+    } else {
         if lo == 0 {
             return 0;
         }
-        (n, e) = (lo, 31);
         if n < 1 << 16 {
             n <<= 16;
             e -= 16;
