@@ -298,10 +298,15 @@ impl<K: TermKernel> Sink<K> {
             }
             *next = Some(seq.wrapping_add(1));
         }
-        // The least-squares fit directly: through `OnlineParams::update` the thesis' grid fit
-        // would be linked in too.
-        let p = &self.params;
-        let fitted = match fit_least_squares(stats, p.mode, p.current(), &p.bounds) {
+        // The least-squares fit directly (through `OnlineParams::update` the thesis' grid fit
+        // would be linked in too), with the mode and bounds `Sink::new` gave `params` as
+        // constants: the optimiser then drops the other modes' code from the fit.
+        let fitted = match fit_least_squares(
+            stats,
+            ParamMode::P0AndAlpha,
+            self.params.current(),
+            &Bounds::THESIS,
+        ) {
             Ok(f) => {
                 self.params.feed(&f);
                 true

@@ -21,7 +21,6 @@ use super::math::{clamp_i32, clamp_i64, isqrt_u32, log2_u33, m8, mul8_16, mul_sh
 use super::{Measurements, PathLoss, PointCm, ALPHA, ALPHA_LIMIT, DB, P0_LIMIT};
 use crate::params::{FitMethod, ParamMode};
 use crate::{LocError, MAX_CHANNELS};
-use core::ops::ControlFlow;
 
 /// Most samples a [`CalStats`] takes.
 pub const MAX_SAMPLES: u16 = 256;
@@ -415,12 +414,7 @@ pub fn fit_least_squares(
     prior: PathLoss,
     bounds: &Bounds,
 ) -> Result<ParamFit, LocError> {
-    let dxx = match fit_one_or_none(stats, mode, FitMethod::LeastSquares, prior, bounds) {
-        ControlFlow::Break(r) => return r,
-        ControlFlow::Continue(dxx) => dxx,
-    };
-    let model = box_least_squares(stats, dxx, bounds.alpha(), bounds.p0());
-    Ok(ParamFit::new(stats, model, 2))
+    fit_with(stats, mode, prior, bounds, None)
 }
 
 /// [`fit`] with [`FitMethod::Grid`]: the thesis' grid (α step 0.1, P0 step 0.5 dB), the
@@ -432,10 +426,66 @@ pub fn fit_grid(
     prior: PathLoss,
     bounds: &Bounds,
 ) -> Result<ParamFit, LocError> {
-    if let ControlFlow::Break(r) = fit_one_or_none(stats, mode, FitMethod::Grid, prior, bounds) {
-        return r;
+    fit_with(stats, mode, prior, bounds, Some(grid_search))
+}
+
+/// A search over both parameters within the `(α, P0)` bounds, given `n·Σx² − (Σx)²`.
+type Search = fn(&CalStats, u64, (i32, i32), (i32, i32)) -> PathLoss;
+
+/// Both methods: nothing fitted ([`ParamMode::Fixed`]), no samples, P0 alone
+/// ([`ParamMode::P0Only`], or α not identifiable: α the prior's, clamped to the bounds or on the
+/// grid), or both by `grid` (`None`: [`box_least_squares`]). Inlined into the two entry points
+/// with `grid` constant, so that the least-squares one links no grid code; one [`ParamFit`] at
+/// the end.
+#[inline(always)]
+fn fit_with(
+    stats: &CalStats,
+    mode: ParamMode,
+    prior: PathLoss,
+    bounds: &Bounds,
+    grid: Option<Search>,
+) -> Result<ParamFit, LocError> {
+    let prior = prior.sane();
+    if mode == ParamMode::Fixed {
+        return Ok(ParamFit::new(stats, prior, 0));
     }
-    let ((a_lo, a_hi), (p_lo, p_hi)) = (bounds.alpha(), bounds.p0());
+    if stats.is_empty() {
+        return Err(LocError::NoCalibrationData);
+    }
+    // α is the user's fixed value in P0Only mode: not subject to the bounds.
+    let mut alpha = prior.alpha;
+    if mode == ParamMode::P0AndAlpha {
+        let dxx = stats.dxx();
+        if stats.alpha_identifiable(dxx) {
+            let (a, p) = (bounds.alpha(), bounds.p0());
+            let model = match grid {
+                Some(search) => search(stats, dxx, a, p),
+                None => box_least_squares(stats, dxx, a, p),
+            };
+            return Ok(ParamFit::new(stats, model, 2));
+        }
+        let a = bounds.alpha();
+        alpha = match grid {
+            Some(_) => grid_alpha(alpha, a.0, a.1),
+            None => clamp_i32(alpha, a.0, a.1),
+        };
+    }
+    let p = bounds.p0();
+    let p0 = stats.p0_for(alpha);
+    let p0 = match grid {
+        Some(_) => grid_p0(p0, p.0, p.1),
+        None => clamp_i32(p0, p.0, p.1),
+    };
+    Ok(ParamFit::new(stats, PathLoss { p0, alpha }, 1))
+}
+
+/// The thesis' grid: for each α step the grid P0 nearest to its optimum, the least error.
+fn grid_search(
+    stats: &CalStats,
+    _dxx: u64,
+    (a_lo, a_hi): (i32, i32),
+    (p_lo, p_hi): (i32, i32),
+) -> PathLoss {
     let mut best = (u64::MAX, PathLoss { p0: 0, alpha: 0 });
     for k in 0..=alpha_steps(a_lo, a_hi) {
         let alpha = alpha_grid(a_lo, a_hi, k);
@@ -445,46 +495,7 @@ pub fn fit_grid(
             best = (e, PathLoss { p0, alpha });
         }
     }
-    Ok(ParamFit::new(stats, best.1, 2))
-}
-
-/// The cases both methods share: nothing fitted ([`ParamMode::Fixed`]), no samples, or P0 alone
-/// ([`ParamMode::P0Only`], or α not identifiable). `Continue(n·Σx² − (Σx)²)`: fit both.
-fn fit_one_or_none(
-    stats: &CalStats,
-    mode: ParamMode,
-    method: FitMethod,
-    prior: PathLoss,
-    bounds: &Bounds,
-) -> ControlFlow<Result<ParamFit, LocError>, u64> {
-    let prior = prior.sane();
-    if mode == ParamMode::Fixed {
-        return ControlFlow::Break(Ok(ParamFit::new(stats, prior, 0)));
-    }
-    if stats.is_empty() {
-        return ControlFlow::Break(Err(LocError::NoCalibrationData));
-    }
-    if mode == ParamMode::P0AndAlpha {
-        let dxx = stats.dxx();
-        if stats.alpha_identifiable(dxx) {
-            return ControlFlow::Continue(dxx);
-        }
-    }
-    let ((a_lo, a_hi), (p_lo, p_hi)) = (bounds.alpha(), bounds.p0());
-    let grid = method == FitMethod::Grid;
-    let alpha = match mode {
-        // α is the user's fixed value: not subject to the bounds.
-        ParamMode::P0Only => prior.alpha,
-        _ if grid => grid_alpha(prior.alpha, a_lo, a_hi),
-        _ => clamp_i32(prior.alpha, a_lo, a_hi),
-    };
-    let p0 = stats.p0_for(alpha);
-    let p0 = if grid {
-        grid_p0(p0, p_lo, p_hi)
-    } else {
-        clamp_i32(p0, p_lo, p_hi)
-    };
-    ControlFlow::Break(Ok(ParamFit::new(stats, PathLoss { p0, alpha }, 1)))
+    best.1
 }
 
 /// Whole 0.1 steps of α from `lo` to `hi`. The tolerance (10 units of `10·(hi − lo)` in Q.24)
