@@ -7,5 +7,6 @@ pub mod firmware;
 pub mod footprint;
 pub mod provision;
 pub mod report;
+pub mod scenario;
 pub mod simulate;
 pub mod study;
