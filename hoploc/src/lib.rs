@@ -10,3 +10,4 @@ pub mod report;
 pub mod scenario;
 pub mod simulate;
 pub mod study;
+pub mod testbed;

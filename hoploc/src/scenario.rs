@@ -269,7 +269,10 @@ impl Scenario {
         if !(3..=loc_proto::msg::MAX_ANCHORS).contains(&n) {
             return bad(
                 "anchors",
-                format!("{n} anchors; the network takes 3…{}", loc_proto::msg::MAX_ANCHORS),
+                format!(
+                    "{n} anchors; the network takes 3…{}",
+                    loc_proto::msg::MAX_ANCHORS
+                ),
             );
         }
         for (i, a) in self.anchors.iter().enumerate() {
@@ -286,7 +289,10 @@ impl Scenario {
             loc_proto::config::MAX_SLOT_MS,
         );
         if !(lo..=hi).contains(&t.slot_ms) {
-            return bad("timing.slot_ms", format!("{} is not within {lo}…{hi}", t.slot_ms));
+            return bad(
+                "timing.slot_ms",
+                format!("{} is not within {lo}…{hi}", t.slot_ms),
+            );
         }
         if t.channels.is_empty() || t.channels.len() > 4 {
             return bad(
@@ -439,7 +445,12 @@ path = [ { position = [5.0, 5.0], dwell_s = 10.0 }, { position = [2.0, 3.0], dwe
         let cases = [
             ("seed = 7", "seed = \"x\"", "seed", "invalid type"),
             ("seed = 7", "", "seed", "missing field"),
-            ("seed = 7", "seed = 7\ncolour = 1", "colour", "unknown field"),
+            (
+                "seed = 7",
+                "seed = 7\ncolour = 1",
+                "colour",
+                "unknown field",
+            ),
             (
                 "antenna = \"chip\"",
                 "antenna = \"horn\"",
@@ -448,8 +459,18 @@ path = [ { position = [5.0, 5.0], dwell_s = 10.0 }, { position = [2.0, 3.0], dwe
             ),
             ("slot_ms = 62", "slot_ms = 1", "timing.slot_ms", "within"),
             ("[1, 12]", "[1, 17]", "timing.channels[1]", "channel 17"),
-            ("[1, 12]", "[3, 12]", "timing.sink_channel", "also an anchor"),
-            ("[10.0, 10.0]", "[10.0, 10.5]", "anchors[2].position", "outside"),
+            (
+                "[1, 12]",
+                "[3, 12]",
+                "timing.sink_channel",
+                "also an anchor",
+            ),
+            (
+                "[10.0, 10.0]",
+                "[10.0, 10.5]",
+                "anchors[2].position",
+                "outside",
+            ),
             (
                 "dwell_s = 5.0",
                 "dwell_s = 0.0",
@@ -479,7 +500,11 @@ path = [ { position = [5.0, 5.0], dwell_s = 10.0 }, { position = [2.0, 3.0], dwe
     #[test]
     fn a_load_error_names_the_file() {
         let e = Scenario::load(Path::new("/nonexistent/x.toml")).unwrap_err();
-        assert!(e.to_string().starts_with("/nonexistent/x.toml: cannot read"), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("/nonexistent/x.toml: cannot read"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -490,7 +515,10 @@ path = [ { position = [5.0, 5.0], dwell_s = 10.0 }, { position = [2.0, 3.0], dwe
         }
         for f in files {
             let s = Scenario::load(&f).unwrap_or_else(|e| panic!("{e}"));
-            assert_eq!(Some(s.name.as_str()), f.file_stem().and_then(|x| x.to_str()));
+            assert_eq!(
+                Some(s.name.as_str()),
+                f.file_stem().and_then(|x| x.to_str())
+            );
         }
     }
 }

@@ -1,0 +1,109 @@
+//! The scenario runner end to end: room10's anchors and agent as real firmware in simavr (built
+//! by `cargo fw`, which ./test.sh runs first), the host sink behind a host radio.
+
+use hoploc::firmware;
+use hoploc::scenario::{self, Scenario};
+use hoploc::testbed::{RunConfig, SinkSource, Testbed};
+use loc_proto::sink_line::{Estimator, SinkLine};
+
+/// room10 with a noise-free medium and two short stops.
+fn quiet_room10() -> Scenario {
+    let mut s = Scenario::load(&scenario::resolve("room10")).unwrap();
+    s.medium.sigma_db = 0.0;
+    s.medium.fading_sigma_db = 0.0;
+    s.agent.path.truncate(2);
+    for stop in &mut s.agent.path {
+        stop.dwell_s = 4.0;
+    }
+    s
+}
+
+#[test]
+fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step() {
+    let s = quiet_room10();
+    let dir = firmware::default_dir();
+    firmware::ensure_built(&dir).unwrap();
+    let cfg = RunConfig {
+        sink: SinkSource::Host,
+        threads: 2,
+    };
+    let mut tb = Testbed::new(&s, &dir, &cfg).unwrap();
+    let sf = tb.superframe_s();
+    assert!((sf - 0.2).abs() < 1e-9, "room10's superframe: {sf} s");
+    let mut obs = Vec::new();
+    while !tb.done() {
+        obs.extend(tb.step(1.0));
+    }
+    assert!((tb.time_s() - s.duration_s()).abs() < 1e-6);
+    // After the warm-up: one report per superframe, each giving an MLE and an MMSE fix.
+    let after: Vec<_> = obs
+        .iter()
+        .filter(|o| o.time_s >= s.timing.warmup_s)
+        .collect();
+    let mle: Vec<(u16, f64)> = after
+        .iter()
+        .filter_map(|o| match o.line {
+            SinkLine::Fix {
+                estimator: Estimator::Mle,
+                seq,
+                ..
+            } => Some((seq, o.time_s)),
+            _ => None,
+        })
+        .collect();
+    let want = (s.duration_s() - s.timing.warmup_s) / sf;
+    assert!(
+        (mle.len() as f64 - want).abs() <= 1.0,
+        "{} MLE fixes in {} s, want {want}",
+        mle.len(),
+        s.duration_s() - s.timing.warmup_s
+    );
+    for w in mle.windows(2) {
+        assert_eq!(w[1].0, w[0].0.wrapping_add(1), "a report missing");
+        assert!((w[1].1 - w[0].1 - sf).abs() < 0.01, "{:?}", w);
+    }
+    let mmse = after
+        .iter()
+        .filter(|o| {
+            matches!(
+                o.line,
+                SinkLine::Fix {
+                    estimator: Estimator::Mmse,
+                    ..
+                }
+            )
+        })
+        .count();
+    assert_eq!(mmse, mle.len());
+    assert!(
+        after.iter().all(|o| matches!(o.line, SinkLine::Fix { .. })),
+        "a nofix"
+    );
+    // Every settled fix within one fine grid step (2 % of the 10 m side) of the truth in x and
+    // in y: the truth's lattice point or a neighbour of it. (Not closer: the sink fits α and
+    // P0 from the anchors' integer-dBm RSSI at only two distances, 10 m and 14.1 m, so its
+    // model is off by a few tenths of α even without noise.)
+    let step = 0.02 * s.area.width_m;
+    let mut settled = 0;
+    let mut worst = 0.0f64;
+    for o in obs.iter().filter(|o| o.settled) {
+        let SinkLine::Fix { x, y, anchors, .. } = o.line else {
+            unreachable!()
+        };
+        assert_eq!(anchors, 4);
+        let (ex, ey) = (x as f64 / 100.0 - o.truth[0], y as f64 / 100.0 - o.truth[1]);
+        worst = worst.max(ex.abs()).max(ey.abs());
+        assert!(
+            ex.abs() <= step + 1e-9 && ey.abs() <= step + 1e-9,
+            "{o:?}: ({ex:.3}, {ey:.3}) m off"
+        );
+        settled += 1;
+    }
+    // Both stops, each but its first superframes (two lines per report).
+    let per_stop = (4.0 / sf) as usize;
+    assert!(settled >= 2 * 2 * (per_stop - 3), "{settled} settled lines");
+    eprintln!("{settled} settled fix lines, worst error in x or y {worst:.3} m");
+    let c = tb.host_counters().unwrap();
+    assert_eq!(c.drops, 0);
+    assert_eq!(c.checksum_errors + c.foreign, 0);
+}
