@@ -4,6 +4,7 @@
 
 pub mod demo;
 pub mod firmware;
+pub mod fixes;
 pub mod footprint;
 pub mod provision;
 pub mod report;

@@ -422,7 +422,7 @@ pub fn json(result: &StudyResult) -> Result<String, String> {
 /// rise above half the size (capitals, digits) land a pixel low next to the others.
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans-subset.ttf");
 
-fn register_font() -> Result<(), String> {
+pub(crate) fn register_font() -> Result<(), String> {
     static ONCE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     let ok = *ONCE.get_or_init(|| {
         plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok()
@@ -519,7 +519,7 @@ pub fn write_plots(result: &StudyResult, dir: &Path) -> Result<Vec<PathBuf>, Str
 
 /// Writes an RGB buffer as a PNG at the best compression (about a fifth of plotters' own
 /// encoder's size: the plots are committed in docs/study/).
-fn write_png(path: &Path, (w, h): (u32, u32), rgb: &[u8]) -> Result<(), String> {
+pub(crate) fn write_png(path: &Path, (w, h): (u32, u32), rgb: &[u8]) -> Result<(), String> {
     let file = std::fs::File::create(path).map_err(|e| e.to_string())?;
     let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
     enc.set_color(png::ColorType::Rgb);
