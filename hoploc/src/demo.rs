@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use loc_proto::sink_line::{Estimator, SinkLine};
+use loc_proto::sink_line::SinkLine;
 
 use loc_proto::line::{BootLine, ConfigSource, RadioFound};
 use simavr::xbee::{baud_of_bd, XBee, XBeeConfig};
@@ -23,6 +23,7 @@ use xbee_api::driver::Error as RadioError;
 use xbee_api::Frame;
 
 use crate::firmware::{self, Role};
+use crate::fixes::Algo;
 use crate::scenario::{self, Scenario};
 use crate::testbed::{Observed, RunConfig, SinkSource, Testbed};
 
@@ -287,6 +288,13 @@ pub fn run(args: &Args) -> Result<(), String> {
         s.seed
     );
     println!("  sink: {}", args.sink.describe());
+    if args.sink == SinkSource::Host {
+        println!(
+            "  MLE-fixed: the host's reference, not a sink line: the MLE of the same report with \
+             P0 {} dBm and α {} fixed (no online estimation)",
+            s.medium.p0_dbm, s.medium.alpha
+        );
+    }
     println!(
         "  {duration:.0} s simulated: {} s warm-up (boot, provisioning window, radio bring-up), \
          then {} stops; live: one fix per {} s\n",
@@ -295,8 +303,21 @@ pub fn run(args: &Args) -> Result<(), String> {
         args.live_every
     );
     println!(
-        "{:>8} {:>4} {:>13} {:>13} {:>6} {:>13} {:>6} {:>5} {:>7}",
-        "time", "stop", "truth (m)", "MLE (m)", "err", "MMSE (m)", "err", "α", "P0"
+        "{:>8} {:>4} {:>13} {:>13} {:>6} {:>13} {:>6} {:>5} {:>7}{}",
+        "time",
+        "stop",
+        "truth (m)",
+        "MLE (m)",
+        "err",
+        "MMSE (m)",
+        "err",
+        "α",
+        "P0",
+        if args.sink == SinkSource::Host {
+            "  fixed err"
+        } else {
+            ""
+        }
     );
     let bar = ProgressBar::with_draw_target(
         Some((duration * 1000.0) as u64),
@@ -316,7 +337,7 @@ pub fn run(args: &Args) -> Result<(), String> {
     while !tb.done() {
         let new = tb.step(0.25);
         bar.set_position((tb.time_s() * 1000.0) as u64);
-        // MLE and MMSE lines of a report come together: print them as one row.
+        // A report's MLE and MMSE lines (and the host's reference) come together: one row.
         for pair in new.chunk_by(|a, b| seq_of(&a.line) == seq_of(&b.line)) {
             let fixes = crate::fixes::rows(pair);
             if fixes.is_empty() {
@@ -341,8 +362,10 @@ pub fn run(args: &Args) -> Result<(), String> {
                     format!("{:>13} {:>6.2}", xy(r.pos), r.distance())
                 })
             };
-            let (mle, mmse) = (find(Estimator::Mle), find(Estimator::Mmse));
+            let (mle, mmse) = (find(Algo::Mle), find(Algo::Mmse));
             let model = mle.or(mmse).map_or((0.0, 0.0), |r| (r.alpha, r.p0));
+            let fixed =
+                find(Algo::MleFixed).map_or(String::new(), |r| format!(" {:>6.2}", r.distance()));
             let note = if o.settled {
                 ""
             } else if o.time_s < s.timing.warmup_s + sf {
@@ -352,7 +375,7 @@ pub fn run(args: &Args) -> Result<(), String> {
             };
             bar.suspend(|| {
                 println!(
-                    "{:>7.2}s {:>4} {:>13} {} {} {:>5.2} {:>7.2}{note}",
+                    "{:>7.2}s {:>4} {:>13} {} {} {:>5.2} {:>7.2}{fixed}{note}",
                     o.time_s,
                     o.stop + 1,
                     xy(o.truth),
@@ -366,7 +389,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         obs.extend(new);
         if args.sink == SinkSource::Firmware
             && tb.time_s() > s.timing.warmup_s + 3.0
-            && obs.is_empty()
+            && !obs.iter().any(|o| !o.reference)
         {
             bar.finish_and_clear();
             return Err(format!(
@@ -384,7 +407,7 @@ pub fn run(args: &Args) -> Result<(), String> {
     let table = crate::fixes::table_text(&stats, &s);
     let reports = rows
         .iter()
-        .filter(|r| r.estimator == Estimator::Mle && r.time_s >= s.timing.warmup_s)
+        .filter(|r| r.estimator == Algo::Mle && r.time_s >= s.timing.warmup_s)
         .count();
     let counted = duration - s.timing.warmup_s;
     println!(
@@ -428,7 +451,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         ),
     )?;
     let mut log = String::new();
-    for o in &obs {
+    for o in obs.iter().filter(|o| !o.reference) {
         let mut bytes = Vec::new();
         o.line.write(|b| bytes.push(b));
         log += &String::from_utf8_lossy(&bytes);

@@ -1,6 +1,7 @@
 //! The fixes of a testbed run against the ground truth: the per-position, per-estimator
 //! RMSE/bias table of `hoploc demo`, its CSV, and its plots (fixes against the truth; error
-//! over time).
+//! over time). The estimators are the sink's two (from its lines) and, with the host sink, the
+//! host's fixed-parameter reference ([`crate::testbed::Observed::reference`]).
 
 use std::path::{Path, PathBuf};
 
@@ -12,14 +13,26 @@ use crate::scenario::Scenario;
 use crate::simulate::{register_font, write_png};
 use crate::testbed::Observed;
 
-/// The two estimators of the sink, in table order.
-pub const ESTIMATORS: [Estimator; 2] = [Estimator::Mle, Estimator::Mmse];
+/// Where a fix comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Algo {
+    /// The sink's thesis MLE (P0/α estimated online).
+    Mle,
+    /// The sink's windowed MMSE (P0/α estimated online).
+    Mmse,
+    /// The host's reference: the MLE with P0 and α fixed at the scenario's starting values.
+    MleFixed,
+}
+
+/// Every [`Algo`], in table order.
+pub const ALGOS: [Algo; 3] = [Algo::Mle, Algo::Mmse, Algo::MleFixed];
 
 /// An estimator's name in tables and plots.
-pub fn name(e: Estimator) -> &'static str {
-    match e {
-        Estimator::Mle => "MLE",
-        Estimator::Mmse => "MMSE",
+pub fn name(a: Algo) -> &'static str {
+    match a {
+        Algo::Mle => "MLE",
+        Algo::Mmse => "MMSE",
+        Algo::MleFixed => "MLE-fixed",
     }
 }
 
@@ -35,7 +48,7 @@ pub struct FixRow {
     /// True position, m.
     pub truth: [f64; 2],
     /// Which estimator.
-    pub estimator: Estimator,
+    pub estimator: Algo,
     /// The fix, m.
     pub pos: [f64; 2],
     /// α the sink used.
@@ -79,7 +92,11 @@ pub fn rows(obs: &[Observed]) -> Vec<FixRow> {
                 seq,
                 stop: o.stop,
                 truth: o.truth,
-                estimator,
+                estimator: match (o.reference, estimator) {
+                    (true, _) => Algo::MleFixed,
+                    (false, Estimator::Mle) => Algo::Mle,
+                    (false, Estimator::Mmse) => Algo::Mmse,
+                },
                 pos: [x as f64 / 100.0, y as f64 / 100.0],
                 alpha: alpha_x100 as f64 / 100.0,
                 p0: p0_x100 as f64 / 100.0,
@@ -97,7 +114,7 @@ pub struct Stat {
     /// The stop, or `None` for every stop.
     pub stop: Option<usize>,
     /// The estimator.
-    pub estimator: Estimator,
+    pub estimator: Algo,
     /// Settled fixes.
     pub n: usize,
     /// Root mean square distance to the truth, m.
@@ -110,7 +127,7 @@ pub struct Stat {
 
 impl Stat {
     /// The statistics of `rows` (all assumed settled and of one estimator).
-    fn of(stop: Option<usize>, estimator: Estimator, rows: &[&FixRow]) -> Stat {
+    fn of(stop: Option<usize>, estimator: Algo, rows: &[&FixRow]) -> Stat {
         let n = rows.len();
         let k = n.max(1) as f64;
         let mse = rows.iter().map(|r| r.distance().powi(2)).sum::<f64>() / k;
@@ -127,11 +144,19 @@ impl Stat {
     }
 }
 
-/// Per stop then over all stops, per estimator: the statistics of the settled fixes.
+/// The estimators `rows` has, in table order.
+pub fn algos(rows: &[FixRow]) -> Vec<Algo> {
+    ALGOS
+        .into_iter()
+        .filter(|a| rows.iter().any(|r| r.estimator == *a))
+        .collect()
+}
+
+/// Per stop then over all stops, per estimator of `rows`: the statistics of the settled fixes.
 pub fn table(rows: &[FixRow], stops: usize) -> Vec<Stat> {
     let mut out = Vec::new();
     for stop in (0..stops).map(Some).chain([None]) {
-        for e in ESTIMATORS {
+        for e in algos(rows) {
             let sel: Vec<&FixRow> = rows
                 .iter()
                 .filter(|r| r.settled && r.estimator == e && stop.is_none_or(|s| r.stop == s))
@@ -145,7 +170,7 @@ pub fn table(rows: &[FixRow], stops: usize) -> Vec<Stat> {
 /// The table as text: stop, truth, estimator, fixes, RMSE, bias x and y, max error.
 pub fn table_text(stats: &[Stat], s: &Scenario) -> String {
     let mut t = format!(
-        "{:<5} {:>13} {:>6} {:<5} {:>5} {:>8} {:>8} {:>8} {:>7}\n",
+        "{:<5} {:>13} {:>6} {:<9} {:>5} {:>8} {:>8} {:>8} {:>7}\n",
         "stop", "truth (m)", "orient", "est", "fixes", "RMSE m", "bias x", "bias y", "max m"
     );
     for st in stats {
@@ -163,7 +188,7 @@ pub fn table_text(stats: &[Stat], s: &Scenario) -> String {
         };
         if st.n == 0 {
             t += &format!(
-                "{stop:<5} {truth:>13} {orient:>6} {:<5} {:>5} {:>8} {:>8} {:>8} {:>7}\n",
+                "{stop:<5} {truth:>13} {orient:>6} {:<9} {:>5} {:>8} {:>8} {:>8} {:>7}\n",
                 name(st.estimator),
                 0,
                 "-",
@@ -173,7 +198,7 @@ pub fn table_text(stats: &[Stat], s: &Scenario) -> String {
             );
         } else {
             t += &format!(
-                "{stop:<5} {truth:>13} {orient:>6} {:<5} {:>5} {:>8.3} {:>+8.3} {:>+8.3} {:>7.3}\n",
+                "{stop:<5} {truth:>13} {orient:>6} {:<9} {:>5} {:>8.3} {:>+8.3} {:>+8.3} {:>7.3}\n",
                 name(st.estimator),
                 st.n,
                 st.rmse,
@@ -234,8 +259,9 @@ pub fn write_plots(rows: &[FixRow], s: &Scenario, dir: &Path) -> Result<Vec<Path
     let mut files = Vec::new();
     let aspect = s.area.height_m / s.area.width_m;
     let panel_w = 460u32;
-    let size = (2 * panel_w, (panel_w as f64 * aspect) as u32 + 110);
-    let err_size = (2 * panel_w, 360);
+    let panels = algos(rows).len().max(1) as u32;
+    let size = (panels * panel_w, (panel_w as f64 * aspect) as u32 + 110);
+    let err_size = (3 * panel_w, 360);
     for (stem, size) in [("fixes", size), ("error", err_size)] {
         let svg = dir.join(format!("{stem}.svg"));
         let draw = |root: DrawingArea<SVGBackend, Shift>| {
@@ -286,7 +312,8 @@ where
         .map_err(err)?;
     let (w, h) = (s.area.width_m, s.area.height_m);
     let m = 0.05 * w.max(h);
-    for (area, e) in root.split_evenly((1, 2)).iter().zip(ESTIMATORS) {
+    let algos = algos(rows);
+    for (area, e) in root.split_evenly((1, algos.len())).iter().zip(algos) {
         let mut chart = ChartBuilder::on(area)
             .caption(name(e), ("sans-serif", 16))
             .margin(8)
@@ -377,8 +404,12 @@ where
         .axis_desc_style(("sans-serif", 12))
         .draw()
         .map_err(err)?;
-    let colors = [RGBColor(31, 119, 180), RGBColor(214, 39, 40)];
-    for (e, c) in ESTIMATORS.into_iter().zip(colors) {
+    let colors = [
+        RGBColor(31, 119, 180),
+        RGBColor(214, 39, 40),
+        RGBColor(44, 160, 44),
+    ];
+    for (e, c) in algos(rows).into_iter().zip(colors) {
         chart
             .draw_series(rows.iter().filter(|r| r.estimator == e).map(|r| {
                 let col = if r.settled {
@@ -406,7 +437,7 @@ where
 mod tests {
     use super::*;
 
-    fn row(stop: usize, e: Estimator, pos: [f64; 2], settled: bool) -> FixRow {
+    fn row(stop: usize, e: Algo, pos: [f64; 2], settled: bool) -> FixRow {
         FixRow {
             time_s: 0.0,
             seq: 0,
@@ -424,18 +455,15 @@ mod tests {
     #[test]
     fn rmse_and_bias_of_the_settled_fixes() {
         let rows = [
-            row(0, Estimator::Mle, [1.3, 1.0], true),
-            row(0, Estimator::Mle, [1.0, 0.6], true),
-            row(0, Estimator::Mle, [9.0, 9.0], false),
-            row(0, Estimator::Mmse, [1.0, 1.0], true),
+            row(0, Algo::Mle, [1.3, 1.0], true),
+            row(0, Algo::Mle, [1.0, 0.6], true),
+            row(0, Algo::Mle, [9.0, 9.0], false),
+            row(0, Algo::Mmse, [1.0, 1.0], true),
         ];
         let t = table(&rows, 1);
         assert_eq!(t.len(), 4);
         let mle = t[0];
-        assert_eq!(
-            (mle.stop, mle.estimator, mle.n),
-            (Some(0), Estimator::Mle, 2)
-        );
+        assert_eq!((mle.stop, mle.estimator, mle.n), (Some(0), Algo::Mle, 2));
         assert!((mle.rmse - ((0.09 + 0.16) / 2.0f64).sqrt()).abs() < 1e-12);
         assert!((mle.bias[0] - 0.15).abs() < 1e-12 && (mle.bias[1] + 0.2).abs() < 1e-12);
         assert!((mle.max - 0.4).abs() < 1e-12);

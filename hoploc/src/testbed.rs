@@ -15,7 +15,7 @@
 
 use std::path::Path;
 
-use loc_core::fixed::Portable;
+use loc_core::fixed::{mle_and_mmse_window_with, AreaCm, PathLoss, Portable};
 use loc_proto::config::Config;
 use loc_proto::msg::{ChannelList, Position, Report};
 use loc_proto::schedule::Schedule;
@@ -66,6 +66,10 @@ pub struct Observed {
     /// Whether the whole superframe the report measured lies after the warm-up and within this
     /// stop (else the fix mixes two positions or the network's start: left out of statistics).
     pub settled: bool,
+    /// Not a sink line but the host's reference, as a `fix` line: the MLE of the same report
+    /// with P0 and α fixed at the scenario's starting values, as a sink without online P0/α
+    /// estimation would give it (host sink only; experiment 3's comparison).
+    pub reference: bool,
 }
 
 /// How a run is set up.
@@ -91,6 +95,8 @@ struct HostSink {
     node: NodeId,
     decoder: Decoder,
     sink: Sink<Portable>,
+    /// The reference's fixed model and room.
+    fixed: (PathLoss, AreaCm),
 }
 
 /// A scenario running on the emulated network.
@@ -198,10 +204,15 @@ impl Testbed {
                     .ok_or("the sink channel has no XBee channel")?;
                 spec.xbee.id = Config::DEFAULT.pan_id;
                 let node = net.add_host_radio(spec);
+                let fixed = PathLoss::from_centi(
+                    (s.medium.p0_dbm * 100.0).round() as i32,
+                    (s.medium.alpha * 100.0).round() as i32,
+                );
                 host = Some(HostSink {
                     node,
                     decoder: Decoder::new(Mode::Escaped),
                     sink: Sink::new(Some(s.area_cm())),
+                    fixed: (fixed, s.area_cm()),
                 });
             }
             SinkSource::Firmware => {
@@ -286,7 +297,7 @@ impl Testbed {
 
     /// The sink lines written since the last call, with their truth.
     fn collect(&mut self, out: &mut Vec<Observed>) {
-        let mut lines: Vec<(f64, SinkLine)> = Vec::new();
+        let mut lines: Vec<(f64, SinkLine, bool)> = Vec::new();
         if let Some(h) = &mut self.host {
             let bytes = self.net.core_mut(h.node).take_output();
             let mut frames: Vec<(u64, Vec<u8>)> = Vec::new();
@@ -306,12 +317,31 @@ impl Testbed {
                     continue; // modem status, TX status: not the sink's business
                 };
                 let ms = cycles_to_ms(cycle);
-                match Report::decode(data) {
-                    Ok(r) => match h.sink.on_report(&r) {
-                        Ok(fix) => lines.extend(fix.lines().map(|l| (ms, l))),
-                        Err(e) => lines.push((ms, sink_fw::no_fix_line(r.agent, r.seq, e))),
-                    },
-                    Err(e) => h.sink.on_bad_frame(BadFrame::of(e)),
+                let r = match Report::decode(data) {
+                    Ok(r) => r,
+                    Err(e) => {
+                        h.sink.on_bad_frame(BadFrame::of(e));
+                        continue;
+                    }
+                };
+                match h.sink.on_report(&r) {
+                    Ok(fix) => lines.extend(fix.lines().map(|l| (ms, l, false))),
+                    Err(e) => lines.push((ms, sink_fw::no_fix_line(r.agent, r.seq, e), false)),
+                }
+                let (model, area) = h.fixed;
+                let (_, obs) = sink_fw::report_inputs(&r);
+                if let Ok([mle, mmse]) =
+                    mle_and_mmse_window_with::<Portable>(&obs, model, area, sink_fw::DEFAULT_SIGMA)
+                {
+                    let fix = sink_fw::Fix {
+                        agent: r.agent,
+                        seq: r.seq,
+                        mle,
+                        mmse,
+                        model,
+                        fitted: false,
+                    };
+                    lines.push((ms, fix.lines()[0], true));
                 }
             }
         }
@@ -319,12 +349,12 @@ impl Testbed {
             let all = self.net.lines(*node);
             for l in &all[*seen..] {
                 if let Ok(line) = SinkLine::parse(&l.text) {
-                    lines.push((l.ms(), line));
+                    lines.push((l.ms(), line, false));
                 }
             }
             *seen = all.len();
         }
-        for (ms, line) in lines {
+        for (ms, line, reference) in lines {
             let t = ms / 1000.0;
             let stop = self.stop_at(t);
             let measured_from = t - self.superframe_s;
@@ -336,6 +366,7 @@ impl Testbed {
                 stop,
                 truth: self.scenario.agent.path[stop].position,
                 settled,
+                reference,
             });
         }
     }

@@ -38,7 +38,7 @@ fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step(
     // After the warm-up: one report per superframe, each giving an MLE and an MMSE fix.
     let after: Vec<_> = obs
         .iter()
-        .filter(|o| o.time_s >= s.timing.warmup_s)
+        .filter(|o| o.time_s >= s.timing.warmup_s && !o.reference)
         .collect();
     let mle: Vec<(u16, f64)> = after
         .iter()
@@ -79,12 +79,14 @@ fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step(
         after.iter().all(|o| matches!(o.line, SinkLine::Fix { .. })),
         "a nofix"
     );
-    // Every settled fix within one fine grid step (2 % of the 10 m side) of the truth in x and
-    // in y: the truth's lattice point or a neighbour of it. (Not closer: the sink fits α and
-    // P0 from the anchors' integer-dBm RSSI at only two distances, 10 m and 14.1 m, so its
-    // model is off by a few tenths of α even without noise.)
+    // Every settled fix (the sink's two and the host's fixed-parameter reference) within one
+    // fine grid step (2 % of the 10 m side) of the truth in x and in y: the truth's lattice
+    // point or a neighbour of it. (Not closer: the sink fits α and P0 from the anchors'
+    // integer-dBm RSSI at only two distances, 10 m and 14.1 m, so its model is off by a few
+    // tenths of α even without noise.)
     let step = 0.02 * s.area.width_m;
     let mut settled = 0;
+    let mut references = 0;
     let mut worst = 0.0f64;
     for o in obs.iter().filter(|o| o.settled) {
         let SinkLine::Fix { x, y, anchors, .. } = o.line else {
@@ -97,8 +99,13 @@ fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step(
             ex.abs() <= step + 1e-9 && ey.abs() <= step + 1e-9,
             "{o:?}: ({ex:.3}, {ey:.3}) m off"
         );
-        settled += 1;
+        if o.reference {
+            references += 1;
+        } else {
+            settled += 1;
+        }
     }
+    assert_eq!(2 * references, settled, "one reference per report");
     // Both stops, each but its first superframes (two lines per report).
     let per_stop = (4.0 / sf) as usize;
     assert!(settled >= 2 * 2 * (per_stop - 3), "{settled} settled lines");
