@@ -22,7 +22,8 @@ enum Command {
     /// The scenario's anchors (anchor-fw) and agent (agent-fw) run in simavr on the radio
     /// medium of SPEC §7, each with its config in EEPROM; the agent moves along the scenario's
     /// path. The sink's lines give its fixes, shown live against the truth; at the end an
-    /// RMSE/bias table per position and estimator (MLE, MMSE), and plots, CSV and the sink's
+    /// RMSE/bias table per position and estimator (the sink's MLE and MMSE, and with the host
+    /// sink MLE-fixed: the host's reference with P0/α fixed), and plots, CSV and the sink's
     /// log in the out dir. The sink is the host sink by default: the sink firmware's logic
     /// (sink_fw::Sink) on the host behind a host radio, because the sink firmware does not fit
     /// the Uno yet. Builds the firmware first if needed (cargo fw). Scenarios: scenarios/.
