@@ -253,6 +253,12 @@ impl Testbed {
         &self.net
     }
 
+    /// The network, mutably (to power a node off or on: anchors are nodes 0…N−1 in id order,
+    /// the agent node N).
+    pub fn network_mut(&mut self) -> &mut Network {
+        &mut self.net
+    }
+
     /// Simulated time, s.
     pub fn time_s(&self) -> f64 {
         self.net.time_ms() / 1000.0

@@ -114,3 +114,69 @@ fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step(
     assert_eq!(c.drops, 0);
     assert_eq!(c.checksum_errors + c.foreign, 0);
 }
+
+#[test]
+fn with_an_anchor_gone_the_fixes_go_on_from_three() {
+    let mut s = quiet_room10();
+    s.agent.path.truncate(1);
+    s.agent.path[0].dwell_s = 6.0;
+    let dir = firmware::default_dir();
+    firmware::ensure_built(&dir).unwrap();
+    let mut tb = Testbed::new(&s, &dir, &RunConfig::default()).unwrap();
+    let sf = tb.superframe_s();
+    let mut obs = tb.step(s.timing.warmup_s + 1.0);
+    // Anchor 4 (node 3) off: the agent marks it not heard, the sink locates from three.
+    tb.network_mut().kill(3);
+    let killed = tb.time_s();
+    while !tb.done() {
+        obs.extend(tb.step(1.0));
+    }
+    let mle = |o: &&hoploc::testbed::Observed| {
+        !o.reference
+            && matches!(
+                o.line,
+                SinkLine::Fix {
+                    estimator: Estimator::Mle,
+                    ..
+                }
+            )
+    };
+    let before = obs
+        .iter()
+        .filter(mle)
+        .filter(|o| o.settled && o.time_s < killed);
+    assert!(before.clone().count() >= 4);
+    assert!(before
+        .clone()
+        .all(|o| matches!(o.line, SinkLine::Fix { anchors: 4, .. })));
+    // From the first report that cannot have heard it, every report still gives a fix.
+    let after: Vec<_> = obs
+        .iter()
+        .filter(mle)
+        .filter(|o| o.time_s > killed + sf)
+        .collect();
+    let want = (s.duration_s() - killed - sf) / sf;
+    assert!(
+        (after.len() as f64 - want).abs() <= 1.0,
+        "{} fixes, want {want}",
+        after.len()
+    );
+    let mut worst = 0.0f64;
+    for o in &after {
+        let SinkLine::Fix { x, y, anchors, .. } = o.line else {
+            unreachable!()
+        };
+        assert_eq!(anchors, 3, "{o:?}");
+        let (ex, ey) = (x as f64 / 100.0 - o.truth[0], y as f64 / 100.0 - o.truth[1]);
+        // Noise-free: still within one fine grid step in x and in y.
+        assert!(ex.abs() <= 0.2 + 1e-9 && ey.abs() <= 0.2 + 1e-9, "{o:?}");
+        worst = worst.max(ex.hypot(ey));
+    }
+    eprintln!(
+        "three anchors: {} fixes, worst error {worst:.3} m",
+        after.len()
+    );
+    assert!(obs
+        .iter()
+        .all(|o| !matches!(o.line, SinkLine::NoFix { .. })));
+}
