@@ -340,12 +340,12 @@ pub fn run(args: &Args) -> Result<(), String> {
         bar.set_position((tb.time_s() * 1000.0) as u64);
         // A report's MLE and MMSE lines (and the host's reference) come together: one row.
         for pair in new.chunk_by(|a, b| seq_of(&a.line) == seq_of(&b.line)) {
+            nofix += pair
+                .iter()
+                .filter(|o| matches!(o.line, SinkLine::NoFix { .. }))
+                .count();
             let fixes = crate::fixes::rows(pair);
             if fixes.is_empty() {
-                nofix += pair
-                    .iter()
-                    .filter(|o| matches!(o.line, SinkLine::NoFix { .. }))
-                    .count();
                 continue;
             }
             let o = &pair[0];
