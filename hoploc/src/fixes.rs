@@ -260,7 +260,7 @@ pub fn write_plots(rows: &[FixRow], s: &Scenario, dir: &Path) -> Result<Vec<Path
     let aspect = s.area.height_m / s.area.width_m;
     let panel_w = 460u32;
     let panels = algos(rows).len().max(1) as u32;
-    let size = (panels * panel_w, (panel_w as f64 * aspect) as u32 + 110);
+    let size = (panels * panel_w, (panel_w as f64 * aspect) as u32 + 136);
     let err_size = (3 * panel_w, 360);
     for (stem, size) in [("fixes", size), ("error", err_size)] {
         let svg = dir.join(format!("{stem}.svg"));
@@ -310,6 +310,29 @@ where
             ("sans-serif", 18),
         )
         .map_err(err)?;
+    // A legend strip: each stop's colour, position and orientation.
+    let (legend, root) = root.split_vertically(26);
+    let mut x = 10;
+    for (i, p) in s.agent.path.iter().enumerate() {
+        let o = p.orientation_deg.unwrap_or(s.agent.orientation_deg);
+        let text = format!(
+            "stop {}: ({:.2}, {:.2}) {o:.0}°",
+            i + 1,
+            p.position[0],
+            p.position[1]
+        );
+        legend
+            .draw(&Circle::new((x, 13), 4, stop_color(i).filled()))
+            .map_err(err)?;
+        legend
+            .draw(&Text::new(
+                text.clone(),
+                (x + 8, 6),
+                ("sans-serif", 12).into_font().color(&BLACK),
+            ))
+            .map_err(err)?;
+        x += 16 + 7 * text.chars().count() as i32;
+    }
     let (w, h) = (s.area.width_m, s.area.height_m);
     let m = 0.05 * w.max(h);
     let algos = algos(rows);
