@@ -39,6 +39,7 @@ fn main() {
             let cfg = RunConfig {
                 sink: SinkSource::Host,
                 threads,
+                ..RunConfig::default()
             };
             let mut tb = Testbed::new(&s, &dir, &cfg).expect("testbed");
             let t0 = Instant::now();

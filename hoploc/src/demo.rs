@@ -199,6 +199,9 @@ pub struct Args {
     /// work one thread can be faster: the threads meet twice per simulated millisecond).
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
+    /// Probability of a bit error in each byte on every firmware↔radio UART (e.g. 1e-3).
+    #[arg(long, default_value_t = 0.0)]
+    pub uart_errors: f64,
     /// The boot timeline instead: the anchor, agent and sink firmware boot, each on a
     /// factory-fresh XBee, and configure it through command mode and API frames.
     #[arg(long)]
@@ -263,6 +266,7 @@ pub fn run(args: &Args) -> Result<(), String> {
     let cfg = RunConfig {
         sink: args.sink,
         threads: args.threads,
+        uart_error_rate: args.uart_errors,
     };
     let mut tb = Testbed::new(&s, &fw_dir, &cfg)?;
     let sf = tb.superframe_s();

@@ -79,6 +79,8 @@ pub struct RunConfig {
     pub sink: SinkSource,
     /// Stepping threads of the network (2: both cores of the target machine).
     pub threads: usize,
+    /// Probability of a bit error in each byte on every firmware↔radio UART (0: none).
+    pub uart_error_rate: f64,
 }
 
 impl Default for RunConfig {
@@ -86,6 +88,7 @@ impl Default for RunConfig {
         RunConfig {
             sink: SinkSource::Host,
             threads: 2,
+            uart_error_rate: 0.0,
         }
     }
 }
@@ -158,6 +161,8 @@ impl Testbed {
             Medium::new(s.medium_config()),
             NetworkConfig {
                 threads: cfg.threads.max(1),
+                uart_error_rate: cfg.uart_error_rate,
+                seed: s.seed,
                 ..NetworkConfig::default()
             },
         );

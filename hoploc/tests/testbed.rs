@@ -4,6 +4,7 @@
 use hoploc::firmware;
 use hoploc::scenario::{self, Scenario};
 use hoploc::testbed::{RunConfig, SinkSource, Testbed};
+use loc_proto::line::BootLine;
 use loc_proto::sink_line::{Estimator, SinkLine};
 
 /// room10 with a noise-free medium and two short stops.
@@ -26,6 +27,7 @@ fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step(
     let cfg = RunConfig {
         sink: SinkSource::Host,
         threads: 2,
+        ..RunConfig::default()
     };
     let mut tb = Testbed::new(&s, &dir, &cfg).unwrap();
     let sf = tb.superframe_s();
@@ -179,4 +181,61 @@ fn with_an_anchor_gone_the_fixes_go_on_from_three() {
     assert!(obs
         .iter()
         .all(|o| !matches!(o.line, SinkLine::NoFix { .. })));
+}
+
+/// A bit error in one UART byte in a thousand, both ways on every node: no node hangs or
+/// resets, the errors are counted, and the fixes go on.
+#[test]
+fn uart_noise_is_counted_and_the_fixes_go_on() {
+    let mut s = quiet_room10();
+    s.agent.path.truncate(1);
+    s.agent.path[0].dwell_s = 12.0;
+    let dir = firmware::default_dir();
+    firmware::ensure_built(&dir).unwrap();
+    let cfg = RunConfig {
+        uart_error_rate: 1e-3,
+        ..RunConfig::default()
+    };
+    let mut tb = Testbed::new(&s, &dir, &cfg).unwrap();
+    let sf = tb.superframe_s();
+    let mut obs = Vec::new();
+    while !tb.done() {
+        obs.extend(tb.step(1.0));
+    }
+    let net = tb.network();
+    let mut radio_errors = 0;
+    for id in 0..s.anchors.len() + 1 {
+        assert!(net.state(id).is_alive(), "node {id}: {:?}", net.state(id));
+        let boots = net
+            .lines(id)
+            .iter()
+            .filter(|l| matches!(BootLine::parse(&l.text), Ok(BootLine::Boot { .. })))
+            .count();
+        assert_eq!(boots, 1, "node {id} reset");
+        let st = net.core(id).stats();
+        radio_errors += st.checksum_errors + st.bad_frames;
+    }
+    let c = tb.host_counters().unwrap();
+    let fixes = obs
+        .iter()
+        .filter(|o| {
+            !o.reference
+                && o.time_s >= s.timing.warmup_s
+                && matches!(
+                    o.line,
+                    SinkLine::Fix {
+                        estimator: Estimator::Mle,
+                        ..
+                    }
+                )
+        })
+        .count();
+    let superframes = (s.duration_s() - s.timing.warmup_s) / sf;
+    eprintln!(
+        "UART errors 1e-3: {fixes} fixes in {superframes} superframes, {radio_errors} frames \
+         the radios rejected, sink: {} missing, {} corrupt",
+        c.drops, c.checksum_errors
+    );
+    assert!(radio_errors > 0, "no error was counted");
+    assert!(fixes as f64 >= 0.8 * superframes, "{fixes} fixes");
 }
