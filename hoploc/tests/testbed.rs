@@ -239,3 +239,63 @@ fn uart_noise_is_counted_and_the_fixes_go_on() {
     assert!(radio_errors > 0, "no error was counted");
     assert!(fixes as f64 >= 0.8 * superframes, "{fixes} fixes");
 }
+
+/// Anchor 1, the time master, powered off mid-run: anchor 2 takes over the timeline with no
+/// collision, and after the superframes the others need to take anchor 1 as gone, every report
+/// gives a fix from the three left.
+#[test]
+fn with_anchor_1_gone_anchor_2_takes_over_and_the_fixes_go_on() {
+    let mut s = quiet_room10();
+    s.agent.path.truncate(1);
+    s.agent.path[0].dwell_s = 8.0;
+    let dir = firmware::default_dir();
+    firmware::ensure_built(&dir).unwrap();
+    let mut tb = Testbed::new(&s, &dir, &RunConfig::default()).unwrap();
+    let sf = tb.superframe_s();
+    let mut obs = tb.step(s.timing.warmup_s + 1.0);
+    tb.network_mut().kill(0);
+    let killed = tb.time_s();
+    while !tb.done() {
+        obs.extend(tb.step(1.0));
+    }
+    assert!(
+        tb.network().log().iter().all(|r| !r.collided),
+        "a collision"
+    );
+    let after: Vec<_> = obs
+        .iter()
+        .filter(|o| {
+            !o.reference
+                && o.time_s > killed
+                && matches!(
+                    o.line,
+                    SinkLine::Fix {
+                        estimator: Estimator::Mle,
+                        ..
+                    }
+                )
+        })
+        .collect();
+    let resume = killed + (loc_proto::schedule::SILENT_SUPERFRAMES as f64 + 3.0) * sf;
+    let late: Vec<_> = after.iter().filter(|o| o.time_s > resume).collect();
+    let want = (s.duration_s() - resume) / sf;
+    assert!(
+        (late.len() as f64 - want).abs() <= 1.0,
+        "{} fixes after {resume:.2} s, want {want}; all after the kill at {killed:.2} s: {:?}",
+        late.len(),
+        after.iter().map(|o| o.time_s).collect::<Vec<_>>()
+    );
+    for o in late {
+        let SinkLine::Fix { x, y, anchors, .. } = o.line else {
+            unreachable!()
+        };
+        assert_eq!(anchors, 3, "{o:?}");
+        let (ex, ey) = (x as f64 / 100.0 - o.truth[0], y as f64 / 100.0 - o.truth[1]);
+        assert!(ex.abs() <= 0.2 + 1e-9 && ey.abs() <= 0.2 + 1e-9, "{o:?}");
+    }
+    eprintln!(
+        "anchor 1 off at {killed:.2} s: {} fixes after, first at {:.2} s",
+        after.len(),
+        after.first().map_or(f64::NAN, |o| o.time_s)
+    );
+}
