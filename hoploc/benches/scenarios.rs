@@ -49,7 +49,8 @@ fn main() {
                     .step(1.0)
                     .iter()
                     .filter(|o| {
-                        o.time_s >= s.timing.warmup_s
+                        !o.reference
+                            && o.time_s >= s.timing.warmup_s
                             && matches!(
                                 o.line,
                                 SinkLine::Fix {
