@@ -116,6 +116,11 @@ pub struct Testbed {
     superframe_s: f64,
 }
 
+/// Simulated time `s` seconds in cycles.
+fn cycle_of(s: f64) -> u64 {
+    ms_to_cycles(s * 1000.0)
+}
+
 /// `p` metres as config centimetres.
 fn cm(p: [f64; 2]) -> Position {
     Position {
@@ -276,7 +281,7 @@ impl Testbed {
 
     /// Whether the scenario's time is up.
     pub fn done(&self) -> bool {
-        self.time_s() >= self.scenario.duration_s() - 1e-9
+        self.net.cycle() >= cycle_of(self.scenario.duration_s())
     }
 
     /// The host sink's counters (`None` with the firmware sink).
@@ -287,14 +292,14 @@ impl Testbed {
     /// Runs up to `seconds` more of simulated time (not past the scenario's end), moving the
     /// agent at the end of each dwell; returns the sink lines written meanwhile, in order.
     pub fn step(&mut self, seconds: f64) -> Vec<Observed> {
-        let end_s = (self.time_s() + seconds).min(self.scenario.duration_s());
+        // In cycles: times in seconds do not round-trip exactly through cycles.
+        let end = cycle_of((self.time_s() + seconds).min(self.scenario.duration_s()));
         let mut out = Vec::new();
-        while self.time_s() < end_s - 1e-9 {
-            let next_move = self.stop_start_s.get(self.stop + 1).copied();
-            let until = next_move.map_or(end_s, |m| m.min(end_s));
-            self.net.run_until(ms_to_cycles(until * 1000.0));
+        while self.net.cycle() < end {
+            let next_move = self.stop_start_s.get(self.stop + 1).map(|&m| cycle_of(m));
+            self.net.run_until(next_move.map_or(end, |m| m.min(end)));
             self.collect(&mut out);
-            if next_move.is_some_and(|m| self.time_s() >= m - 1e-9) {
+            if next_move.is_some_and(|m| self.net.cycle() >= m) {
                 self.stop += 1;
                 let stop = self.scenario.agent.path[self.stop];
                 let default_deg = self.scenario.agent.orientation_deg;

@@ -299,3 +299,32 @@ fn with_anchor_1_gone_anchor_2_takes_over_and_the_fixes_go_on() {
         after.first().map_or(f64::NAN, |o| o.time_s)
     );
 }
+
+/// Durations that are no whole number of cycles: the run still ends, at the scenario's end, with
+/// the agent moved at each stop's start.
+#[test]
+fn odd_durations_end_on_time() {
+    let mut s = quiet_room10();
+    s.timing.warmup_s = 0.051_234_567_89;
+    s.agent.path[0].dwell_s = 0.123_456_789_01;
+    s.agent.path[1].dwell_s = 0.098_765_432_1;
+    let dir = firmware::default_dir();
+    firmware::ensure_built(&dir).unwrap();
+    let mut tb = Testbed::new(&s, &dir, &RunConfig::default()).unwrap();
+    let mut calls = 0;
+    while !tb.done() {
+        tb.step(0.033_333_333_3);
+        calls += 1;
+        assert!(calls < 20, "the run does not end");
+    }
+    assert!(
+        (tb.time_s() - s.duration_s()).abs() < 1e-6,
+        "{}",
+        tb.time_s()
+    );
+    let agent = s.anchors.len();
+    assert_eq!(
+        tb.network().medium().node(agent).position,
+        s.agent.path[1].position
+    );
+}
