@@ -1,6 +1,7 @@
 //! The hoploc host tools behind the `hoploc` command line, as a library so the workspace's tests
 //! (the `tests` crate) use the same firmware lookup and runs as the command, and benchmarks drive
-//! the simulation study ([`study`]) directly.
+//! the simulation study ([`study`]) and the testbed's scenarios ([`scenario`], [`testbed`])
+//! directly.
 
 pub mod demo;
 pub mod firmware;
