@@ -184,7 +184,7 @@ pub struct Args {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Where the plots (fixes, error over time; SVG and PNG), fixes.csv, table.txt and the
-    /// sink's lines (sink.log) go [default: target/demo/<scenario>].
+    /// sink's lines (sink.log) go [default: target/demo/SCENARIO].
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
     /// Simulated seconds to run at most (the scenario is cut short); with --boot the length of
