@@ -1,11 +1,20 @@
-//! `hoploc demo`: every node's real firmware in simavr, each on a modelled factory-fresh XBee.
+//! `hoploc demo`: the emulated testbed (SPEC §7) running a scenario, and the boot timeline.
 //!
-//! Until the emulated testbed lands this shows what exists end to end: the three firmwares boot,
+//! [`run`] (`hoploc demo [SCENARIO]`): the scenario's anchors and agent as their real firmware in
+//! simavr on the modelled radio medium ([`crate::testbed`]), the agent moved along its path;
+//! every fix of the sink printed live against the truth, then an RMSE/bias table per position
+//! and estimator, and plots, CSV and the sink's log in the out dir.
+//!
+//! [`run_boot`] (`hoploc demo --boot`): the three firmwares boot, each on a factory-fresh XBee,
 //! look for their radio in API mode at 57600, find it instead in transparent mode at 9600 baud (as
 //! Digi ships it), switch it to API mode 2 at 57600 through command mode (`+++`, `ATAP2`, `ATBD6`,
 //! `ATWR`, `ATCN`), then set MY/ID/CH through API frames and read each back.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use loc_proto::sink_line::SinkLine;
 
 use loc_proto::line::{BootLine, ConfigSource, RadioFound};
 use simavr::xbee::{baud_of_bd, XBee, XBeeConfig};
@@ -14,6 +23,9 @@ use xbee_api::driver::Error as RadioError;
 use xbee_api::Frame;
 
 use crate::firmware::{self, Role};
+use crate::fixes::Algo;
+use crate::scenario::{self, Scenario};
+use crate::testbed::{Observed, RunConfig, SinkSource, Testbed};
 
 /// One simulated node: its firmware and its radio.
 struct Node {
@@ -81,8 +93,8 @@ pub fn describe_line(text: &str) -> String {
     }
 }
 
-/// Runs the demo for `seconds` of simulated time.
-pub fn run(firmware_dir: &Path, seconds: f64) -> Result<(), String> {
+/// Runs the boot timeline for `seconds` of simulated time.
+pub fn run_boot(firmware_dir: &Path, seconds: f64) -> Result<(), String> {
     firmware::ensure_built(firmware_dir)?;
     let mut nodes = Vec::new();
     for (i, role) in Role::ALL.into_iter().enumerate() {
@@ -153,4 +165,314 @@ pub fn run(firmware_dir: &Path, seconds: f64) -> Result<(), String> {
         );
     }
     Ok(())
+}
+
+/// `hoploc demo`'s options.
+#[derive(Clone, Debug, clap::Args)]
+pub struct Args {
+    /// A scenario: a name from scenarios/ (room10, exp1, exp1-chip, exp2, exp3) or a path to a
+    /// scenario file (format: scenarios/README.md).
+    #[arg(default_value = "room10")]
+    pub scenario: String,
+    /// Where the sink lines come from: `host` is the host sink (the sink firmware's logic,
+    /// sink_fw::Sink, run on the host behind a host radio on the sink channel — not the
+    /// firmware); `firmware` reads them off the sink firmware's UART in simavr, which needs a
+    /// sink firmware that fits the Uno (not yet: sink-fw is still the boot firmware).
+    #[arg(long, value_enum, default_value_t = SinkSource::Host)]
+    pub sink: SinkSource,
+    /// The medium's seed [default: the scenario's].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Where the plots (fixes, error over time; SVG and PNG), fixes.csv, table.txt and the
+    /// sink's lines (sink.log) go [default: target/demo/SCENARIO].
+    #[arg(long)]
+    pub out_dir: Option<PathBuf>,
+    /// Simulated seconds to run at most (the scenario is cut short); with --boot the length of
+    /// the timeline [default: the whole scenario; with --boot 10].
+    #[arg(long)]
+    pub seconds: Option<f64>,
+    /// Show at most one live fix per this many simulated seconds (every fix is in the table,
+    /// the CSV and the plots).
+    #[arg(long, default_value_t = 1.0)]
+    pub live_every: f64,
+    /// Network stepping threads (results do not depend on it; on a machine busy with other
+    /// work one thread can be faster: the threads meet twice per simulated millisecond).
+    #[arg(long, default_value_t = 2)]
+    pub threads: usize,
+    /// Probability of a bit error in each byte on every firmware↔radio UART (e.g. 1e-3).
+    #[arg(long, default_value_t = 0.0)]
+    pub uart_errors: f64,
+    /// The boot timeline instead: the anchor, agent and sink firmware boot, each on a
+    /// factory-fresh XBee, and configure it through command mode and API frames.
+    #[arg(long)]
+    pub boot: bool,
+    /// Directory with anchor-fw.elf, agent-fw.elf and sink-fw.elf
+    /// [default: target/avr-none/fw, or $HOPLOC_FIRMWARE_DIR].
+    #[arg(long)]
+    pub firmware_dir: Option<PathBuf>,
+}
+
+/// `s` cut to at most `seconds` of simulated time (the stops beyond dropped, the last one
+/// shortened).
+fn cut(s: &mut Scenario, seconds: f64) -> Result<(), String> {
+    let mut left = seconds - s.timing.warmup_s;
+    if left <= 0.0 {
+        return Err(format!(
+            "--seconds {seconds}: the warm-up alone is {} s",
+            s.timing.warmup_s
+        ));
+    }
+    let mut path = Vec::new();
+    for mut stop in s.agent.path.clone() {
+        if left <= 1e-9 {
+            break;
+        }
+        stop.dwell_s = stop.dwell_s.min(left);
+        left -= stop.dwell_s;
+        path.push(stop);
+    }
+    s.agent.path = path;
+    Ok(())
+}
+
+/// `(x, y)` in metres, two decimals.
+fn xy(p: [f64; 2]) -> String {
+    format!("({:.2}, {:.2})", p[0], p[1])
+}
+
+/// Runs `hoploc demo` as `args` say.
+pub fn run(args: &Args) -> Result<(), String> {
+    let fw_dir = args
+        .firmware_dir
+        .clone()
+        .unwrap_or_else(firmware::default_dir);
+    if args.boot {
+        return run_boot(&fw_dir, args.seconds.unwrap_or(10.0));
+    }
+    let path = scenario::resolve(&args.scenario);
+    let mut s = Scenario::load(&path).map_err(|e| e.to_string())?;
+    if let Some(seed) = args.seed {
+        s.seed = seed;
+    }
+    if let Some(seconds) = args.seconds {
+        cut(&mut s, seconds)?;
+    }
+    let out_dir = args
+        .out_dir
+        .clone()
+        .unwrap_or_else(|| firmware::workspace_root().join("target/demo").join(&s.name));
+    std::fs::create_dir_all(&out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    firmware::ensure_built(&fw_dir)?;
+    let cfg = RunConfig {
+        sink: args.sink,
+        threads: args.threads,
+        uart_error_rate: args.uart_errors,
+    };
+    let mut tb = Testbed::new(&s, &fw_dir, &cfg)?;
+    let sf = tb.superframe_s();
+    let duration = s.duration_s();
+    println!("hoploc demo {}: {}", s.name, s.description);
+    println!(
+        "  {} anchors (anchor-fw) and 1 agent (agent-fw) as real firmware in simavr, {} m × {} m, \
+         channels {:?}, {} ms slots: a {:.0} ms superframe, {:.1} fixes/s",
+        s.anchors.len(),
+        s.area.width_m,
+        s.area.height_m,
+        s.timing.channels,
+        s.timing.slot_ms,
+        sf * 1000.0,
+        1.0 / sf
+    );
+    println!(
+        "  medium: P0 {} dBm, α {}, shadowing σ {} dB, fading σ {} dB, drift {} dB/min, seed {}",
+        s.medium.p0_dbm,
+        s.medium.alpha,
+        s.medium.sigma_db,
+        s.medium.fading_sigma_db,
+        s.medium.drift_db_per_min,
+        s.seed
+    );
+    println!("  sink: {}", args.sink.describe());
+    if args.sink == SinkSource::Host {
+        println!(
+            "  MLE-fixed: the host's reference, not a sink line: the MLE of the same report with \
+             P0 {} dBm and α {} fixed (no online estimation)",
+            s.medium.p0_dbm, s.medium.alpha
+        );
+    }
+    println!(
+        "  {duration:.0} s simulated: {} s warm-up (boot, provisioning window, radio bring-up), \
+         then {} stops; live: one fix per {} s\n",
+        s.timing.warmup_s,
+        s.agent.path.len(),
+        args.live_every
+    );
+    println!(
+        "{:>8} {:>4} {:>13} {:>13} {:>6} {:>13} {:>6} {:>5} {:>7}{}",
+        "time",
+        "stop",
+        "truth (m)",
+        "MLE (m)",
+        "err",
+        "MMSE (m)",
+        "err",
+        "α",
+        "P0",
+        if args.sink == SinkSource::Host {
+            "  fixed err"
+        } else {
+            ""
+        }
+    );
+    let bar = ProgressBar::with_draw_target(
+        Some((duration * 1000.0) as u64),
+        ProgressDrawTarget::stderr(),
+    );
+    bar.set_style(
+        ProgressStyle::with_template(
+            "demo [{elapsed_precise}] {wide_bar} {pos}/{len} simulated ms {msg}",
+        )
+        .map_err(|e| e.to_string())?,
+    );
+    let t0 = Instant::now();
+    let mut obs: Vec<Observed> = Vec::new();
+    let mut last_live = f64::NEG_INFINITY;
+    let mut stop_shown = usize::MAX;
+    let mut nofix = 0usize;
+    while !tb.done() {
+        let new = tb.step(0.25);
+        bar.set_position((tb.time_s() * 1000.0) as u64);
+        // A report's MLE and MMSE lines (and the host's reference) come together: one row.
+        for pair in new.chunk_by(|a, b| seq_of(&a.line) == seq_of(&b.line)) {
+            nofix += pair
+                .iter()
+                .filter(|o| matches!(o.line, SinkLine::NoFix { .. }))
+                .count();
+            let fixes = crate::fixes::rows(pair);
+            if fixes.is_empty() {
+                continue;
+            }
+            let o = &pair[0];
+            let first_of_stop = o.settled && o.stop != stop_shown;
+            if !first_of_stop && o.time_s - last_live < args.live_every {
+                continue;
+            }
+            if first_of_stop {
+                stop_shown = o.stop;
+            }
+            last_live = o.time_s;
+            let find = |e| fixes.iter().find(|r| r.estimator == e);
+            let cell = |r: Option<&crate::fixes::FixRow>| {
+                r.map_or(format!("{:>13} {:>6}", "-", "-"), |r| {
+                    format!("{:>13} {:>6.2}", xy(r.pos), r.distance())
+                })
+            };
+            let (mle, mmse) = (find(Algo::Mle), find(Algo::Mmse));
+            let model = mle.or(mmse).map_or((0.0, 0.0), |r| (r.alpha, r.p0));
+            let fixed =
+                find(Algo::MleFixed).map_or(String::new(), |r| format!(" {:>6.2}", r.distance()));
+            let note = if o.settled {
+                ""
+            } else if o.time_s < s.timing.warmup_s + sf {
+                "  (warm-up)"
+            } else {
+                "  (moving)"
+            };
+            bar.suspend(|| {
+                println!(
+                    "{:>7.2}s {:>4} {:>13} {} {} {:>5.2} {:>7.2}{fixed}{note}",
+                    o.time_s,
+                    o.stop + 1,
+                    xy(o.truth),
+                    cell(mle),
+                    cell(mmse),
+                    model.0,
+                    model.1
+                )
+            });
+        }
+        obs.extend(new);
+        if args.sink == SinkSource::Firmware
+            && tb.time_s() > s.timing.warmup_s + 3.0
+            && !obs.iter().any(|o| !o.reference)
+        {
+            bar.finish_and_clear();
+            return Err(format!(
+                "the sink firmware wrote no sink line in {:.0} s: {} is not (yet) a sink that \
+                 locates (the wired sink does not fit the Uno); run with --sink host",
+                tb.time_s(),
+                firmware::elf(&fw_dir, Role::Sink).display()
+            ));
+        }
+    }
+    let wall = t0.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    let rows = crate::fixes::rows(&obs);
+    let stats = crate::fixes::table(&rows, s.agent.path.len());
+    let table = crate::fixes::table_text(&stats, &s);
+    let reports = rows
+        .iter()
+        .filter(|r| r.estimator == Algo::Mle && r.time_s >= s.timing.warmup_s)
+        .count();
+    let counted = duration - s.timing.warmup_s;
+    println!(
+        "\nRMSE and bias per position and estimator (settled fixes: the superframe after the \
+         warm-up and after each move left out):"
+    );
+    print!("{table}");
+    let mut summary = format!(
+        "{reports} reports located in {counted:.1} s after the warm-up: {:.2} fixes/s \
+         (the superframe allows {:.2}); {nofix} reports without a fix\n",
+        reports as f64 / counted,
+        1.0 / sf
+    );
+    if let Some(c) = tb.host_counters() {
+        summary += &format!(
+            "host sink: {} frames, {} reports, {} missing from the sequence, {} corrupt, {} foreign\n",
+            c.frames, c.reports, c.drops, c.checksum_errors, c.foreign
+        );
+    }
+    summary += &format!(
+        "emulation: {duration:.1} s simulated in {wall:.2} s: {:.1}× real time ({} threads)\n",
+        duration / wall,
+        args.threads
+    );
+    print!("\n{summary}");
+    let mut files = crate::fixes::write_plots(&rows, &s, &out_dir)?;
+    let mut write = |name: &str, text: String| -> Result<(), String> {
+        let p = out_dir.join(name);
+        std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))?;
+        files.push(p);
+        Ok(())
+    };
+    write("fixes.csv", crate::fixes::csv(&rows))?;
+    write(
+        "table.txt",
+        format!(
+            "hoploc demo {} (seed {}, {})\n\n{table}\n{summary}",
+            s.name,
+            s.seed,
+            args.sink.describe()
+        ),
+    )?;
+    let mut log = String::new();
+    for o in obs.iter().filter(|o| !o.reference) {
+        let mut bytes = Vec::new();
+        o.line.write(|b| bytes.push(b));
+        log += &String::from_utf8_lossy(&bytes);
+    }
+    write("sink.log", log)?;
+    println!("\nwritten:");
+    for f in files {
+        println!("  {}", f.display());
+    }
+    Ok(())
+}
+
+/// The (agent, sequence) of a fix or nofix line.
+fn seq_of(l: &SinkLine) -> Option<(u8, u16)> {
+    match *l {
+        SinkLine::Fix { agent, seq, .. } | SinkLine::NoFix { agent, seq, .. } => Some((agent, seq)),
+        SinkLine::Status { .. } => None,
+    }
 }

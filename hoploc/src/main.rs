@@ -17,21 +17,24 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Run every node's real firmware in simavr with modelled XBee radios.
+    /// Run a testbed scenario on every node's real firmware in simavr with modelled XBee radios.
     ///
-    /// Builds the firmware first if needed (cargo fw). Example:
+    /// The scenario's anchors (anchor-fw) and agent (agent-fw) run in simavr on the radio
+    /// medium of SPEC §7, each with its config in EEPROM; the agent moves along the scenario's
+    /// path. The sink's lines give its fixes, shown live against the truth; at the end an
+    /// RMSE/bias table per position and estimator (the sink's MLE and MMSE, and with the host
+    /// sink MLE-fixed: the host's reference with P0/α fixed), and plots, CSV and the sink's
+    /// log in the out dir. The sink is the host sink by default: the sink firmware's logic
+    /// (sink_fw::Sink) on the host behind a host radio, because the sink firmware does not fit
+    /// the Uno yet. Builds the firmware first if needed (cargo fw). Scenarios: scenarios/.
+    /// Examples:
     ///
-    ///     hoploc demo --seconds 10
+    ///     hoploc demo                          # room10: 10 m × 10 m, 4 anchors, 5 fixes/s
+    ///     hoploc demo exp3 --seed 7 --out-dir exp3-plots
+    ///     hoploc demo exp1 --seconds 30 --live-every 0.5
+    ///     hoploc demo --boot --seconds 10      # the firmware booting, as a timeline
     #[command(verbatim_doc_comment)]
-    Demo {
-        /// Simulated time to run, in seconds.
-        #[arg(long, default_value_t = 10.0)]
-        seconds: f64,
-        /// Directory with anchor-fw.elf, agent-fw.elf and sink-fw.elf
-        /// [default: target/avr-none/fw, or $HOPLOC_FIRMWARE_DIR].
-        #[arg(long)]
-        firmware_dir: Option<PathBuf>,
-    },
+    Demo(demo::Args),
     /// Print each firmware's flash, static SRAM and stack peak (measured in simavr) against the
     /// budgets: 16 KB flash, static SRAM + stack ≤ 1.5 KB. Fails if one is over.
     ///
@@ -101,10 +104,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Demo {
-            seconds,
-            firmware_dir,
-        } => demo::run(&firmware_dir.unwrap_or_else(firmware::default_dir), seconds),
+        Command::Demo(args) => demo::run(&args),
         Command::Footprint { firmware_dir } => {
             footprint::run(&firmware_dir.unwrap_or_else(firmware::default_dir))
         }

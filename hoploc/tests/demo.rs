@@ -1,12 +1,13 @@
 //! `hoploc demo` end to end: the real firmware ELFs (built by `cargo fw`, which ./test.sh runs
-//! first) boot in simavr, each on a factory-fresh modelled XBee, and configure it.
+//! first) in simavr. `--boot`: each boots on a factory-fresh modelled XBee and configures it.
+//! A scenario: the anchors and agent run it, the host sink's fixes become a table and plots.
 
 use std::process::Command;
 
 #[test]
 fn demo_brings_every_radio_up_in_simavr() {
     let out = Command::new(env!("CARGO_BIN_EXE_hoploc"))
-        .args(["demo", "--seconds", "8.5"])
+        .args(["demo", "--boot", "--seconds", "8.5"])
         .output()
         .expect("run hoploc");
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -69,5 +70,107 @@ fn every_command_has_help_with_an_example() {
         .expect("run hoploc");
     let help = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success());
-    assert!(help.contains("hoploc demo --seconds 10"), "{help}");
+    assert!(help.contains("hoploc demo --boot --seconds 10"), "{help}");
+    assert!(help.contains("hoploc demo exp3 --seed 7"), "{help}");
+    assert!(help.contains("host sink"), "{help}");
+}
+
+#[test]
+fn a_scenario_run_prints_its_table_and_writes_plots() {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("demo-room10");
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = Command::new(env!("CARGO_BIN_EXE_hoploc"))
+        .args([
+            "demo",
+            "room10",
+            "--seconds",
+            "14",
+            "--seed",
+            "5",
+            "--out-dir",
+        ])
+        .arg(&dir)
+        .output()
+        .expect("run hoploc");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "hoploc demo failed:\n{stdout}\n{stderr}"
+    );
+    // The header names the host sink as such, and the seed given.
+    assert!(stdout.contains("sink: host sink"), "{stdout}");
+    assert!(stdout.contains("seed 5"), "{stdout}");
+    // The table: a row per stop reached (8 s warm-up + 6 s at stop 1) and estimator, then all.
+    let row = |stop: &str, est: &str| {
+        stdout
+            .lines()
+            .find(|l| {
+                let w: Vec<&str> = l.split_whitespace().collect();
+                w.first() == Some(&stop) && w.contains(&est)
+            })
+            .unwrap_or_else(|| panic!("no {stop} {est} row:\n{stdout}"))
+            .to_string()
+    };
+    // The host's fixed-parameter reference is named as not coming from the sink.
+    assert!(
+        stdout.contains("MLE-fixed: the host's reference, not a sink line"),
+        "{stdout}"
+    );
+    for est in ["MLE", "MMSE", "MLE-fixed"] {
+        for stop in ["1", "all"] {
+            let r = row(stop, est);
+            let w: Vec<&str> = r.split_whitespace().collect();
+            let i = w.iter().position(|x| *x == est).unwrap();
+            let fixes: usize = w[i + 1].parse().unwrap();
+            let rmse: f64 = w[i + 2].parse().unwrap();
+            // 6 s at 5 fixes/s, less the superframe after the warm-up.
+            assert!((25..=30).contains(&fixes), "{r}");
+            assert!(rmse.is_finite() && rmse < 5.0, "{r}");
+        }
+    }
+    assert!(stdout.contains("fixes/s"), "{stdout}");
+    assert!(stdout.contains("× real time"), "{stdout}");
+    for f in [
+        "fixes.svg",
+        "fixes.png",
+        "error.svg",
+        "error.png",
+        "fixes.csv",
+        "table.txt",
+        "sink.log",
+    ] {
+        let p = dir.join(f);
+        let bytes = std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        assert!(bytes.len() > 100, "{f}: {} bytes", bytes.len());
+        match f.rsplit('.').next() {
+            Some("png") => assert_eq!(&bytes[1..4], b"PNG", "{f}"),
+            Some("svg") => assert!(String::from_utf8_lossy(&bytes).contains("<svg"), "{f}"),
+            _ => {}
+        }
+    }
+    // The sink's log holds its lines as the firmware would write them: they parse.
+    let log = std::fs::read_to_string(dir.join("sink.log")).unwrap();
+    assert!(log.lines().count() >= 2 * 30);
+    for l in log.lines() {
+        loc_proto::sink_line::SinkLine::parse(l).unwrap_or_else(|e| panic!("{l}: {e:?}"));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The sink firmware is still the boot firmware (the wired sink does not fit the Uno): asked
+/// for its lines, the demo says so instead of showing nothing.
+#[test]
+fn the_firmware_sink_without_sink_lines_is_an_error_that_says_so() {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("demo-fw-sink");
+    let out = Command::new(env!("CARGO_BIN_EXE_hoploc"))
+        .args(["demo", "room10", "--sink", "firmware", "--out-dir"])
+        .arg(&dir)
+        .output()
+        .expect("run hoploc");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("wrote no sink line"), "{stderr}");
+    assert!(stderr.contains("--sink host"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

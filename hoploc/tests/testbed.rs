@@ -1,0 +1,330 @@
+//! The scenario runner end to end: room10's anchors and agent as real firmware in simavr (built
+//! by `cargo fw`, which ./test.sh runs first), the host sink behind a host radio.
+
+use hoploc::firmware;
+use hoploc::scenario::{self, Scenario};
+use hoploc::testbed::{RunConfig, SinkSource, Testbed};
+use loc_proto::line::BootLine;
+use loc_proto::sink_line::{Estimator, SinkLine};
+
+/// room10 with a noise-free medium and two short stops.
+fn quiet_room10() -> Scenario {
+    let mut s = Scenario::load(&scenario::resolve("room10")).unwrap();
+    s.medium.sigma_db = 0.0;
+    s.medium.fading_sigma_db = 0.0;
+    s.agent.path.truncate(2);
+    for stop in &mut s.agent.path {
+        stop.dwell_s = 4.0;
+    }
+    s
+}
+
+#[test]
+fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step() {
+    let s = quiet_room10();
+    let dir = firmware::default_dir();
+    firmware::ensure_built(&dir).unwrap();
+    let cfg = RunConfig {
+        sink: SinkSource::Host,
+        threads: 2,
+        ..RunConfig::default()
+    };
+    let mut tb = Testbed::new(&s, &dir, &cfg).unwrap();
+    let sf = tb.superframe_s();
+    assert!((sf - 0.2).abs() < 1e-9, "room10's superframe: {sf} s");
+    let mut obs = Vec::new();
+    while !tb.done() {
+        obs.extend(tb.step(1.0));
+    }
+    assert!((tb.time_s() - s.duration_s()).abs() < 1e-6);
+    // After the warm-up: one report per superframe, each giving an MLE and an MMSE fix.
+    let after: Vec<_> = obs
+        .iter()
+        .filter(|o| o.time_s >= s.timing.warmup_s && !o.reference)
+        .collect();
+    let mle: Vec<(u16, f64)> = after
+        .iter()
+        .filter_map(|o| match o.line {
+            SinkLine::Fix {
+                estimator: Estimator::Mle,
+                seq,
+                ..
+            } => Some((seq, o.time_s)),
+            _ => None,
+        })
+        .collect();
+    let want = (s.duration_s() - s.timing.warmup_s) / sf;
+    assert!(
+        (mle.len() as f64 - want).abs() <= 1.0,
+        "{} MLE fixes in {} s, want {want}",
+        mle.len(),
+        s.duration_s() - s.timing.warmup_s
+    );
+    for w in mle.windows(2) {
+        assert_eq!(w[1].0, w[0].0.wrapping_add(1), "a report missing");
+        assert!((w[1].1 - w[0].1 - sf).abs() < 0.01, "{:?}", w);
+    }
+    let mmse = after
+        .iter()
+        .filter(|o| {
+            matches!(
+                o.line,
+                SinkLine::Fix {
+                    estimator: Estimator::Mmse,
+                    ..
+                }
+            )
+        })
+        .count();
+    assert_eq!(mmse, mle.len());
+    assert!(
+        after.iter().all(|o| matches!(o.line, SinkLine::Fix { .. })),
+        "a nofix"
+    );
+    // Every settled fix (the sink's two and the host's fixed-parameter reference) within one
+    // fine grid step (2 % of the 10 m side) of the truth in x and in y: the truth's lattice
+    // point or a neighbour of it. (Not closer: the sink fits α and P0 from the anchors'
+    // integer-dBm RSSI at only two distances, 10 m and 14.1 m, so its model is off by a few
+    // tenths of α even without noise.)
+    let step = 0.02 * s.area.width_m;
+    let mut settled = 0;
+    let mut references = 0;
+    let mut worst = 0.0f64;
+    for o in obs.iter().filter(|o| o.settled) {
+        let SinkLine::Fix { x, y, anchors, .. } = o.line else {
+            unreachable!()
+        };
+        assert_eq!(anchors, 4);
+        let (ex, ey) = (x as f64 / 100.0 - o.truth[0], y as f64 / 100.0 - o.truth[1]);
+        worst = worst.max(ex.abs()).max(ey.abs());
+        assert!(
+            ex.abs() <= step + 1e-9 && ey.abs() <= step + 1e-9,
+            "{o:?}: ({ex:.3}, {ey:.3}) m off"
+        );
+        if o.reference {
+            references += 1;
+        } else {
+            settled += 1;
+        }
+    }
+    assert_eq!(2 * references, settled, "one reference per report");
+    // Both stops, each but its first superframes (two lines per report).
+    let per_stop = (4.0 / sf) as usize;
+    assert!(settled >= 2 * 2 * (per_stop - 3), "{settled} settled lines");
+    eprintln!("{settled} settled fix lines, worst error in x or y {worst:.3} m");
+    let c = tb.host_counters().unwrap();
+    assert_eq!(c.drops, 0);
+    assert_eq!(c.checksum_errors + c.foreign, 0);
+}
+
+#[test]
+fn with_an_anchor_gone_the_fixes_go_on_from_three() {
+    let mut s = quiet_room10();
+    s.agent.path.truncate(1);
+    s.agent.path[0].dwell_s = 6.0;
+    let dir = firmware::default_dir();
+    firmware::ensure_built(&dir).unwrap();
+    let mut tb = Testbed::new(&s, &dir, &RunConfig::default()).unwrap();
+    let sf = tb.superframe_s();
+    let mut obs = tb.step(s.timing.warmup_s + 1.0);
+    // Anchor 4 (node 3) off: the agent marks it not heard, the sink locates from three.
+    tb.network_mut().kill(3);
+    let killed = tb.time_s();
+    while !tb.done() {
+        obs.extend(tb.step(1.0));
+    }
+    let mle = |o: &&hoploc::testbed::Observed| {
+        !o.reference
+            && matches!(
+                o.line,
+                SinkLine::Fix {
+                    estimator: Estimator::Mle,
+                    ..
+                }
+            )
+    };
+    let before = obs
+        .iter()
+        .filter(mle)
+        .filter(|o| o.settled && o.time_s < killed);
+    assert!(before.clone().count() >= 4);
+    assert!(before
+        .clone()
+        .all(|o| matches!(o.line, SinkLine::Fix { anchors: 4, .. })));
+    // From the first report that cannot have heard it, every report still gives a fix.
+    let after: Vec<_> = obs
+        .iter()
+        .filter(mle)
+        .filter(|o| o.time_s > killed + sf)
+        .collect();
+    let want = (s.duration_s() - killed - sf) / sf;
+    assert!(
+        (after.len() as f64 - want).abs() <= 1.0,
+        "{} fixes, want {want}",
+        after.len()
+    );
+    let mut worst = 0.0f64;
+    for o in &after {
+        let SinkLine::Fix { x, y, anchors, .. } = o.line else {
+            unreachable!()
+        };
+        assert_eq!(anchors, 3, "{o:?}");
+        let (ex, ey) = (x as f64 / 100.0 - o.truth[0], y as f64 / 100.0 - o.truth[1]);
+        // Noise-free: still within one fine grid step in x and in y.
+        assert!(ex.abs() <= 0.2 + 1e-9 && ey.abs() <= 0.2 + 1e-9, "{o:?}");
+        worst = worst.max(ex.hypot(ey));
+    }
+    eprintln!(
+        "three anchors: {} fixes, worst error {worst:.3} m",
+        after.len()
+    );
+    assert!(obs
+        .iter()
+        .all(|o| !matches!(o.line, SinkLine::NoFix { .. })));
+}
+
+/// A bit error in one UART byte in a thousand, both ways on every node: no node hangs or
+/// resets, the errors are counted, and the fixes go on.
+#[test]
+fn uart_noise_is_counted_and_the_fixes_go_on() {
+    let mut s = quiet_room10();
+    s.agent.path.truncate(1);
+    s.agent.path[0].dwell_s = 12.0;
+    let dir = firmware::default_dir();
+    firmware::ensure_built(&dir).unwrap();
+    let cfg = RunConfig {
+        uart_error_rate: 1e-3,
+        ..RunConfig::default()
+    };
+    let mut tb = Testbed::new(&s, &dir, &cfg).unwrap();
+    let sf = tb.superframe_s();
+    let mut obs = Vec::new();
+    while !tb.done() {
+        obs.extend(tb.step(1.0));
+    }
+    let net = tb.network();
+    let mut radio_errors = 0;
+    for id in 0..s.anchors.len() + 1 {
+        assert!(net.state(id).is_alive(), "node {id}: {:?}", net.state(id));
+        let boots = net
+            .lines(id)
+            .iter()
+            .filter(|l| matches!(BootLine::parse(&l.text), Ok(BootLine::Boot { .. })))
+            .count();
+        assert_eq!(boots, 1, "node {id} reset");
+        let st = net.core(id).stats();
+        radio_errors += st.checksum_errors + st.bad_frames;
+    }
+    let c = tb.host_counters().unwrap();
+    let fixes = obs
+        .iter()
+        .filter(|o| {
+            !o.reference
+                && o.time_s >= s.timing.warmup_s
+                && matches!(
+                    o.line,
+                    SinkLine::Fix {
+                        estimator: Estimator::Mle,
+                        ..
+                    }
+                )
+        })
+        .count();
+    let superframes = (s.duration_s() - s.timing.warmup_s) / sf;
+    eprintln!(
+        "UART errors 1e-3: {fixes} fixes in {superframes} superframes, {radio_errors} frames \
+         the radios rejected, sink: {} missing, {} corrupt",
+        c.drops, c.checksum_errors
+    );
+    assert!(radio_errors > 0, "no error was counted");
+    assert!(fixes as f64 >= 0.8 * superframes, "{fixes} fixes");
+}
+
+/// Anchor 1, the time master, powered off mid-run: anchor 2 takes over the timeline with no
+/// collision, and after the superframes the others need to take anchor 1 as gone, every report
+/// gives a fix from the three left.
+#[test]
+fn with_anchor_1_gone_anchor_2_takes_over_and_the_fixes_go_on() {
+    let mut s = quiet_room10();
+    s.agent.path.truncate(1);
+    s.agent.path[0].dwell_s = 8.0;
+    let dir = firmware::default_dir();
+    firmware::ensure_built(&dir).unwrap();
+    let mut tb = Testbed::new(&s, &dir, &RunConfig::default()).unwrap();
+    let sf = tb.superframe_s();
+    let mut obs = tb.step(s.timing.warmup_s + 1.0);
+    tb.network_mut().kill(0);
+    let killed = tb.time_s();
+    while !tb.done() {
+        obs.extend(tb.step(1.0));
+    }
+    assert!(
+        tb.network().log().iter().all(|r| !r.collided),
+        "a collision"
+    );
+    let after: Vec<_> = obs
+        .iter()
+        .filter(|o| {
+            !o.reference
+                && o.time_s > killed
+                && matches!(
+                    o.line,
+                    SinkLine::Fix {
+                        estimator: Estimator::Mle,
+                        ..
+                    }
+                )
+        })
+        .collect();
+    let resume = killed + (loc_proto::schedule::SILENT_SUPERFRAMES as f64 + 3.0) * sf;
+    let late: Vec<_> = after.iter().filter(|o| o.time_s > resume).collect();
+    let want = (s.duration_s() - resume) / sf;
+    assert!(
+        (late.len() as f64 - want).abs() <= 1.0,
+        "{} fixes after {resume:.2} s, want {want}; all after the kill at {killed:.2} s: {:?}",
+        late.len(),
+        after.iter().map(|o| o.time_s).collect::<Vec<_>>()
+    );
+    for o in late {
+        let SinkLine::Fix { x, y, anchors, .. } = o.line else {
+            unreachable!()
+        };
+        assert_eq!(anchors, 3, "{o:?}");
+        let (ex, ey) = (x as f64 / 100.0 - o.truth[0], y as f64 / 100.0 - o.truth[1]);
+        assert!(ex.abs() <= 0.2 + 1e-9 && ey.abs() <= 0.2 + 1e-9, "{o:?}");
+    }
+    eprintln!(
+        "anchor 1 off at {killed:.2} s: {} fixes after, first at {:.2} s",
+        after.len(),
+        after.first().map_or(f64::NAN, |o| o.time_s)
+    );
+}
+
+/// Durations that are no whole number of cycles: the run still ends, at the scenario's end, with
+/// the agent moved at each stop's start.
+#[test]
+fn odd_durations_end_on_time() {
+    let mut s = quiet_room10();
+    s.timing.warmup_s = 0.051_234_567_89;
+    s.agent.path[0].dwell_s = 0.123_456_789_01;
+    s.agent.path[1].dwell_s = 0.098_765_432_1;
+    let dir = firmware::default_dir();
+    firmware::ensure_built(&dir).unwrap();
+    let mut tb = Testbed::new(&s, &dir, &RunConfig::default()).unwrap();
+    let mut calls = 0;
+    while !tb.done() {
+        tb.step(0.033_333_333_3);
+        calls += 1;
+        assert!(calls < 20, "the run does not end");
+    }
+    assert!(
+        (tb.time_s() - s.duration_s()).abs() < 1e-6,
+        "{}",
+        tb.time_s()
+    );
+    let agent = s.anchors.len();
+    assert_eq!(
+        tb.network().medium().node(agent).position,
+        s.agent.path[1].position
+    );
+}
