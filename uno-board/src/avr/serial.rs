@@ -185,8 +185,9 @@ impl Serial {
         true
     }
 
-    /// Writes `byte`, waiting for room in the transmit buffer.
-    #[inline]
+    /// Writes `byte`, waiting for room in the transmit buffer. Never inlined: text lines and
+    /// provisioning replies call it from many places, each inlined copy cost ≈ 24 B of flash.
+    #[inline(never)]
     pub fn write_byte(&mut self, byte: u8) {
         while !self.try_write(byte) {}
     }
