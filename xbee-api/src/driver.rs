@@ -1021,7 +1021,8 @@ where
     #[inline(never)]
     fn configure_in_command_mode(&mut self, cfg: &BringUpConfig) -> Result<u32, Failed> {
         let mut heard = false;
-        for baud in BAUD_RATES {
+        // By reference: iterating the array by value copies it to the stack first.
+        for &baud in BAUD_RATES.iter() {
             self.serial.set_baud(baud);
             heard |= self.quiet(cfg.guard_ms);
             for &b in b"+++" {

@@ -134,7 +134,9 @@ impl Serial {
 
     /// Changes the bit rate (e.g. 9600…115200 during radio bring-up): waits until the bytes
     /// already written have left, then switches. Received bytes are kept; call
-    /// [`clear_rx`](Self::clear_rx) to drop what arrived at the old rate.
+    /// [`clear_rx`](Self::clear_rx) to drop what arrived at the old rate. Never inlined: its
+    /// 32-bit division would be copied into every caller (radio bring-up has three).
+    #[inline(never)]
     pub fn set_baud(&mut self, baud: u32) -> Result<(), BaudError> {
         let ubrr = baud::ubrr_u2x(baud::F_CPU, baud).ok_or(BaudError::Unreachable)?;
         self.flush_blocking();
