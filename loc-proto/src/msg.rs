@@ -184,6 +184,9 @@ impl<'a> Writer<'a> {
     pub(crate) fn new(buf: &'a mut [u8]) -> Self {
         Writer { buf, at: 0 }
     }
+    /// Never inlined: an encoder writes a dozen fields, each inlined copy of the bounds check
+    /// costs ≈ 20 B of AVR flash.
+    #[inline(never)]
     pub(crate) fn u8(&mut self, b: u8) {
         if let Some(s) = self.buf.get_mut(self.at) {
             *s = b;
