@@ -720,6 +720,21 @@ where
         self.public(result.map(|_| value))
     }
 
+    /// [`Radio::at_command`] without the value: sends `command` (with `parameter`) and waits up
+    /// to `timeout_ms` for its response, which must have an OK status; every other frame goes
+    /// to `on_other`. For setting a register, where the value is empty anyway: no [`AtValue`]
+    /// is built or copied (on AVR a firmware that never asks for a value links less).
+    pub fn at_set(
+        &mut self,
+        command: [u8; 2],
+        parameter: &[u8],
+        timeout_ms: u32,
+        mut on_other: impl FnMut(RawFrame<'_>),
+    ) -> Result<(), Error> {
+        let result = self.at_dyn(command, parameter, timeout_ms, Some(&mut on_other), None);
+        self.public(result.map(|_| ()))
+    }
+
     /// [`Radio::at_command`] for every caller: the value is copied to `value` if given, and
     /// returned as a number if it is one of 1 to 4 bytes (what [`AtValue::as_u32`] gives).
     /// Without `on_other` (bring-up), other frames are dropped and counted in `dropped`.
