@@ -94,19 +94,19 @@ impl ChannelList {
             return Err(bad(Field::ChannelCount));
         }
         let mut list = [0; MAX_CHANNELS];
-        // Bit c − 1: channel c listed already (one mask test instead of a scan of the list).
-        let mut seen = 0u16;
         let mut i = 0;
         while i < channels.len() {
             let c = channels[i];
             if c < 1 || c > MAX_CHANNEL {
                 return Err(bad(Field::Channel));
             }
-            let bit = 1 << (c - 1);
-            if seen & bit != 0 {
-                return Err(bad(Field::DuplicateChannel));
+            let mut j = 0;
+            while j < i {
+                if list[j] == c {
+                    return Err(bad(Field::DuplicateChannel));
+                }
+                j += 1;
             }
-            seen |= bit;
             list[i] = c;
             i += 1;
         }
