@@ -106,9 +106,7 @@ pub fn load_config(
     let mut parser = ProvisionParser::new();
     serve_for(serial, eeprom, &mut parser, role, PROVISION_WINDOW_MS);
     loop {
-        let mut block = [0xFF; MAX_LEN];
-        let _ = eeprom.read(0, &mut block);
-        let (config, source) = match stored(&block, role) {
+        let (config, source) = match read_stored(eeprom, role) {
             Stored::Valid(c) => (c, ConfigSource::Eeprom),
             Stored::Erased => (*built_in, ConfigSource::BuiltIn),
             Stored::Invalid(code) => {
@@ -151,4 +149,14 @@ pub fn load_config(
         );
         return config;
     }
+}
+
+/// What the EEPROM holds for a node of `role` ([`stored`]). Out of line: the block buffer lives
+/// in this small frame only, and [`load_config`]'s frame stays within the 64 bytes the AVR
+/// reaches with one instruction.
+#[inline(never)]
+fn read_stored(eeprom: &Eeprom, role: Role) -> Stored {
+    let mut block = [0xFF; MAX_LEN];
+    let _ = eeprom.read(0, &mut block);
+    stored(&block, role)
 }
