@@ -172,8 +172,9 @@ impl Serial {
         self.rx_stats().overruns()
     }
 
-    /// The next received byte, if any.
-    #[inline]
+    /// The next received byte, if any. Never inlined: the driver's read loops and the
+    /// provisioning window each had their own copy of the critical section.
+    #[inline(never)]
     pub fn try_read(&mut self) -> Option<u8> {
         RX.with(|rx| rx.ring.pop())
     }
