@@ -31,9 +31,9 @@ pub const fn ubrr_u2x(f_cpu: u32, baud: u32) -> Option<u16> {
     if baud == 0 {
         return None;
     }
-    // round(f_cpu / (8 * baud)) - 1, in integers: floor((floor(f_cpu / 4 / baud) + 1) / 2) is
-    // that rounding exactly, with one division and no `8 * baud` to overflow.
-    let div = (f_cpu / 4 / baud + 1) / 2;
+    // round(f_cpu / (8 * baud)) - 1, in integers: ceil(floor(f_cpu / 4 / baud) / 2) is that
+    // rounding exactly, with one division and no `8 * baud` to overflow.
+    let div = (f_cpu / 4 / baud).div_ceil(2);
     if div == 0 || div > 4096 {
         return None;
     }
