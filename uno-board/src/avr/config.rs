@@ -151,10 +151,7 @@ pub fn load_config(
     }
 }
 
-/// What the EEPROM holds for a node of `role` ([`stored`]). Out of line: the block buffer lives
-/// in this small frame only, and [`load_config`]'s frame stays within the 64 bytes the AVR
-/// reaches with one instruction.
-#[inline(never)]
+/// What the EEPROM holds for a node of `role` ([`stored`]).
 fn read_stored(eeprom: &Eeprom, role: Role) -> Stored {
     let mut block = [0xFF; MAX_LEN];
     let _ = eeprom.read(0, &mut block);

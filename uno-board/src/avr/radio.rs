@@ -26,9 +26,7 @@ pub fn write_line(serial: &mut Serial, line: &BootLine) {
 ///
 /// The watchdog must be off (it is after `Board::take`): one attempt at a radio that never
 /// answers takes about 14 s, longer than the watchdog's longest timeout, and every wait in it is
-/// bounded by the tick. Never inlined: inside a firmware's `main` its state would sit deep in a
-/// big stack frame (measured: the agent 38 B larger inlined).
-#[inline(never)]
+/// bounded by the tick.
 pub fn bring_up_radio(radio: &mut NodeRadio, led: &mut Led, role: Role, config: &BringUpConfig) {
     let mut attempt: u16 = 0;
     loop {
