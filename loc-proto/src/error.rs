@@ -117,12 +117,15 @@ pub fn crc16(data: &[u8]) -> u16 {
     let mut crc: u16 = 0xFFFF;
     for &b in data {
         crc ^= (b as u16) << 8;
-        for _ in 0..8 {
+        // A u8 counter: `for _ in 0..8` compiles to a 32-bit one on AVR.
+        let mut bit = 8u8;
+        while bit != 0 {
             crc = if crc & 0x8000 != 0 {
                 (crc << 1) ^ 0x1021
             } else {
                 crc << 1
             };
+            bit -= 1;
         }
     }
     crc

@@ -51,8 +51,10 @@ enum Word {
     Provisioned = 14,
 }
 
-// `BootLine::write` takes `built-in` as the word after `eeprom`.
+// `BootLine::write` takes `built-in` as the word after `eeprom`, and every word after the role
+// fits a token's 4 bits below `NUM`.
 const _: () = assert!(Word::BuiltIn as u8 == Word::Eeprom as u8 + 1);
+const _: () = assert!((Word::Provisioned as u8) < NUM);
 
 /// How the radio was found at boot.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -150,7 +152,7 @@ impl fmt::Display for LineError {
 impl core::error::Error for LineError {}
 
 /// Writes word `k` of [`WORDS`].
-fn put_word(k: u8, out: &mut impl FnMut(u8)) {
+fn put_word(k: u8, out: &mut dyn FnMut(u8)) {
     let mut seen = 0;
     for i in 0..WORDS.len() {
         let b = WORDS.load_at(i);
@@ -165,23 +167,45 @@ fn put_word(k: u8, out: &mut impl FnMut(u8)) {
     }
 }
 
-/// Writes `n` in decimal.
-pub(crate) fn put_decimal(n: u32, out: &mut impl FnMut(u8)) {
-    let mut digits = [0u8; 10];
-    let mut i = digits.len();
+/// Writes `n` in decimal, digit by digit from the highest power of ten, each digit counted by
+/// subtraction: on AVR no digit buffer and one division per digit, in its own function (the
+/// boot lines and the sink's lines share it).
+#[inline(never)]
+pub(crate) fn put_decimal(n: u32, out: &mut dyn FnMut(u8)) {
     let mut n = n;
+    let mut p: u32 = 1_000_000_000;
+    let mut started = false;
     loop {
-        i -= 1;
-        digits[i] = b'0' + (n % 10) as u8;
-        n /= 10;
-        if n == 0 {
-            break;
+        let mut d = b'0';
+        while n >= p {
+            n -= p;
+            d += 1;
         }
-    }
-    for &d in &digits[i..] {
-        out(d);
+        started |= d != b'0' || p == 1;
+        if started {
+            out(d);
+        }
+        if p == 1 {
+            return;
+        }
+        p /= 10;
     }
 }
+
+/// A line's tokens after `hoploc <role>`, 4 bits each, the first in the low bits: a [`Word`]
+/// (4…14), [`NUM`] (the next number), and 0 for the end.
+const fn tokens(t: &[u8]) -> u32 {
+    let mut p = 0;
+    let mut i = t.len();
+    while i > 0 {
+        i -= 1;
+        p = p << 4 | t[i] as u32;
+    }
+    p
+}
+
+/// The token of a number: the first one of the line, then the second.
+const NUM: u8 = 15;
 
 impl BootLine {
     /// The role of the node that wrote the line.
@@ -198,54 +222,58 @@ impl BootLine {
 
     /// Writes the line, `\r\n` included, one byte at a time (at most [`MAX_BOOT_LINE`] bytes).
     pub fn write(&self, mut out: impl FnMut(u8)) {
-        let out = &mut out;
-        fn word(w: u8, out: &mut impl FnMut(u8)) {
-            out(b' ');
-            put_word(w, out);
+        self.write_dyn(&mut out);
+    }
+
+    /// [`BootLine::write`] through one code path: the line as packed [`tokens`] and up to two
+    /// numbers, written by one loop, so on AVR each line kind costs a few constants.
+    #[inline(never)]
+    fn write_dyn(&self, out: &mut dyn FnMut(u8)) {
+        use Word::*;
+        const fn w(w: Word) -> u8 {
+            w as u8
         }
-        put_word(Word::Hoploc as u8, out);
-        word(1 + self.role() as u8, out);
-        match *self {
-            BootLine::Boot { .. } => word(Word::Boot as u8, out),
-            BootLine::RadioUp { found, .. } => {
-                word(Word::Radio as u8, out);
-                word(Word::Ok as u8, out);
-                match found {
-                    RadioFound::Api => word(Word::Api as u8, out),
-                    RadioFound::Configured { baud } => {
-                        out(b' ');
-                        put_decimal(baud, out);
-                    }
+        let (mut t, first, second): (u32, u32, u16) = match *self {
+            BootLine::Boot { .. } => (const { tokens(&[w(Boot)]) }, 0, 0),
+            BootLine::RadioUp { found, .. } => match found {
+                RadioFound::Api => (const { tokens(&[w(Radio), w(Ok), w(Api)]) }, 0, 0),
+                RadioFound::Configured { baud } => {
+                    (const { tokens(&[w(Radio), w(Ok), NUM]) }, baud, 0)
                 }
+            },
+            BootLine::RadioError { code, attempt, .. } => (
+                const { tokens(&[w(Radio), w(Error), NUM, w(Try), NUM]) },
+                code.into(),
+                attempt,
+            ),
+            BootLine::Provisioned { .. } => (const { tokens(&[w(Provisioned)]) }, 0, 0),
+            // `built-in` follows `eeprom` in WORDS: one more in the token's 4 bits.
+            BootLine::Config { source, id, .. } => (
+                const { tokens(&[w(Config), w(Eeprom), w(Id), NUM]) }
+                    + (((source == ConfigSource::BuiltIn) as u32) << 4),
+                id.into(),
+                0,
+            ),
+            BootLine::ConfigError { code, .. } => (
+                const { tokens(&[w(Config), w(Error), NUM]) },
+                code.into(),
+                0,
+            ),
+        };
+        put_word(w(Hoploc), out);
+        out(b' ');
+        put_word(1 + self.role() as u8, out);
+        let mut number = first;
+        while t != 0 {
+            out(b' ');
+            let k = (t & 0xF) as u8;
+            if k == NUM {
+                put_decimal(number, out);
+                number = second.into();
+            } else {
+                put_word(k, out);
             }
-            BootLine::RadioError { code, attempt, .. } => {
-                word(Word::Radio as u8, out);
-                word(Word::Error as u8, out);
-                out(b' ');
-                put_decimal(code.into(), out);
-                word(Word::Try as u8, out);
-                out(b' ');
-                put_decimal(attempt.into(), out);
-            }
-            BootLine::Provisioned { .. } => word(Word::Provisioned as u8, out),
-            BootLine::Config { source, id, .. } => {
-                word(Word::Config as u8, out);
-                // `built-in` follows `eeprom` in WORDS (arithmetic rather than a lookup table,
-                // which would be copied to SRAM on AVR).
-                word(
-                    Word::Eeprom as u8 + (source == ConfigSource::BuiltIn) as u8,
-                    out,
-                );
-                word(Word::Id as u8, out);
-                out(b' ');
-                put_decimal(id.into(), out);
-            }
-            BootLine::ConfigError { code, .. } => {
-                word(Word::Config as u8, out);
-                word(Word::Error as u8, out);
-                out(b' ');
-                put_decimal(code.into(), out);
-            }
+            t >>= 4;
         }
         out(b'\r');
         out(b'\n');
@@ -407,6 +435,30 @@ mod tests {
             assert_eq!(line.to_string(), text.trim_end());
             assert_eq!(BootLine::parse(text), Ok(line));
             assert_eq!(BootLine::parse(text.trim_end()), Ok(line));
+        }
+    }
+
+    #[test]
+    fn decimals_match_core_fmt() {
+        for n in [
+            0,
+            1,
+            9,
+            10,
+            99,
+            100,
+            101,
+            9600,
+            57_600,
+            115_200,
+            999_999_999,
+        ]
+        .into_iter()
+        .chain([1_000_000_000, 4_000_000_001, u32::MAX - 1, u32::MAX])
+        {
+            let mut v = Vec::new();
+            put_decimal(n, &mut |b| v.push(b));
+            assert_eq!(String::from_utf8(v).unwrap(), n.to_string());
         }
     }
 

@@ -120,37 +120,44 @@ enum Step {
     Skip,
     /// A frame start, but broken (bad version, length or CRC).
     Fail(Error),
-    /// A whole frame with a good CRC; the config in it is valid or not.
-    Done(Result<Config, Error>),
+    /// A whole frame with a good CRC: its config (valid or not) is `buf[5..5 + buf[4]]`.
+    Done,
 }
 
-fn step(b: &[u8]) -> Step {
-    for (i, &d) in DELIMITER.iter().enumerate() {
-        match b.get(i) {
-            None => return Step::More,
-            Some(&x) if x != d => return Step::Skip,
-            Some(_) => {}
+/// What the first `n` bytes of `b` are. Fixed indices into the whole buffer, `u8` lengths: on
+/// AVR each bounds-checked slice costs dozens of bytes of flash.
+fn step(b: &[u8; MAX_FRAME], n: u8) -> Step {
+    let mut i = 0;
+    while i < DELIMITER.len() {
+        if i >= n as usize {
+            return Step::More;
         }
-    }
-    match b.get(3) {
-        None => return Step::More,
-        Some(&v) if v != VERSION => return Step::Fail(Error::BadVersion { found: v }),
-        Some(_) => {}
-    }
-    let l = match b.get(4) {
-        None => return Step::More,
-        Some(&l) if !(MIN_LEN..=MAX_LEN).contains(&(l as usize)) => {
-            return Step::Fail(Error::BadLength)
+        if b[i] != DELIMITER[i] {
+            return Step::Skip;
         }
-        Some(&l) => l as usize,
-    };
-    let (Some(body), Some(&[hi, lo])) = (b.get(3..5 + l), b.get(5 + l..7 + l)) else {
+        i += 1;
+    }
+    if n < 4 {
         return Step::More;
-    };
-    if crc16(body) != u16::from_be_bytes([hi, lo]) {
+    }
+    if b[3] != VERSION {
+        return Step::Fail(Error::BadVersion { found: b[3] });
+    }
+    if n < 5 {
+        return Step::More;
+    }
+    let l = b[4];
+    if !(MIN_LEN as u8..=MAX_LEN as u8).contains(&l) {
+        return Step::Fail(Error::BadLength);
+    }
+    if n < l + 7 {
+        return Step::More;
+    }
+    let end = 5 + l as usize;
+    if crc16(&b[3..end]) != u16::from_be_bytes([b[end], b[end + 1]]) {
         return Step::Fail(Error::BadCrc);
     }
-    Step::Done(Config::from_bytes(&body[2..]))
+    Step::Done
 }
 
 /// Finds provisioning frames in a byte stream, one byte at a time, in a 29-byte buffer.
@@ -194,20 +201,20 @@ impl ProvisionParser {
     /// frame (delimiter seen) turns out broken or holds an invalid config, and `None` otherwise
     /// (garbage is skipped silently). Never panics.
     pub fn push(&mut self, byte: u8) -> Option<Result<Config, Error>> {
-        let mut n = self.n as usize;
-        if n >= MAX_FRAME {
+        let mut n = self.n;
+        if n as usize >= MAX_FRAME {
             // Cannot happen (a frame is complete at MAX_FRAME bytes), but stay in bounds.
             n = 0;
         }
-        self.buf[n] = byte;
+        self.buf[n as usize] = byte;
         n += 1;
         let mut failed = None;
         let out = loop {
-            match step(&self.buf[..n]) {
+            match step(&self.buf, n) {
                 Step::More => break failed.map(Err),
-                Step::Done(r) => {
+                Step::Done => {
                     n = 0;
-                    break Some(r);
+                    break Some(Config::from_bytes(self.config_bytes()));
                 }
                 s => {
                     if let Step::Fail(e) = s {
@@ -215,11 +222,11 @@ impl ProvisionParser {
                         self.errors = self.errors.saturating_add(1);
                     }
                     // Resynchronise: the next frame may start inside what was buffered.
-                    let next = self.buf[1..n]
-                        .iter()
-                        .position(|&b| b == DELIMITER[0])
-                        .map_or(n, |i| i + 1);
-                    self.buf.copy_within(next..n, 0);
+                    let mut next = 1;
+                    while next < n && self.buf[next as usize] != DELIMITER[0] {
+                        next += 1;
+                    }
+                    self.buf.copy_within(next as usize..n as usize, 0);
                     n -= next;
                     if n == 0 {
                         break failed.map(Err);
@@ -230,7 +237,7 @@ impl ProvisionParser {
         if let Some(Err(Error::BadValue { .. })) = out {
             self.errors = self.errors.saturating_add(1);
         }
-        self.n = n as u8;
+        self.n = n;
         out
     }
 }

@@ -31,8 +31,9 @@ pub const fn ubrr_u2x(f_cpu: u32, baud: u32) -> Option<u16> {
     if baud == 0 {
         return None;
     }
-    // round(f_cpu / (8 * baud)) - 1, in integers.
-    let div = (f_cpu + 4 * baud) / (8 * baud);
+    // round(f_cpu / (8 * baud)) - 1, in integers: ceil(floor(f_cpu / 4 / baud) / 2) is that
+    // rounding exactly, with one division and no `8 * baud` to overflow.
+    let div = (f_cpu / 4 / baud).div_ceil(2);
     if div == 0 || div > 4096 {
         return None;
     }
@@ -75,6 +76,22 @@ mod tests {
         for baud in SUPPORTED {
             let u = ubrr_u2x(F_CPU, baud).unwrap();
             assert!(error_permille(F_CPU, baud, u).abs() <= 25, "{baud}");
+        }
+    }
+
+    #[test]
+    fn rounds_to_the_nearest_divisor() {
+        // Against the definition in 64-bit arithmetic, over every rate up to 2.1 Mbit/s in steps
+        // that hit each divisor's rounding boundaries, and a few clocks.
+        for f_cpu in [F_CPU, 8_000_000, 20_000_000] {
+            for baud in (1..2_100_000u32)
+                .step_by(7)
+                .chain([u32::MAX, 1 << 29, (1 << 29) + 1])
+            {
+                let div = (f_cpu as u64 + 4 * baud as u64) / (8 * baud as u64);
+                let want = (div != 0 && div <= 4096).then(|| (div - 1) as u16);
+                assert_eq!(ubrr_u2x(f_cpu, baud), want, "{f_cpu} {baud}");
+            }
         }
     }
 

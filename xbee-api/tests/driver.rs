@@ -131,6 +131,40 @@ fn at_command_returns_the_response_with_its_frame_id() {
 }
 
 #[test]
+fn at_set_sends_the_command_and_checks_the_status() {
+    for mode in MODES {
+        let (m, mut radio) = setup(ap_of(mode), 57600, mode);
+        let mut others = 0;
+        radio.at_set(*b"CH", &[0x0F], 100, |_| others += 1).unwrap();
+        assert_eq!(m.borrow().ch, 0x0F);
+        assert_eq!(m.borrow().host_frames()[0], "ATCH id=1 [0F]");
+        assert_eq!(others, 0);
+        // The same frame as `at_command` writes.
+        let (m2, mut radio2) = setup(ap_of(mode), 57600, mode);
+        radio2.at_command(*b"CH", &[0x0F], 100, |_| ()).unwrap();
+        assert_eq!(m.borrow().wire, m2.borrow().wire);
+    }
+    // An error status is an error; no answer is a timeout.
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().expect(
+        None,
+        Reply::Frames(vec![at_resp(1, b"CH", AtStatus::INVALID_PARAMETER, &[])]),
+    );
+    assert_eq!(
+        radio.at_set(*b"CH", &[0x30], 100, |_| ()),
+        Err(Error::At {
+            command: *b"CH",
+            status: AtStatus::INVALID_PARAMETER
+        })
+    );
+    m.borrow_mut().expect(None, Reply::Silent);
+    assert_eq!(
+        radio.at_set(*b"CH", &[0x0C], 50, |_| ()),
+        Err(Error::Timeout { command: *b"CH" })
+    );
+}
+
+#[test]
 fn response_with_wrong_frame_id_or_command_goes_to_the_callback() {
     let (m, mut radio) = setup(2, 57600, Mode::Escaped);
     let stale = at_resp(99, b"MY", AtStatus::OK, &[0x00, 0x07]);

@@ -27,15 +27,17 @@ pub fn radio_config(config: &Config) -> BringUpConfig {
 
 /// [`serve`] for `ms` milliseconds, sleeping (idle) between received bytes and ticks: the window
 /// costs no busy CPU (nor, in simavr, emulation time). Returns whether a config was stored.
+/// The clock's low 16 bits are enough for waits of at most [`PROVISION_WINDOW_MS`] (and 16-bit
+/// arithmetic is half the code of 32-bit on AVR).
 fn serve_for(
     serial: &mut Serial,
     eeprom: &mut Eeprom,
     parser: &mut ProvisionParser,
     role: Role,
-    ms: u32,
+    ms: u16,
 ) -> bool {
-    let start = now_ms();
-    while now_ms().wrapping_sub(start) < ms {
+    let start = now_ms() as u16;
+    while (now_ms() as u16).wrapping_sub(start) < ms {
         if serve(serial, eeprom, parser, role) {
             return true;
         }
@@ -62,11 +64,8 @@ fn serve(
         if config.is_some() {
             // The frame's own config bytes (checked by the parser), written and read back.
             let bytes = parser.config_bytes();
-            let mut back = [0u8; MAX_LEN];
-            let n = bytes.len().min(MAX_LEN);
             let ok = eeprom.write(0, bytes).is_ok()
-                && eeprom.read(0, &mut back[..n]).is_ok()
-                && back[..n] == *bytes;
+                && (0..).zip(bytes).all(|(a, &b)| eeprom.read_byte(a) == Ok(b));
             if !ok {
                 reply = Reply::Nak(WRITE_FAILED);
             }
@@ -105,34 +104,36 @@ pub fn load_config(
 ) -> Config {
     let role = built_in.role;
     let mut parser = ProvisionParser::new();
-    serve_for(
-        serial,
-        eeprom,
-        &mut parser,
-        role,
-        PROVISION_WINDOW_MS as u32,
-    );
+    serve_for(serial, eeprom, &mut parser, role, PROVISION_WINDOW_MS);
     loop {
-        let mut block = [0xFF; MAX_LEN];
-        let _ = eeprom.read(0, &mut block);
-        let (config, source) = match stored(&block, role) {
+        let (config, source) = match read_stored(eeprom, role) {
             Stored::Valid(c) => (c, ConfigSource::Eeprom),
             Stored::Erased => (*built_in, ConfigSource::BuiltIn),
             Stored::Invalid(code) => {
                 // One round of the code per line, answering frames all along.
                 'wait: loop {
                     write_line(serial, &BootLine::ConfigError { role, code });
-                    for phase in 0..=2 * code {
-                        let (on, ms) = match phase {
-                            p if p == 2 * code => (false, 1500),
-                            p if p % 2 == 0 => (true, 200),
-                            _ => (false, 300),
-                        };
+                    // Phases 0…2·code: on 200 ms (even), off 300 ms (odd), the last off 1.5 s.
+                    let mut phase = 0u8;
+                    loop {
+                        let last = phase == 2 * code;
+                        let on = !last && phase & 1 == 0;
                         led.set(on);
+                        let ms = if last {
+                            1500
+                        } else if on {
+                            200
+                        } else {
+                            300
+                        };
                         if serve_for(serial, eeprom, &mut parser, role, ms) {
                             led.off();
                             break 'wait;
                         }
+                        if last {
+                            break;
+                        }
+                        phase += 1;
                     }
                 }
                 continue;
@@ -148,4 +149,11 @@ pub fn load_config(
         );
         return config;
     }
+}
+
+/// What the EEPROM holds for a node of `role` ([`stored`]).
+fn read_stored(eeprom: &Eeprom, role: Role) -> Stored {
+    let mut block = [0xFF; MAX_LEN];
+    let _ = eeprom.read(0, &mut block);
+    stored(&block, role)
 }

@@ -20,7 +20,7 @@ pub fn tune(radio: &mut NodeRadio, n: u8) -> Result<(), Error> {
     let ch = xbee_channel(n).ok_or(Error::Unexpected { command: *b"CH" })?;
     radio.wait_tx_status(TUNE_TIMEOUT_MS, |_| ())?;
     // A zero timeout: the command is written, the answer is not waited for.
-    match radio.at_command(*b"CH", &[ch], 0, |_| ()) {
+    match radio.at_set(*b"CH", &[ch], 0, |_| ()) {
         Ok(_) | Err(Error::Timeout { .. }) => Ok(()),
         Err(e) => Err(e),
     }

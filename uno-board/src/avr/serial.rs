@@ -58,19 +58,26 @@ fn USART_RX() {
     let byte = usart.udr0().read().bits();
     RX.with(|rx| {
         if status.dor0().bit_is_set() {
-            rx.stats.data_overrun = rx.stats.data_overrun.saturating_add(1);
+            bump(&mut rx.stats.data_overrun);
         }
         if status.fe0().bit_is_set() {
-            rx.stats.frame_error = rx.stats.frame_error.saturating_add(1);
+            bump(&mut rx.stats.frame_error);
         }
         if !rx.ring.push(byte) {
-            rx.stats.ring_full = rx.stats.ring_full.saturating_add(1);
+            bump(&mut rx.stats.ring_full);
         }
     });
     if byte == xbee_api::START {
         let now = super::now_us();
         FRAME_START_US.with(|t| *t = now);
     }
+}
+
+/// Adds one to a receive counter, saturating. One copy for the three counters (only errors take
+/// it, so the RX interrupt's common path does not pay the call).
+#[inline(never)]
+fn bump(counter: &mut u16) {
+    *counter = counter.saturating_add(1);
 }
 
 /// The local time ([`now_us`](crate::now_us)) at which the last API frame start delimiter
@@ -134,7 +141,9 @@ impl Serial {
 
     /// Changes the bit rate (e.g. 9600…115200 during radio bring-up): waits until the bytes
     /// already written have left, then switches. Received bytes are kept; call
-    /// [`clear_rx`](Self::clear_rx) to drop what arrived at the old rate.
+    /// [`clear_rx`](Self::clear_rx) to drop what arrived at the old rate. Never inlined: its
+    /// 32-bit division would be copied into every caller (radio bring-up has three).
+    #[inline(never)]
     pub fn set_baud(&mut self, baud: u32) -> Result<(), BaudError> {
         let ubrr = baud::ubrr_u2x(baud::F_CPU, baud).ok_or(BaudError::Unreachable)?;
         self.flush_blocking();
@@ -163,8 +172,9 @@ impl Serial {
         self.rx_stats().overruns()
     }
 
-    /// The next received byte, if any.
-    #[inline]
+    /// The next received byte, if any. Never inlined: the driver's read loops and the
+    /// provisioning window each had their own copy of the critical section.
+    #[inline(never)]
     pub fn try_read(&mut self) -> Option<u8> {
         RX.with(|rx| rx.ring.pop())
     }
@@ -185,8 +195,9 @@ impl Serial {
         true
     }
 
-    /// Writes `byte`, waiting for room in the transmit buffer.
-    #[inline]
+    /// Writes `byte`, waiting for room in the transmit buffer. Never inlined: text lines and
+    /// provisioning replies call it from many places, each inlined copy cost ≈ 24 B of flash.
+    #[inline(never)]
     pub fn write_byte(&mut self, byte: u8) {
         while !self.try_write(byte) {}
     }
