@@ -210,7 +210,7 @@ fn hex(n: u8) -> u8 {
 fn write_fields(
     kind: Word,
     shape: &[u8],
-    values: &[u32; 9],
+    values: &[u32],
     hex_word: &[u8],
     out: &mut dyn FnMut(u8),
 ) {
@@ -445,7 +445,7 @@ impl RawReport {
     /// writes the bytes it received). At most [`MAX_REPORT_LINE`] bytes for a message the radio
     /// carries.
     pub fn write(msg: &[u8], mut out: impl FnMut(u8)) {
-        write_fields(Word::Report, &[], &[0; 9], msg, &mut out);
+        write_fields(Word::Report, &[], &[], msg, &mut out);
     }
 
     /// Reads a `report` line (with or without its `\r\n`); never panics.

@@ -69,16 +69,27 @@ fn run(
     let mut sink = Sink::<AvrTerm>::new(sink_fw::room(config.position));
     let mut last_status = now_ms();
     let mut uptime_s = 0u32;
+    // The report's bytes as received, for its `report` line.
+    let mut raw = [0u8; loc_proto::msg::MAX_PAYLOAD];
+    let mut raw_len = 0;
     loop {
         watchdog.feed();
         while let Some(got) = node::poll(&mut radio, |ev| match ev {
-            Event::Packet { data, .. } => Some(Report::decode(data).map_err(BadFrame::of)),
+            Event::Packet { data, .. } => {
+                let decoded = Report::decode(data).map_err(BadFrame::of);
+                if decoded.is_ok() {
+                    // A report fits the radio payload, so `data` fits `raw`.
+                    raw_len = data.len().min(raw.len());
+                    raw[..raw_len].copy_from_slice(&data[..raw_len]);
+                }
+                Some(decoded)
+            }
             _ => None,
         }) {
             match got {
                 Some(Ok(report)) => {
                     led.toggle();
-                    on_report(&mut sink, &report, &mut radio);
+                    on_report(&mut sink, &report, &raw[..raw_len], &mut radio);
                 }
                 Some(Err(kind)) => sink.on_bad_frame(kind),
                 None => {}
@@ -93,14 +104,20 @@ fn run(
     }
 }
 
-/// A report's lines: two `fix` lines, or a `nofix` line. Out of line, as [`run`].
+/// A report's lines: its `report` line (the bytes `raw` it came in), then two `fix` lines or a
+/// `nofix` line. Out of line, as [`run`].
 #[cfg(target_arch = "avr")]
 #[inline(never)]
 fn on_report(
     sink: &mut sink_fw::Sink<uno_board::AvrTerm>,
     report: &loc_proto::msg::Report,
+    raw: &[u8],
     radio: &mut uno_board::NodeRadio,
 ) {
+    {
+        let serial = radio.serial_mut();
+        loc_proto::sink_line::RawReport::write(raw, |b| serial.write_byte(b));
+    }
     match sink.on_report(report) {
         Ok(fix) => {
             for line in fix.lines() {
