@@ -96,6 +96,9 @@
 
 mod grid;
 mod kernel;
+// `square`, `sq_shr` and `square_shift` served the position search's old shifted-square path;
+// they are left to math.rs' owner (the fit's rework) to remove.
+#[allow(dead_code)]
 mod math;
 mod params;
 mod refine;
@@ -106,8 +109,8 @@ pub use grid::{
     mmse_window_with, mmse_with, sink_fix, Estimate, Estimator,
 };
 pub use kernel::{
-    log2_segment_table, portable_column, portable_term, AnchorTerm, ColumnJob, Portable,
-    TermKernel, SQ_SAT, U_SAT,
+    log2_segment_table, offset_square, portable_column, portable_term, AnchorTerm, ColumnJob,
+    Portable, TermKernel, SQ_SAT, U_SAT,
 };
 pub use params::{
     distance_x, fit, fit_grid, fit_least_squares, Ar1, Bounds, CalStats, OnlineParams, ParamFit,
