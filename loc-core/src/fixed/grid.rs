@@ -20,7 +20,7 @@
 //! sink's one-pass MLE + MMSE, 32-bit arithmetic only on the sink's path, the shared helpers out
 //! of line.
 
-use super::kernel::{log2_segment_table, ColumnJob, Portable, TermKernel};
+use super::kernel::{log2_segment_base, ColumnJob, Portable, TermKernel};
 use super::math::exp2_neg_q26;
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
@@ -191,7 +191,7 @@ impl<K: TermKernel> Grid<K> {
             kernel: PhantomData,
         };
         g.job.xstep = area.width;
-        let table = log2_segment_table();
+        g.job.seg_base = log2_segment_base();
         let anchors = &mut g.job.anchors;
         let mut n = 0;
         for o in obs.as_slice() {
@@ -234,7 +234,6 @@ impl<K: TermKernel> Grid<K> {
             t.rho += sh;
             t.lclamp = LOG2_CLAMP - sh;
             t.step = area.height;
-            t.table = table;
         }
         g.job.n = if flat { 0 } else { n as u8 };
         g

@@ -38,7 +38,7 @@ pub trait TermKernel {
 /// squared, so that each square fits 32 bits (`shift` is 0 within 13.1 m of the anchor).
 ///
 /// `repr(C)`: assembly kernels read it by offset (on AVR, where nothing is padded: `dx2` 0,
-/// `dx0` 4, `dy0` 8, `step` 12, `lclamp` 14, `rho` 18, `table` 22, `w` 24, `shift` 25; 26 bytes).
+/// `dx0` 4, `dy0` 8, `step` 12, `lclamp` 14, `rho` 18, `w` 22, `shift` 23; 24 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct AnchorTerm {
@@ -54,8 +54,6 @@ pub struct AnchorTerm {
     pub lclamp: i32,
     /// The anchor's `ρ`, Q.20, plus `2·shift`.
     pub rho: i32,
-    /// [`log2_segment_table`], for kernels that read it directly.
-    pub table: *const [u8; 6],
     /// The anchor's weight, 1 to 4.
     pub w: u8,
     /// `dx` and `dy` are `|·|` rounded to `2^shift` units (0 to 7).
@@ -72,7 +70,6 @@ impl AnchorTerm {
         step: 0,
         lclamp: 0,
         rho: 0,
-        table: core::ptr::null(),
         w: 0,
         shift: 0,
     };
@@ -80,7 +77,7 @@ impl AnchorTerm {
 
 /// A column of a search window, for [`TermKernel::column`] (on AVR: `bound` at offset 0, `n`
 /// 4, `rows` 5, `min` 6, `min_row` 10, `skip` 11, `col` 13, `xstep` 14, `stride` 16, `end` 17,
-/// the anchors from 18).
+/// `seg_base` 18, the anchors from 20).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct ColumnJob {
@@ -105,12 +102,15 @@ pub struct ColumnJob {
     pub stride: u8,
     /// Scratch for kernels.
     pub end: u8,
+    /// [`log2_segment_base`], for kernels that read the table directly.
+    pub seg_base: *const u8,
     /// The anchors, in evaluation order.
     pub anchors: [AnchorTerm; MAX_ANCHORS],
 }
 
 impl ColumnJob {
-    /// No rows, no anchors.
+    /// No rows, no anchors, stride 0 (set it before use; all zero, so that zeroed memory, not
+    /// a copy from flash, initialises it).
     pub const EMPTY: ColumnJob = ColumnJob {
         bound: 0,
         n: 0,
@@ -120,8 +120,9 @@ impl ColumnJob {
         skip: 0,
         col: 0,
         xstep: 0,
-        stride: 1,
+        stride: 0,
         end: 0,
+        seg_base: core::ptr::null(),
         anchors: [AnchorTerm::NONE; MAX_ANCHORS],
     };
 }
@@ -238,6 +239,13 @@ pub fn portable_term(lo: u32, carry: bool, rho: i32, lclamp: i32) -> u32 {
 /// little endian, Q.20): on AVR a flash address, to be read with `lpm`.
 pub fn log2_segment_table() -> *const [u8; 6] {
     tables::log2_seg_table()
+}
+
+/// [`log2_segment_table`] less 384 bytes (never dereferenced as such): segment `k` of a
+/// normalised `d²` whose top byte is `64 + k` starts at `6·(64 + k)` from it, one add fewer per
+/// term in an assembly kernel.
+pub fn log2_segment_base() -> *const u8 {
+    log2_segment_table().cast::<u8>().wrapping_sub(6 * 64)
 }
 
 #[cfg(test)]

@@ -109,8 +109,8 @@ pub use grid::{
     mmse_window_with, mmse_with, sink_fix, Estimate, Estimator,
 };
 pub use kernel::{
-    log2_segment_table, offset_square, portable_column, portable_term, AnchorTerm, ColumnJob,
-    Portable, TermKernel, SQ_SAT, U_SAT,
+    log2_segment_base, log2_segment_table, offset_square, portable_column, portable_term,
+    AnchorTerm, ColumnJob, Portable, TermKernel, SQ_SAT, U_SAT,
 };
 pub use params::{
     distance_x, fit, fit_grid, fit_least_squares, Ar1, Bounds, CalStats, OnlineParams, ParamFit,

@@ -21,7 +21,7 @@
 
 use core::arch::asm;
 use core::mem::{offset_of, size_of};
-use loc_core::fixed::{log2_segment_table, AnchorTerm, ColumnJob, TermKernel};
+use loc_core::fixed::{log2_segment_base, AnchorTerm, ColumnJob, TermKernel};
 
 // The offsets the assembly reads (AVR has no padding).
 const _: () = {
@@ -31,10 +31,9 @@ const _: () = {
     assert!(offset_of!(AnchorTerm, step) == 12);
     assert!(offset_of!(AnchorTerm, lclamp) == 14);
     assert!(offset_of!(AnchorTerm, rho) == 18);
-    assert!(offset_of!(AnchorTerm, table) == 22);
-    assert!(offset_of!(AnchorTerm, w) == 24);
-    assert!(offset_of!(AnchorTerm, shift) == 25);
-    assert!(size_of::<AnchorTerm>() == 26);
+    assert!(offset_of!(AnchorTerm, w) == 22);
+    assert!(offset_of!(AnchorTerm, shift) == 23);
+    assert!(size_of::<AnchorTerm>() == 24);
     assert!(offset_of!(ColumnJob, bound) == 0);
     assert!(offset_of!(ColumnJob, n) == 4);
     assert!(offset_of!(ColumnJob, rows) == 5);
@@ -45,7 +44,8 @@ const _: () = {
     assert!(offset_of!(ColumnJob, xstep) == 14);
     assert!(offset_of!(ColumnJob, stride) == 16);
     assert!(offset_of!(ColumnJob, end) == 17);
-    assert!(offset_of!(ColumnJob, anchors) == 18);
+    assert!(offset_of!(ColumnJob, seg_base) == 18);
+    assert!(offset_of!(ColumnJob, anchors) == 20);
 };
 
 /// The AVR kernel for `loc_core::fixed::{mle_with, mmse_with, estimate_with}`.
@@ -81,11 +81,11 @@ macro_rules! term_body {
             "rjmp 14f\n",
             "10:\n",
             "ldi r16, 31\n",
-            "cp r14, r1\n",
-            "cpc r15, r1\n",
+            "cp r14, r2\n",
+            "cpc r15, r2\n",
             "brne 11f\n",
-            "cp r12, r1\n",
-            "cpc r13, r1\n",
+            "cp r12, r2\n",
+            "cpc r13, r2\n",
             "brne 12f\n",
             // d² = 0: log = 0.
             "clr r3\n",
@@ -124,17 +124,15 @@ macro_rules! term_body {
             "lsr r15\n",
             "ror r14\n",
             "ror r13\n",
-            // n3 = 64 + k: Z = table + 6·n3 − 384 (the job pointer waits in r25:r24).
+            // n3 = 64 + k: Z = (table − 384) + 6·n3, the base from Y+18 (the anchor pointer
+            // waits in r25:r24).
             "movw r24, r30\n",
-            "ldd r6, Z+22\n",
-            "ldd r7, Z+23\n",
-            "movw r30, r6\n",
+            "ldd r30, Y+18\n",
+            "ldd r31, Y+19\n",
             "ldi r17, 6\n",
             "mul r15, r17\n",
             "add r30, r0\n",
             "adc r31, r1\n",
-            "subi r30, 0x80\n",
-            "sbci r31, 0x01\n",
             "lpm r3, Z+\n",
             "lpm r4, Z+\n",
             "lpm r5, Z+\n",
@@ -301,21 +299,14 @@ macro_rules! offset_abs_square {
             "com r17\n",
             "neg r16\n",
             "sbci r17, 0xFF\n",
-            "sbci r3, 0xFF\n",
+            // r3 + 1 − borrow (r3 is not an immediate register).
+            "sbc r3, r2\n",
+            "inc r3\n",
             "9:\n",
-            "ldd r5, Z+25\n",
-            "tst r5\n",
-            "breq 42f\n",
-            "41:\n",
-            "lsr r3\n",
-            "ror r17\n",
-            "ror r16\n",
-            "dec r5\n",
-            "brne 41b\n",
-            // The last bit shifted out rounds.
-            "adc r16, r2\n",
-            "adc r17, r2\n",
-            "42:\n",
+            // A shift: the subroutine at 45 (4 cycles when there is none).
+            "ldd r5, Z+23\n",
+            "cpse r5, r2\n",
+            "rcall 45f\n",
             "mul r16, r16\n",
             "movw r12, r0\n",
             "mul r17, r17\n",
@@ -338,16 +329,22 @@ pub fn term(lo: u32, carry: bool, rho: i32, lclamp: i32) -> u32 {
     let t = AnchorTerm {
         lclamp,
         rho,
-        table: log2_segment_table(),
         ..AnchorTerm::NONE
     };
+    // The body reads the table's base at Y+18, as in a `ColumnJob`.
+    let base = log2_segment_base();
+    let y = (&base as *const *const u8).cast::<u8>().wrapping_sub(18);
     let [mut n0, mut n1, mut n2, mut n3] = lo.to_le_bytes();
-    // SAFETY: the assembly reads `t` (26 bytes, at the offsets asserted above) through Z and
-    // 6 bytes of the log2 table (64 × 6 bytes in flash, index < 64 by construction) with `lpm`;
-    // it writes only the registers declared here, r0, and r1 (left at 0 as the ABI requires) and
-    // the flags.
+    // SAFETY: the assembly reads `t` (24 bytes, at the offsets asserted above) through Z, the
+    // table base through Y (`base`, at Y+18) and 6 bytes of the log2 table (64 × 6 bytes in
+    // flash, index < 64 by construction) with `lpm`; it writes only the registers declared
+    // here, r0, r1 (left at 0 as the ABI requires), the flags and Y (saved on the stack and
+    // restored).
     unsafe {
         asm!(
+            "push r28",
+            "push r29",
+            "movw r28, r26",
             "clr r2",
             "clt",
             "tst r22",
@@ -355,17 +352,20 @@ pub fn term(lo: u32, carry: bool, rho: i32, lclamp: i32) -> u32 {
             "set",
             "1:",
             term_body!(),
+            "pop r29",
+            "pop r28",
             "clr r1",
             inout("r12") n0,
             inout("r13") n1,
             inout("r14") n2,
             inout("r15") n3,
             in("r22") carry as u8,
+            inout("X") y => _,
             inout("Z") &t as *const AnchorTerm => _,
             out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
             out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r16") _, out("r17") _,
             out("r24") _, out("r25") _,
-            options(readonly, nostack),
+            options(readonly),
         );
     }
     u32::from_le_bytes([n0, n1, n2, n3])
@@ -397,7 +397,8 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
     // end; nothing here uses the frame): the loop reads its bound,
     // its skip mask (shifting it in place) and its first `n` (1 to 8) anchors and writes their
     // `dx2`; `lpm` reads 6 bytes of the log2 table per term as in [`term`]. Only the declared
-    // registers, r0, r1 (left at 0), the flags, Y (restored) and two stack bytes are written (and the
+    // registers, r0, r1 (left at 0), the flags, Y (restored) and four stack bytes (Y, a return
+    // address) are written (and the
     // job's `min`, `min_row`, `skip`, `end` and `dx2` fields).
     unsafe {
         asm!(
@@ -422,7 +423,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "ldd r22, Z+13",
             "ldd r24, Z+14",
             "ldd r25, Z+15",
-            "adiw r30, 18",
+            "adiw r30, 20",
             "8:",
             "mul r22, r24",
             "movw r16, r0",
@@ -435,7 +436,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "std Z+1, r13",
             "std Z+2, r14",
             "std Z+3, r15",
-            "adiw r30, 26",
+            "adiw r30, 24",
             "dec r23",
             "brne 8b",
             "clr r22",
@@ -462,7 +463,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "ldd r20, Z+2",
             "ldd r21, Z+3",
             "ldd r23, Z+4",
-            "adiw r30, 18",
+            "adiw r30, 20",
             // ---- anchor at Z: dy = dy0 + r22·step (24 bits) ----
             "5:",
             "ldd r16, Z+12",
@@ -489,7 +490,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "7:",
             term_body!(),
             // ---- room −= w·term; at or below 0 the row has reached the bound ----
-            "ldd r17, Z+24",
+            "ldd r17, Z+22",
             "31:",
             "sub r18, r12",
             "sbc r19, r13",
@@ -499,7 +500,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "breq 35f",
             "dec r17",
             "brne 31b",
-            "adiw r30, 26",
+            "adiw r30, 24",
             "dec r23",
             "breq 3f",
             "rjmp 5b",
@@ -558,6 +559,18 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "pop r29",
             "pop r28",
             "clr r1",
+            "rjmp 46f",
+            // ---- r3:r17:r16 >> r5 (≥ 1), rounded by the last bit shifted out ----
+            "45:",
+            "lsr r3",
+            "ror r17",
+            "ror r16",
+            "dec r5",
+            "brne 45b",
+            "adc r16, r2",
+            "adc r17, r2",
+            "ret",
+            "46:",
             inout("X") sums.as_mut_ptr() => _,
             inout("Z") &mut *job as *mut ColumnJob => _,
             out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
