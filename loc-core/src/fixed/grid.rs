@@ -90,6 +90,20 @@ pub struct Estimate {
     pub evaluations: u16,
 }
 
+/// The coarse index `c ≤ 10` of the weighted mean `s/sw` (lattice units) along a side of `side`
+/// cm: `(c − ½)·5·side < s/sw ≤ (c + ½)·5·side`, found by steps (no division).
+#[inline(never)]
+fn snap(s: i32, side: i32, sw: i32) -> usize {
+    // t < 5·2^16·2^8 < 2^27, so v ≤ 21·t < 2^31.
+    let t = RATIO as i32 * side * sw;
+    let (mut c, mut v) = (0, t);
+    while c < COARSE_DIVS && v < 2 * s {
+        c += 1;
+        v += 2 * t;
+    }
+    c
+}
+
 /// `⌊a·b / 2^32⌋`, within 2 below, from three 16 × 16 products (no 64-bit arithmetic).
 #[inline(never)]
 fn mul_hi(a: u32, b: u32) -> u32 {
@@ -142,14 +156,15 @@ impl LatticeMin {
 
 /// One estimate's search: the position-independent part of the cost (in the kernel's job: per
 /// anchor `ρ`, weight, shift, offsets from the current window's origin), one column of sums, the
-/// evaluations spent (≈ 0.3 KB of RAM).
+/// evaluations spent (≈ 0.3 KB of RAM). `repr(C)`, the scalars and the job's header first: AVR
+/// reaches 63 bytes from a pointer in one instruction, farther fields cost pointer arithmetic.
+#[repr(C)]
 struct Grid<K> {
-    job: ColumnJob,
-    sums: [u32; ROWS],
     /// The current window's first column and row (fine indices) and its rows.
     i0: usize,
     j0: usize,
     rows: usize,
+    evals: usize,
     /// Fine steps in lattice units: `W`, `H` (cm).
     width: i32,
     height: i32,
@@ -157,7 +172,8 @@ struct Grid<K> {
     k26: u32,
     /// P0, Q.16 dB (sane).
     p0: i32,
-    evals: usize,
+    job: ColumnJob,
+    sums: [u32; ROWS],
     kernel: PhantomData<K>,
 }
 
@@ -165,8 +181,27 @@ impl<K: TermKernel> Grid<K> {
     /// Sets the cost of `obs` up: `ρ = (z − P0)/K − log2(1 m²)` per anchor (Q.20, clamped to
     /// ±2^30), the anchors strongest (largest `ρ`) first, and each anchor's shift: the fewest
     /// bits that bring its offsets anywhere in the area below 2^16.
-    #[inline(never)]
     fn new(obs: &Observations, model: PathLoss, area: AreaCm) -> Self {
+        let mut g = Grid {
+            i0: 0,
+            j0: 0,
+            rows: 0,
+            evals: 0,
+            width: 0,
+            height: 0,
+            k26: 0,
+            p0: 0,
+            job: ColumnJob::EMPTY,
+            sums: [0; ROWS],
+            kernel: PhantomData,
+        };
+        g.setup(obs, model, area);
+        g
+    }
+
+    /// [`Grid::new`] in place (no copy of the grid on AVR).
+    #[inline(never)]
+    fn setup(&mut self, obs: &Observations, model: PathLoss, area: AreaCm) {
         let model = model.sane();
         // |α| < 2^29 in Q.24: Q.27 fits a u32; K < 48.2 in Q.26 too.
         let k26 = mul_hi(model.alpha.unsigned_abs() << 3, FIVE_LOG10_2_Q31);
@@ -177,25 +212,14 @@ impl<K: TermKernel> Grid<K> {
         } else {
             div_shl(1 << 30, k26 >> 1, 25)
         };
-        let mut g = Grid {
-            job: ColumnJob::EMPTY,
-            sums: [0; ROWS],
-            i0: 0,
-            j0: 0,
-            rows: 0,
-            width: area.width as i32,
-            height: area.height as i32,
-            k26,
-            p0: model.p0,
-            evals: 0,
-            kernel: PhantomData,
-        };
+        let g = self;
+        (g.width, g.height, g.k26, g.p0) = (area.width as i32, area.height as i32, k26, model.p0);
         g.job.xstep = area.width;
         g.job.seg_base = log2_segment_base();
         let anchors = &mut g.job.anchors;
         let mut n = 0;
         for o in obs.as_slice() {
-            let d = o.z.saturating_sub(model.p0);
+            let d = o.z.wrapping_sub(model.p0);
             // |z − P0| Q.16 (< 2^26) as Q.22, × 2^30/K → Q.20.
             let r = mul_hi(d.unsigned_abs().min((1 << 26) - 1) << 6, inv_k).min(1 << 30) as i32;
             let r = if (d < 0) != (model.alpha < 0) { -r } else { r };
@@ -222,11 +246,12 @@ impl<K: TermKernel> Grid<K> {
         }
         let (xm, ym) = (50 * g.width, 50 * g.height);
         for t in &mut anchors[..n] {
-            let far = |v: i32, side: i32| v.unsigned_abs().max((v + side).unsigned_abs());
-            let m = far(t.dx0, xm).max(far(t.dy0, ym));
+            // The farthest offsets: from the area's sides.
             let mut h = 0;
-            while m >> h > 65534 {
-                h += 1;
+            for v in [t.dx0, t.dx0 + xm, t.dy0, t.dy0 + ym] {
+                while v.unsigned_abs() >> h > 65534 {
+                    h += 1;
+                }
             }
             t.shift = h;
             // d² in units of 2^(2h): log2 d² drops by 2h.
@@ -236,7 +261,6 @@ impl<K: TermKernel> Grid<K> {
             t.step = area.height;
         }
         g.job.n = if flat { 0 } else { n as u8 };
-        g
     }
 
     fn flat(&self) -> bool {
@@ -263,18 +287,7 @@ impl<K: TermKernel> Grid<K> {
             sx -= t.dx0 << up;
             sy -= t.dy0 << up;
         }
-        let snap = |s: i32, side: i32| {
-            let step = RATIO as i32 * side;
-            if sw == 0 || step == 0 {
-                0
-            } else {
-                ((s / sw).max(0) + step / 2) as usize / step as usize
-            }
-        };
-        (
-            snap(sx, self.width).min(COARSE_DIVS),
-            snap(sy, self.height).min(COARSE_DIVS),
-        )
+        (snap(sx, self.width, sw), snap(sy, self.height, sw))
     }
 
     /// Moves the window to first column `i0`, first row `j0`, `rows` rows `stride` fine rows
@@ -352,11 +365,16 @@ impl<K: TermKernel> Grid<K> {
 
     /// The thesis' fine window (± one coarse step, clipped) around the coarse winner `start`:
     /// the thesis MLE (strict `<` from `start`) and the evaluations it spends. Alone it skips
-    /// the window's coarse points (they cannot beat `start`); with `post` it evaluates every
+    /// the window's coarse points (they cannot beat `start`); with `POST` it evaluates every
     /// point up to the posterior's bound (or the MLE's, if larger) and adds it to `post`, and
-    /// the MLE is the same (a coarse point is never strictly below `start`).
+    /// the MLE is the same (a coarse point is never strictly below `start`). (Two copies: the
+    /// sink links only the one with `POST`.)
     #[inline(never)]
-    fn fine(&mut self, start: LatticeMin, mut post: Option<&mut Posterior>) -> (LatticeMin, usize) {
+    fn fine<const POST: bool>(
+        &mut self,
+        start: LatticeMin,
+        post: &mut Posterior,
+    ) -> (LatticeMin, usize) {
         let (i0, j0) = (start.i.saturating_sub(RATIO), start.j.saturating_sub(RATIO));
         let i1 = (start.i + RATIO).min(FINE_DIVS);
         let rows = (start.j + RATIO).min(FINE_DIVS) - j0 + 1;
@@ -377,29 +395,23 @@ impl<K: TermKernel> Grid<K> {
                 (0, 0)
             };
             mle_evals += rows - skipped;
-            let bound = match &post {
-                Some(p) => {
-                    self.column(i, p.bound().max(best.cost), 0);
-                    self.evals += rows;
-                    best.cost
-                }
-                None => {
-                    self.column(i, best.cost, mask);
-                    self.evals += rows - skipped;
-                    best.cost
-                }
-            };
-            if let Some(p) = post.as_deref_mut() {
-                p.add_column((i - i0) as u32, &self.sums[..rows]);
+            if POST {
+                self.column(i, post.bound().max(best.cost), 0);
+                self.evals += rows;
+                post.add_column((i - i0) as u32, &self.sums[..rows]);
+            } else {
+                self.column(i, best.cost, mask);
+                self.evals += rows - skipped;
             }
-            self.take(i, bound, &mut best);
+            self.take(i, best.cost, &mut best);
         }
         (best, mle_evals)
     }
 
     fn thesis(&mut self) -> LatticeMin {
         let c = self.coarse();
-        self.fine(c, None).0
+        self.fine::<false>(c, &mut Posterior::new(Weights::new(0, 0), 0))
+            .0
     }
 
     fn multi_start(&mut self) -> LatticeMin {
@@ -512,11 +524,11 @@ impl<K: TermKernel> Grid<K> {
         evals: usize,
     ) -> Estimate {
         let cost = if self.flat() {
-            // α = 0: `Σ w·(z − P0)²`, Q.4 dB residuals squared into Q.8 dB².
+            // α = 0: `Σ w·(z − P0)²`, Q.4 dB residuals (< 2^14) squared into Q.8 dB², w ≤ 4.
             let mut s = 0u32;
             for o in obs.as_slice() {
-                let r = (o.z.saturating_sub(self.p0).unsigned_abs() >> 12).min(0xFFFF);
-                s = s.saturating_add((r * r).saturating_mul(o.weight as u32));
+                let r = (o.z.wrapping_sub(self.p0).unsigned_abs() >> 12).min(0x3FFF);
+                s = s.saturating_add(r * r * (o.weight & 7) as u32);
             }
             s
         } else {
@@ -524,7 +536,10 @@ impl<K: TermKernel> Grid<K> {
             mul_hi(best.cost, mul_hi(self.k26, self.k26))
         };
         Estimate {
-            pos: pos.unwrap_or(area.lattice_mm(best.i, best.j)),
+            pos: pos.unwrap_or(PointMm {
+                x: to_mm(area.width, best.i, 0),
+                y: to_mm(area.height, best.j, 0),
+            }),
             lattice: (best.i as u8, best.j as u8),
             min_cost: cost.saturating_add(obs.const_cost),
             estimator,
@@ -533,6 +548,14 @@ impl<K: TermKernel> Grid<K> {
             evaluations: evals as u16,
         }
     }
+}
+
+/// `side·(o + f/2^12)/5` rounded: fine index `o` plus a fraction (`f ≤ 10·2^12`) in mm along a
+/// side of `side` cm (as [`AreaCm::lattice_mm`] for `f = 0`): `8·side·(…)` in Q.3 is below 2^32.
+#[inline(never)]
+fn to_mm(side: u16, o: usize, f: u32) -> u32 {
+    let side = side as u32;
+    (side * o as u32 * 8 + ((side * f) >> 9) + 20) / 40
 }
 
 fn check(obs: &Observations) -> Result<(), LocError> {
@@ -574,14 +597,13 @@ pub fn mle_with<K: TermKernel>(
 /// only ever decreases (the sums are rescaled when a lower cost appears).
 ///
 /// With ΔC' in Q.20, `β = K²·log2(e)/(32σ²)·2^−4`. A weight is 0 from `y ≥` [`Y_CUT`], i.e.
-/// from `ΔC' ≥ span`; below it `ΔC'` is scaled into 16 bits (`a`) and `y = (a·b) >> 11` with
-/// one 32-bit multiply (`a·b ≤ Y_CUT·2^27`; y within `Y_CUT·2^−15` of exact).
+/// from `ΔC' ≥ span`; below it `ΔC'` is scaled below 2^16 (`a`) and `y = (a·b) >> 11` with one
+/// 32-bit multiply (`a·b ≤ Y_CUT·2^27`; y within `Y_CUT·2^−15` of exact).
 #[derive(Clone, Copy)]
 struct Weights {
     /// `C'` excess (Q.20) at or above which a weight is 0 (1 for σ = 0: only the minimisers).
     span: u32,
-    /// `a = (ΔC' << la) >> ra`, `a < 2^16`.
-    la: u8,
+    /// `a = ΔC' >> ra`, `a < 2^16`.
     ra: u8,
     b: u32,
 }
@@ -592,7 +614,6 @@ impl Weights {
     fn new(k26: u32, sigma_q8: u16) -> Weights {
         let mut w = Weights {
             span: 1,
-            la: 0,
             ra: 16,
             b: 0,
         };
@@ -604,21 +625,21 @@ impl Weights {
             return w;
         }
         // K² normalised (kk ∈ [2^30, 2^32) = K²·2^(20 + 2z)), then p = K²·log2(e)·2^(18 + 2z).
-        let z = k26.leading_zeros();
-        let kk = mul_hi(k26 << z, k26 << z);
-        let p = mul_hi(kk, LOG2_E_Q31) >> 1;
+        let (mut kn, mut z) = (k26, 0);
+        while kn >> 31 == 0 {
+            kn <<= 1;
+            z += 1;
+        }
+        let p = mul_hi(mul_hi(kn, kn), LOG2_E_Q31) >> 1;
         // span = Y_CUT·2^16/β = Y_CUT·σ_q8²·2^(23 + 2z)/p.
         let s2 = sigma_q8 as u32 * sigma_q8 as u32;
         w.span = div_shl(s2, p / Y_CUT, 23 + 2 * z).clamp(1, COST_MAX);
-        let bits = 32 - w.span.leading_zeros() as u8;
-        (w.la, w.ra) = if bits > 16 {
-            (0, bits - 16)
-        } else {
-            (16 - bits, 0)
-        };
-        // b = β·2^(11 + ra − la) = p·2^(4 + ra − la − 2z)/σ_q8² (≈ 2^16 unless span saturated;
-        // a·b ≤ Y_CUT·2^27 below span).
-        let mut e = 4 + w.ra as i32 - w.la as i32 - 2 * z as i32;
+        w.ra = 0;
+        while w.span >> w.ra > 0xFFFF {
+            w.ra += 1;
+        }
+        // b = β·2^(11 + ra) = p·2^(4 + ra − 2z)/σ_q8² (a·b ≤ Y_CUT·2^27 below span).
+        let mut e = 4 + w.ra as i32 - 2 * z as i32;
         let (mut num, mut den) = (p, s2);
         if den >> 31 != 0 {
             den >>= 1;
@@ -639,7 +660,7 @@ impl Weights {
         if excess >= self.span {
             return 0;
         }
-        let a = (excess << self.la) >> self.ra;
+        let a = excess >> self.ra;
         exp2_neg_q26(a.wrapping_mul(self.b) >> 11)
     }
 }
@@ -700,16 +721,10 @@ impl Posterior {
         if self.s == 0 {
             return None;
         }
-        // mm = side·(o + Σw·k/Σw)/5, the mean offset in Q.12 (≤ 10 steps): 8·side·(…) in
-        // Q.3 below 2^32, then /40 rounded.
-        let f = |side: u16, o: usize, sum: u32| {
-            let m = div_shl(sum, self.s, 12);
-            let side = side as u32;
-            (side * o as u32 * 8 + ((side * m) >> 9) + 20) / 40
-        };
+        // The mean offset Σw·k/Σw in Q.12 (≤ 10 steps).
         Some(PointMm {
-            x: f(area.width, i0, self.sx),
-            y: f(area.height, j0, self.sy),
+            x: to_mm(area.width, i0, div_shl(self.sx, self.s, 12)),
+            y: to_mm(area.height, j0, div_shl(self.sy, self.s, 12)),
         })
     }
 }
@@ -827,7 +842,7 @@ pub fn mle_and_mmse_window_with<K: TermKernel>(
     let mut g = Grid::<K>::new(obs, model, area);
     let start = g.coarse();
     let mut post = Posterior::new(Weights::new(g.k26, sigma), start.cost);
-    let (best, mle_evals) = g.fine(start, Some(&mut post));
+    let (best, mle_evals) = g.fine::<true>(start, &mut post);
     let mle = g.finish(
         obs,
         area,
