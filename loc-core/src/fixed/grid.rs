@@ -513,7 +513,6 @@ impl<K: TermKernel> Grid<K> {
     }
 
     /// The estimate at `pos` (the lattice point of `best` if `None`) with `best`'s cost.
-    #[inline(never)]
     fn finish(
         &self,
         obs: &Observations,
@@ -851,15 +850,13 @@ pub fn mle_and_mmse_window_with<K: TermKernel>(
         Estimator::Mle(Search::Thesis),
         mle_evals,
     );
-    let pos = post.mean(area, g.i0, g.j0);
-    let mmse = g.finish(
-        obs,
-        area,
-        pos,
-        best,
-        Estimator::MmseWindow { sigma },
-        g.evals,
-    );
+    // The same lattice point and cost; its own position, estimator and evaluations.
+    let mut mmse = mle;
+    if let Some(pos) = post.mean(area, g.i0, g.j0) {
+        mmse.pos = pos;
+    }
+    mmse.estimator = Estimator::MmseWindow { sigma };
+    mmse.evaluations = g.evals as u16;
     Ok([mle, mmse])
 }
 
