@@ -178,8 +178,8 @@ struct Grid<K> {
 }
 
 impl<K: TermKernel> Grid<K> {
-    /// Sets the cost of `obs` up: `ρ = (z − P0)/K − log2(1 m²)` per anchor (Q.20, clamped to
-    /// ±2^30), the anchors strongest (largest `ρ`) first, and each anchor's shift: the fewest
+    /// Sets the cost of `obs` up: `ρ = (z − P0)/K − log2(1 m²)` per anchor (Q.20, `(z − P0)/K`
+    /// clamped to ±2^30), the anchors strongest (largest `ρ`) first, and each anchor's shift: the fewest
     /// bits that bring its offsets anywhere in the area below 2^16.
     fn new(obs: &Observations, model: PathLoss, area: AreaCm) -> Self {
         let mut g = Grid {
@@ -223,7 +223,8 @@ impl<K: TermKernel> Grid<K> {
             // |z − P0| Q.16 (< 2^26) as Q.22, × 2^30/K → Q.20.
             let r = mul_hi(d.unsigned_abs().min((1 << 26) - 1) << 6, inv_k).min(1 << 30) as i32;
             let r = if (d < 0) != (model.alpha < 0) { -r } else { r };
-            let rho = (r - LOG2_M2).max(-(1 << 30));
+            // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32.
+            let rho = r - LOG2_M2;
             // Strongest anchor first: its term grows fastest away from the winner, so
             // evaluations stop after fewer terms. A completed cost is the same sum in any order,
             // and one that reaches its bound is set to the bound: no result depends on it.
@@ -318,6 +319,7 @@ impl<K: TermKernel> Grid<K> {
 
     /// Takes the last column's first smallest cost (column `i`) into `best` if it is below
     /// `bound` (which the column was evaluated with, or a smaller one).
+    #[inline(never)]
     fn take(&self, i: usize, bound: u32, best: &mut LatticeMin) {
         if self.job.min < bound {
             *best = LatticeMin {
