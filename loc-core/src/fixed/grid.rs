@@ -202,9 +202,12 @@ impl<K: TermKernel> Grid<K> {
     /// [`Grid::new`] in place (no copy of the grid on AVR).
     #[inline(never)]
     fn setup(&mut self, obs: &Observations, model: PathLoss, area: AreaCm) {
-        let model = model.sane();
-        // |α| < 2^29 in Q.24: Q.27 fits a u32; K < 48.2 in Q.26 too.
-        let k26 = mul_hi(model.alpha.unsigned_abs() << 3, FIVE_LOG10_2_Q31);
+        // |α| ≤ 32 (ALPHA_LIMIT, 2^29 in Q.24): Q.27 fits a u32; K < 48.2 in Q.26 too. (P0
+        // needs no clamp: |z − P0| is limited below.)
+        let k26 = mul_hi(
+            model.alpha.unsigned_abs().min(super::ALPHA_LIMIT as u32) << 3,
+            FIVE_LOG10_2_Q31,
+        );
         let flat = k26 < 1 << 10;
         // 2^30/|K| (saturating below |K| = 1/4, where only the flatness of the cost matters).
         let inv_k = if flat {
@@ -995,6 +998,67 @@ mod tests {
                 let mut s = Grid::<Portable>::new(o, m, area);
                 assert_eq!(s.coarse(), want);
             }
+        }
+    }
+
+    /// The windowed MMSE's incremental sums (a reference that drops, rescaled sums, 32-bit
+    /// weights) against the posterior mean of the same window's exact costs with f64 weights:
+    /// within 2 mm (the mm rounding, the 2^−y table, weights below 2^−21 dropped; worst ≈ 1 mm).
+    #[test]
+    fn the_windowed_posterior_is_the_direct_mean_of_the_window() {
+        let mut seed = 0x1234_5678u32;
+        let mut next = |n: u32| {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed % n
+        };
+        for t in 0..300 {
+            let side = 300 + next(2700) as u16;
+            let area = AreaCm::new(side, 300 + next(2700) as u16);
+            let anchors: Vec<(i16, i16, i32)> = (0..3 + next(4))
+                .map(|_| {
+                    let x = next(area.width as u32 + 1) as i16;
+                    let y = next(area.height as u32 + 1) as i16;
+                    (x, y, -45 - next(40) as i32)
+                })
+                .collect();
+            let o = obs(&anchors);
+            let model = PathLoss::from_centi(-4000 - next(1000) as i32, 200 + next(250) as i32);
+            let sigma = 64 + next(6 << 8) as u16;
+            let got = mmse_window(&o, model, area, sigma).unwrap();
+            // The same window, every cost exact (no bound).
+            let mut g = Grid::<Portable>::new(&o, model, area);
+            let c = g.coarse();
+            let (i0, j0) = (c.i.saturating_sub(RATIO), c.j.saturating_sub(RATIO));
+            let i1 = (c.i + RATIO).min(FINE_DIVS);
+            let rows = (c.j + RATIO).min(FINE_DIVS) - j0 + 1;
+            g.window(i0, j0, 1, rows);
+            let mut costs = Vec::new();
+            for i in i0..=i1 {
+                g.column(i, INF, 0);
+                for r in 0..rows {
+                    costs.push((i, j0 + r, g.sums[r] as f64));
+                }
+            }
+            let min = costs.iter().map(|c| c.2).fold(f64::MAX, f64::min);
+            // y (log2 units) per Q.20 cost unit: K²·log2(e)/(2σ²) / 2^20.
+            let k = 5.0 * core::f64::consts::LOG10_2 * model.alpha as f64 / (1 << 24) as f64;
+            let sg = sigma as f64 / 256.0;
+            let beta = k * k * core::f64::consts::LOG2_E / (2.0 * sg * sg) / (1 << 20) as f64;
+            let (mut s, mut sx, mut sy) = (0.0, 0.0, 0.0);
+            for &(i, j, c) in &costs {
+                let w = libm::exp2(-(c - min) * beta);
+                s += w;
+                sx += w * i as f64;
+                sy += w * j as f64;
+            }
+            let x = area.width as f64 * sx / s / 5.0;
+            let y = area.height as f64 * sy / s / 5.0;
+            assert!(
+                (got.pos.x as f64 - x).abs() <= 2.0 && (got.pos.y as f64 - y).abs() <= 2.0,
+                "trial {t}: {got:?} vs ({x:.1}, {y:.1})"
+            );
         }
     }
 }
