@@ -178,28 +178,26 @@ struct Grid<K> {
 }
 
 impl<K: TermKernel> Grid<K> {
+    /// No anchors, all zero.
+    const EMPTY: Self = Grid {
+        i0: 0,
+        j0: 0,
+        rows: 0,
+        evals: 0,
+        width: 0,
+        height: 0,
+        k26: 0,
+        p0: 0,
+        job: ColumnJob::EMPTY,
+        sums: [0; ROWS],
+        kernel: PhantomData,
+    };
+
     /// Sets the cost of `obs` up: `ρ = (z − P0)/K − log2(1 m²)` per anchor (Q.20, `(z − P0)/K`
     /// clamped to ±2^30), the anchors strongest (largest `ρ`) first, and each anchor's shift: the fewest
     /// bits that bring its offsets anywhere in the area below 2^16.
-    fn new(obs: &Observations, model: PathLoss, area: AreaCm) -> Self {
-        let mut g = Grid {
-            i0: 0,
-            j0: 0,
-            rows: 0,
-            evals: 0,
-            width: 0,
-            height: 0,
-            k26: 0,
-            p0: 0,
-            job: ColumnJob::EMPTY,
-            sums: [0; ROWS],
-            kernel: PhantomData,
-        };
-        g.setup(obs, model, area);
-        g
-    }
-
-    /// [`Grid::new`] in place (no copy of the grid on AVR).
+    /// (Callers bind [`Grid::EMPTY`] and set it up in place: a grid returned by value is
+    /// copied on AVR, and two 0.3 KB grids on the stack are too many.)
     #[inline(never)]
     fn setup(&mut self, obs: &Observations, model: PathLoss, area: AreaCm) {
         // |α| ≤ 32 (ALPHA_LIMIT, 2^29 in Q.24): Q.27 fits a u32; K < 48.2 in Q.26 too. (P0
@@ -588,7 +586,8 @@ pub fn mle_with<K: TermKernel>(
     search: Search,
 ) -> Result<Estimate, LocError> {
     check(obs)?;
-    let mut g = Grid::<K>::new(obs, model, area);
+    let mut g = Grid::<K>::EMPTY;
+    g.setup(obs, model, area);
     let m = match search {
         Search::Thesis => g.thesis(),
         Search::MultiStart => g.multi_start(),
@@ -757,7 +756,8 @@ pub fn mmse_with<K: TermKernel>(
     sigma: u16,
 ) -> Result<Estimate, LocError> {
     check(obs)?;
-    let mut g = Grid::<K>::new(obs, model, area);
+    let mut g = Grid::<K>::EMPTY;
+    g.setup(obs, model, area);
     let mut best = g.thesis();
     let wts = Weights::new(g.k26, sigma);
     let mut cref = best.cost;
@@ -843,7 +843,8 @@ pub fn mle_and_mmse_window_with<K: TermKernel>(
     sigma: u16,
 ) -> Result<[Estimate; 2], LocError> {
     check(obs)?;
-    let mut g = Grid::<K>::new(obs, model, area);
+    let mut g = Grid::<K>::EMPTY;
+    g.setup(obs, model, area);
     let start = g.coarse();
     let mut post = Posterior::new(Weights::new(g.k26, sigma), start.cost);
     let (best, mle_evals) = g.fine::<true>(start, &mut post);
@@ -928,7 +929,8 @@ mod tests {
 
     /// The reference's coarse scan: every coarse point's whole cost, `i` outer, strict `<`.
     fn plain_coarse(obs: &Observations, m: PathLoss, area: AreaCm) -> LatticeMin {
-        let mut s = Grid::<Portable>::new(obs, m, area);
+        let mut s = Grid::<Portable>::EMPTY;
+        s.setup(obs, m, area);
         s.window(0, 0, RATIO, COARSE_DIVS + 1);
         let mut best = LatticeMin::NONE;
         for i in (0..=FINE_DIVS).step_by(RATIO) {
@@ -991,11 +993,13 @@ mod tests {
                 let want = plain_coarse(o, m, area);
                 for gi in 0..=COARSE_DIVS {
                     for gj in 0..=COARSE_DIVS {
-                        let mut s = Grid::<Portable>::new(o, m, area);
+                        let mut s = Grid::<Portable>::EMPTY;
+                        s.setup(o, m, area);
                         assert_eq!(s.coarse_from(gi, gj), want, "start ({gi}, {gj})");
                     }
                 }
-                let mut s = Grid::<Portable>::new(o, m, area);
+                let mut s = Grid::<Portable>::EMPTY;
+                s.setup(o, m, area);
                 assert_eq!(s.coarse(), want);
             }
         }
@@ -1028,7 +1032,8 @@ mod tests {
             let sigma = 64 + next(6 << 8) as u16;
             let got = mmse_window(&o, model, area, sigma).unwrap();
             // The same window, every cost exact (no bound).
-            let mut g = Grid::<Portable>::new(&o, model, area);
+            let mut g = Grid::<Portable>::EMPTY;
+            g.setup(&o, model, area);
             let c = g.coarse();
             let (i0, j0) = (c.i.saturating_sub(RATIO), c.j.saturating_sub(RATIO));
             let i1 = (c.i + RATIO).min(FINE_DIVS);
