@@ -77,14 +77,15 @@
 //! rows × anchors, the early exit at the bound and the column's minimum — in AVR assembly
 //! ([`TermKernel::column`], `uno_board::AvrTerm`): calibration statistics of the 6 anchor pairs
 //! ≈ 13 k cycles (≈ 2.2 k per pair: the log, x, the sums), least-squares fit + AR(1) ≈ 9 k (two
-//! divisions, nine 64-bit products), Extended refinement ≈ 6 k, thesis MLE ≈ 128 k (312 anchor
+//! divisions, nine 64-bit products), Extended refinement ≈ 6 k, thesis MLE ≈ 123 k (312 anchor
 //! terms of the 932 a full evaluation takes, ≈ 300 cycles each with their row's share of the
-//! loop), ≈ 156 k in all (9.7 ms, 25.4× fewer than the same algorithm in f32): within the 160 k
-//! budget. The windowed MMSE (the sink's, [`mmse_window`]) is ≈ 331 k (≈ 359 k for the whole
+//! loop), ≈ 151 k in all (9.5 ms, 26× fewer than the same algorithm in f32): within the 160 k
+//! budget. The windowed MMSE (the sink's, [`mmse_window`]) is ≈ 323 k (≈ 352 k for the whole
 //! step): its weights need every window cost up to 21 bits of weight below the best, so the
 //! early exits hardly ever fire. The sink's search ([`mle_and_mmse_window_with`] with the
-//! assembly column and the two tables) is ≈ 9.8 KB of flash in `est-sink` (`cargo fw-sink`,
-//! the sink's whole report path), not yet the ≈ 4 KB it needs within the sink's 16 KB.
+//! assembly column and the two tables) is ≈ 9.6 KB of flash in `est-sink` (`cargo fw-sink`,
+//! the sink's whole report path, 27.9 KB), not yet the ≈ 4 KB it needs within the sink's 16 KB.
+//! Stack peak of `est-fixed` ≈ 1.2 KB.
 //!
 //! ```ignore
 //! // The lean sink step (what a firmware calls; `sink_fix` does the same from a `Measurements`):
