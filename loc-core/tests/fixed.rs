@@ -464,9 +464,9 @@ fn mmse_limits() {
 }
 
 /// The sink's one-pass search is `[mle(Thesis), mmse_window]` bit for bit (estimates, costs and
-/// evaluation counts): random rooms of 1–30 m (the larger ones take the shifted cost path, and
-/// windows whose shifts differ from the coarse grid's), random models including α = 0 and
-/// negative α, σ from 0 (hard minimisers) to huge.
+/// evaluation counts): random rooms of 1–30 m (the larger ones with anchors whose offsets are
+/// rounded to 2^shift units), random models including α = 0 and negative α, σ from 0 (hard
+/// minimisers) to huge.
 #[test]
 fn one_pass_sink_search_equals_both_estimators() {
     const TRIALS: usize = 3000;
@@ -550,7 +550,7 @@ fn mmse_window_limits() {
         for sigma in [256u16, 1024, 4096, u16::MAX] {
             let e = fx::mmse_window(&obs, model, area, sigma).unwrap();
             assert_eq!((e.lattice, e.min_cost), (thesis.lattice, thesis.min_cost));
-            // The coarse stage, the re-evaluated winner, the window.
+            // The coarse stage (its guessed start and the 121 coarse points), the window.
             assert!(e.evaluations <= 121 + 1 + 121, "{e:?}");
             // The window is ± 1 m around the coarse winner, which holds the MLE.
             let d = |a: u32, b: u32| a.abs_diff(b);

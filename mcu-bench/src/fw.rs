@@ -122,9 +122,11 @@ fn kernel_inputs(i: u32, r: &mut u32) -> (u32, bool, i32, i32) {
     (lo, c.is_multiple_of(5), rho, clamp)
 }
 
-/// One pseudo-random [`loc_core::fixed::ColumnJob`] (1 to 8 anchors, 1 to 11 rows, some
-/// skipped) and garbage in its sums (the kernel must overwrite them): the column's `|dx|` and
-/// every row's `|dy|` stay below `2^16`, as the searches guarantee.
+/// One pseudo-random [`loc_core::fixed::ColumnJob`] (1 to 8 anchors, 1 to 11 rows 1 to 5 fine
+/// rows apart, some skipped, shifts 0 to 7) and garbage in its sums (the kernel must overwrite
+/// them): the column's and every row's offsets stay below `2^16` after the anchor's shift, as
+/// the searches guarantee, except in one job in 8 (24-bit offsets anywhere: the kernels must
+/// still agree).
 fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::ColumnJob) -> usize {
     use loc_core::fixed::AnchorTerm;
     let mut next = || {
@@ -135,7 +137,9 @@ fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::C
     };
     let (a, b) = (next(), next());
     let rows = 1 + (a % 11) as usize;
-    let span = (rows - 1) as u32;
+    job.seg_base = loc_core::fixed::log2_segment_base();
+    job.stride = 1 + ((b >> 8) % 5) as u8;
+    let span = (rows - 1) as u32 * job.stride as u32;
     let n = 1 + (b % 8) as u8;
     job.bound = match a % 4 {
         0 => u32::MAX,
@@ -145,25 +149,36 @@ fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::C
     job.n = n;
     job.rows = rows as u8;
     let x = next();
-    job.col = (x % 11) as u8;
-    job.xstep = (x >> 8) as u16 % 6_000;
+    job.col = (x % 51) as u8;
+    job.xstep = (x >> 8) as u16 % (6_000 << (x % 4));
     let dx_col = job.col as i32 * job.xstep as i32;
+    let wild = (b >> 16).is_multiple_of(8);
     for t in job.anchors[..n as usize].iter_mut() {
         let (c, d, e) = (next(), next(), next());
-        // The column's dx anywhere within ±65 535.
-        let dx = (e % 131_071) as i32 - 65_535;
-        let step = 1 + c % (65_535 / span.max(1));
-        // Row 0 anywhere such that the last row is still within ±65 535.
-        let room = 131_070 - step * span;
+        let shift = if c.is_multiple_of(3) {
+            0
+        } else {
+            ((c >> 8) % 8) as u8
+        };
+        // Offsets within ±lim round below 2^16.
+        let lim = 65_534u32 << shift;
+        let dx = (e % (2 * lim + 1)) as i32 - lim as i32;
+        let step = 1 + c % (2 * lim / span.max(1)).min(65_535);
+        // Row 0 anywhere such that the last row is still within ±lim.
+        let room = 2 * lim - step * span;
         *t = AnchorTerm {
             dx2: d,
-            dx0: dx - dx_col,
-            dy0: -65_535 + (d % (room + 1)) as i32,
+            dx0: if wild { e as i32 } else { dx - dx_col },
+            dy0: if wild {
+                d as i32
+            } else {
+                -(lim as i32) + (d % (room + 1)) as i32
+            },
             step: step as u16,
             lclamp: 11_836_024 - ((c % 5) << 20) as i32,
             rho: (e as i32) >> (c % 8),
-            table: loc_core::fixed::log2_segment_table(),
             w: 1 + (d % 4) as u8,
+            shift,
         };
     }
     let x = next();

@@ -3,8 +3,10 @@
 //! Costs are `C' = C/K²` in Q.20 log2² units, `u32`, saturating at [`COST_MAX`]; see the module
 //! docs of [`crate::fixed`]. The searches mirror [`crate::grid::search_lattice`] step by step
 //! (same outcome as the same scan order, same strict `<`, same multi-start ranking, descent and
-//! budget), so they make the same decisions whenever the costs order the same way. Exact
-//! shortcuts:
+//! budget), so they make the same decisions whenever the costs order the same way. Every cost of
+//! a search is computed the same way wherever it is evaluated (one shift per anchor per search,
+//! see [`crate::fixed::offset_square`]), so a point costs the same in the coarse grid and in a
+//! window. Exact shortcuts:
 //!
 //! * a cost evaluation stops as soon as its partial sum reaches the value it must beat (the terms
 //!   are non-negative, so the comparison's outcome is already known); the anchors are summed
@@ -12,14 +14,18 @@
 //!   guessed coarse point, so that this happens early (ties still go where the scan puts them);
 //! * the thesis' fine window skips the coarse points inside it: they cost at least as much as the
 //!   coarse winner the window starts from, so under a strict `<` they can never win. (The
-//!   windowed MMSE evaluates them again, with the window's shifts: they need their weights.)
+//!   windowed MMSE evaluates them: they need their weights.)
+//!
+//! Size first (the sink links this, SPEC §8): one window routine for the thesis' window and the
+//! sink's one-pass MLE + MMSE, 32-bit arithmetic only on the sink's path, the shared helpers out
+//! of line.
 
-use super::kernel::{add_term, log2_segment_table, ColumnJob, Portable, TermKernel};
-use super::math::{clamp_i64, exp2_neg_q26, sq_shr, square_shift};
+use super::kernel::{log2_segment_base, ColumnJob, Portable, TermKernel};
+use super::math::exp2_neg_q26;
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
 use crate::grid::{Search, COARSE_DIVS, FINE_DIVS};
-use crate::{LocError, MAX_ANCHORS};
+use crate::LocError;
 use core::marker::PhantomData;
 
 const RATIO: usize = FINE_DIVS / COARSE_DIVS;
@@ -35,13 +41,15 @@ const INF: u32 = u32::MAX;
 const COST_MAX: u32 = u32::MAX - 1;
 
 /// `log2(1 m²)` in lattice units `(1/50 cm)²`: `log2(5000²)`, Q.20.
-const LOG2_M2: i64 = 25769201;
+const LOG2_M2: i32 = 25_769_201;
 /// `log2((1 cm)²)` in lattice units: `log2(50²)`, Q.20 (the model's [`crate::model::MIN_DISTANCE`]).
-const LOG2_CLAMP: i32 = 11836024;
-/// `5·log10(2)`, Q.30.
-const FIVE_LOG10_2_Q30: i64 = 1_616_142_483;
-/// `log2(e)`, Q.30.
-const LOG2_E_Q30: i64 = 1_549_082_005;
+const LOG2_CLAMP: i32 = 11_836_024;
+/// `5·log10(2)`, Q.31.
+const FIVE_LOG10_2_Q31: u32 = 3_232_284_966;
+/// `log2(e)`, Q.31.
+const LOG2_E_Q31: u32 = 3_098_164_009;
+/// Posterior weights end at `2^−Y_CUT` of the largest (they are Q.20: smaller ones are 0).
+const Y_CUT: u32 = 21;
 
 /// Which estimator produced a fixed-point fix.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -82,122 +90,12 @@ pub struct Estimate {
     pub evaluations: u16,
 }
 
-/// The position-independent part of the cost, set up once per estimate.
-struct Cost {
-    n: usize,
-    /// Anchor positions in lattice units (1/50 cm).
-    ax: [i32; MAX_ANCHORS],
-    ay: [i32; MAX_ANCHORS],
-    w: [u8; MAX_ANCHORS],
-    /// `(z − P0)/K − log2(1 m²)`, Q.20, clamped to ±2^30 (±1024 log2 units).
-    rho: [i32; MAX_ANCHORS],
-    /// α = 0: the cost does not depend on the position.
-    flat: bool,
-    /// Lattice steps in lattice units: `W`, `H` (cm).
-    width: i32,
-    height: i32,
-    /// `K` in Q.16 (`|K| ≤ 48.2`).
-    k_q16: i64,
-}
-
-impl Cost {
-    #[inline(never)]
-    fn new(obs: &Observations, model: PathLoss, area: AreaCm) -> Cost {
-        let model = model.sane();
-        // K = 5·log10(2)·α, Q.24.
-        let k_q24 = (model.alpha as i64 * FIVE_LOG10_2_Q30) >> 30;
-        let mut c = Cost {
-            n: obs.len(),
-            ax: [0; MAX_ANCHORS],
-            ay: [0; MAX_ANCHORS],
-            w: [0; MAX_ANCHORS],
-            rho: [0; MAX_ANCHORS],
-            flat: k_q24 == 0,
-            width: area.width as i32,
-            height: area.height as i32,
-            k_q16: (k_q24 + 128) >> 8,
-        };
-        // 1/K in Q.32, |1/K| ≤ 2^4 (|α| ≥ 0.042; smaller α only makes the cost flatter).
-        let inv_k = if c.flat {
-            0
-        } else {
-            clamp_i64((1i64 << 56) / k_q24, -(1 << 36), 1 << 36)
-        };
-        for (a, o) in obs.as_slice().iter().enumerate() {
-            c.ax[a] = 50 * o.pos.x as i32;
-            c.ay[a] = 50 * o.pos.y as i32;
-            c.w[a] = o.weight;
-            // (z − P0) Q.16 (|·| < 2^26) × 1/K Q.32 → Q.48 → Q.20.
-            let r = ((o.z as i64 - model.p0 as i64) * inv_k) >> 28;
-            c.rho[a] = clamp_i64(r - LOG2_M2, -(1 << 30), 1 << 30) as i32;
-            // Strongest anchor (largest ρ, nearest by its RSSI) first: its term grows fastest
-            // away from the winner, so evaluations stop after fewer terms (≈ 10 % fewer on
-            // random rooms). A completed cost is the same sum in any order, and one that
-            // reaches its bound is set to the bound, so no result depends on the order.
-            let mut b = a;
-            while b > 0 && c.rho[b] > c.rho[b - 1] {
-                c.ax.swap(b, b - 1);
-                c.ay.swap(b, b - 1);
-                c.w.swap(b, b - 1);
-                c.rho.swap(b, b - 1);
-                b -= 1;
-            }
-        }
-        c
-    }
-
-    /// A coarse point (coarse indices) near the likely winner: the anchors' centroid weighted
-    /// by `1/d̂² = 2^ρ` (to a power of two, the strongest anchor's 32 down to 1), snapped to the
-    /// coarse grid. Only a starting bound for [`Searcher::coarse`]; any point would be correct.
-    #[inline(never)]
-    fn guess(&self) -> (usize, usize) {
-        // ρ is sorted, largest first (see `Cost::new`).
-        let rho = &self.rho[..self.n];
-        let top = rho.first().copied().unwrap_or(0);
-        // Σw ≤ 2^8; |Σw·x| < 2^29 (lattice units: |x| < 2^21); top − ρ ≤ 2^31 as u32.
-        let (mut sw, mut sx, mut sy) = (0i32, 0i32, 0i32);
-        for (a, &r) in rho.iter().enumerate() {
-            // w = 2^(5 − ⌊top − ρ⌋), or 0.
-            let down = top.wrapping_sub(r) as u32 >> 20;
-            if down > 5 {
-                break;
-            }
-            let up = 5 - down as u8;
-            sw += 1 << up;
-            sx += self.ax[a] << up;
-            sy += self.ay[a] << up;
-        }
-        (snap(sx, self.width, sw), snap(sy, self.height, sw))
-    }
-
-    /// `C = K²·C'` in Q.8 dB² (saturating) of a cost `c` (Q.20).
-    #[inline(never)]
-    fn report(&self, c: u32) -> u32 {
-        if self.flat {
-            return 0;
-        }
-        // K² Q.32 >> 16 = Q.16 (< 2^28) × c Q.20 (< 2^32) → Q.36 → Q.8.
-        let k2 = ((self.k_q16 * self.k_q16) >> 16) as u64;
-        ((k2 * c as u64) >> 28).min(u32::MAX as u64) as u32
-    }
-
-    /// `(z − P0)²` summed with the weights, Q.8 dB² (the cost when α = 0).
-    fn flat_cost(obs: &Observations, model: PathLoss) -> u32 {
-        let mut s: u64 = 0;
-        for o in obs.as_slice() {
-            let r = (o.z as i64 - model.sane().p0 as i64).unsigned_abs() >> 4; // Q.12, < 2^23
-            s += ((r * r) >> 16) * o.weight as u64;
-        }
-        s.min(u32::MAX as u64) as u32
-    }
-}
-
 /// The coarse index `c ≤ 10` of the weighted mean `s/sw` (lattice units) along a side of `side`
 /// cm: `(c − ½)·5·side < s/sw ≤ (c + ½)·5·side`, found by steps (no division).
 #[inline(never)]
 fn snap(s: i32, side: i32, sw: i32) -> usize {
     // t < 5·2^16·2^8 < 2^27, so v ≤ 21·t < 2^31.
-    let t = (RATIO as i32) * side * sw;
+    let t = RATIO as i32 * side * sw;
     let (mut c, mut v) = (0, t);
     while c < COARSE_DIVS && v < 2 * s {
         c += 1;
@@ -206,188 +104,30 @@ fn snap(s: i32, side: i32, sw: i32) -> usize {
     c
 }
 
-/// A rectangle of fine indices (inclusive), with a row/column step.
-#[derive(Clone, Copy, Debug)]
-struct Window {
-    i0: usize,
-    i1: usize,
-    j0: usize,
-    j1: usize,
-    step: usize,
+/// `⌊a·b / 2^32⌋`, within 2 below, from three 16 × 16 products (no 64-bit arithmetic).
+#[inline(never)]
+fn mul_hi(a: u32, b: u32) -> u32 {
+    let (ah, al, bh, bl) = (a >> 16, a & 0xFFFF, b >> 16, b & 0xFFFF);
+    ah * bh + ((ah * bl) >> 16) + ((al * bh) >> 16)
 }
 
-impl Window {
-    /// `± half` fine steps around `(i, j)`, clipped to the lattice.
-    fn around(i: usize, j: usize, half: usize) -> Window {
-        Window {
-            i0: i.saturating_sub(half),
-            i1: (i + half).min(FINE_DIVS),
-            j0: j.saturating_sub(half),
-            j1: (j + half).min(FINE_DIVS),
-            step: 1,
+/// `⌊a·2^e / b⌋` for `1 ≤ b < 2^31`, saturating at `u32::MAX` (one 32-bit division, then a bit
+/// per step).
+#[inline(never)]
+fn div_shl(a: u32, b: u32, e: u32) -> u32 {
+    let (mut q, mut r) = (a / b, a % b);
+    for _ in 0..e {
+        if q >> 31 != 0 {
+            return u32::MAX;
+        }
+        q <<= 1;
+        r <<= 1;
+        if r >= b {
+            r -= b;
+            q |= 1;
         }
     }
-
-    /// The coarse grid.
-    const COARSE: Window = Window {
-        i0: 0,
-        i1: FINE_DIVS,
-        j0: 0,
-        j1: FINE_DIVS,
-        step: RATIO,
-    };
-
-    /// Every column, rows `j0 …` (at most [`ROWS`] of them).
-    fn band(j0: usize) -> Window {
-        Window {
-            i0: 0,
-            i1: FINE_DIVS,
-            j0,
-            j1: (j0 + ROWS - 1).min(FINE_DIVS),
-            step: 1,
-        }
-    }
-
-    /// Rows in the window (≤ [`ROWS`]).
-    fn rows(&self) -> usize {
-        (self.j1 - self.j0) / self.step + 1
-    }
-}
-
-/// A search window's per-anchor constants. Costs are computed a column at a time: all anchors
-/// at once by [`TermKernel::column`] when every square fits 32 bits unshifted (anchors and
-/// window within 13.1 m of each other), else anchor by anchor with shifted squares.
-struct Stage {
-    /// The kernel's job: per anchor `ρ` and the clamp (both also used when shifted), `dy0`,
-    /// the step and the weight.
-    job: ColumnJob,
-    /// Right shift of each anchor's squares (0 up to 13 m from the anchor).
-    shift: [u8; MAX_ANCHORS],
-    /// Some shift is not 0: the shifted path.
-    shifted: bool,
-    w: Window,
-    /// Rows in the window.
-    rows: usize,
-}
-
-impl Stage {
-    const fn new() -> Stage {
-        Stage {
-            job: ColumnJob::EMPTY,
-            shift: [0; MAX_ANCHORS],
-            shifted: false,
-            w: Window::COARSE,
-            rows: 0,
-        }
-    }
-
-    /// Sets the stage up for window `w`; `shifts`: given (reused) or chosen for the window.
-    #[inline(never)]
-    fn init(&mut self, cost: &Cost, w: Window, shifts: Option<&[u8; MAX_ANCHORS]>) {
-        self.w = w;
-        self.rows = w.rows();
-        self.job.n = cost.n as u8;
-        self.job.rows = self.rows as u8;
-        self.shifted = false;
-        let step = cost.height * w.step as i32;
-        let (x0, x1) = (cost.width * w.i0 as i32, cost.width * w.i1 as i32);
-        let (y0, y1) = (cost.height * w.j0 as i32, cost.height * w.j1 as i32);
-        // Below 2^16 whenever the path is unshifted (it spans at most the window).
-        self.job.xstep = (cost.width * w.step as i32) as u16;
-        let table = log2_segment_table();
-        for a in 0..cost.n {
-            let s = match shifts {
-                Some(s) => s[a],
-                None => {
-                    let far = |lo: i32, hi: i32, p: i32| {
-                        (lo - p).unsigned_abs().max((hi - p).unsigned_abs())
-                    };
-                    let dx = far(x0, x1, cost.ax[a]);
-                    square_shift(dx.max(far(y0, y1, cost.ay[a])))
-                }
-            };
-            self.shift[a] = s;
-            self.shifted |= s != 0;
-            let sh = (s as i32) << 20;
-            let wt = cost.w[a];
-            // Field by field: a whole-struct store goes through a copy on AVR.
-            let t = &mut self.job.anchors[a];
-            t.dx0 = x0 - cost.ax[a];
-            t.dy0 = y0 - cost.ay[a];
-            t.step = step as u16;
-            t.lclamp = LOG2_CLAMP - sh;
-            t.rho = cost.rho[a] + sh;
-            t.table = table;
-            t.w = if (1..=3).contains(&wt) { wt } else { 4 };
-        }
-    }
-
-    /// The costs of column `i`'s rows into `sums` (rows whose bit is set in `skip` are not
-    /// evaluated and get [`INF`]). A row whose sum reaches `min(bound, COST_MAX)` is set to it:
-    /// it is then `≥ bound`, which is all a comparison with `bound` needs to know, and with no
-    /// bound (`INF`) it is the cost saturated at [`COST_MAX`].
-    #[inline(always)]
-    fn column<K: TermKernel>(
-        &mut self,
-        cost: &Cost,
-        i: usize,
-        bound: u32,
-        skip: u16,
-        sums: &mut [u32; ROWS],
-    ) {
-        if self.shifted || cost.flat {
-            return self.column_shifted::<K>(cost, i, bound, skip, sums);
-        }
-        let c = i - self.w.i0;
-        // c ≤ 50: an 8-bit division (by a constant: a multiply).
-        self.job.col = if self.w.step == 1 {
-            c as u8
-        } else {
-            c as u8 / RATIO as u8
-        };
-        self.job.bound = bound.min(COST_MAX);
-        self.job.skip = skip;
-        K::column(&mut sums[..self.rows], &mut self.job);
-    }
-
-    /// [`Stage::column`] anchor by anchor with shifted squares, or for a flat cost.
-    #[cold]
-    #[inline(never)]
-    fn column_shifted<K: TermKernel>(
-        &mut self,
-        cost: &Cost,
-        i: usize,
-        bound: u32,
-        skip: u16,
-        sums: &mut [u32; ROWS],
-    ) {
-        let rows = &mut sums[..self.rows];
-        let bound = bound.min(COST_MAX);
-        let x = cost.width * i as i32;
-        let anchors = &self.job.anchors[..cost.n];
-        let mut bit = 1u16;
-        for v in rows.iter_mut() {
-            *v = if skip & bit != 0 { INF } else { 0 };
-            bit <<= 1;
-        }
-        if cost.flat {
-            return;
-        }
-        let dy_step = cost.height * self.w.step as i32;
-        let y0 = cost.height * self.w.j0 as i32;
-        for (a, t) in anchors.iter().enumerate() {
-            let s = self.shift[a];
-            let dx2 = sq_shr(x - cost.ax[a], s);
-            let mut dy = y0 - cost.ay[a];
-            for sum in rows.iter_mut() {
-                if *sum < bound {
-                    let v = add_term::<K>(*sum, dx2, sq_shr(dy, s), t.rho, t.lclamp, t.w);
-                    *sum = v.min(bound);
-                }
-                dy += dy_step;
-            }
-        }
-    }
+    q
 }
 
 /// A lattice point and its cost.
@@ -414,98 +154,195 @@ impl LatticeMin {
     }
 }
 
-/// The searches: one stage and one column of sums, reused by every phase (≈ 0.2 KB).
-struct Searcher<'a, K> {
-    cost: &'a Cost,
-    st: Stage,
-    sums: [u32; ROWS],
+/// One estimate's search: the position-independent part of the cost (in the kernel's job: per
+/// anchor `ρ`, weight, shift, offsets from the current window's origin), one column of sums, the
+/// evaluations spent (≈ 0.3 KB of RAM). `repr(C)`, the scalars and the job's header first: AVR
+/// reaches 63 bytes from a pointer in one instruction, farther fields cost pointer arithmetic.
+#[repr(C)]
+struct Grid<K> {
+    /// The current window's first column and row (fine indices) and its rows.
+    i0: usize,
+    j0: usize,
+    rows: usize,
     evals: usize,
+    /// Fine steps in lattice units: `W`, `H` (cm).
+    width: i32,
+    height: i32,
+    /// `|K|` in Q.26 (`K = 5·α·log10 2`); below `2^10` the cost is flat (`job.n = 0`).
+    k26: u32,
+    /// P0, Q.16 dB (sane).
+    p0: i32,
+    job: ColumnJob,
+    sums: [u32; ROWS],
     kernel: PhantomData<K>,
 }
 
-impl<'a, K: TermKernel> Searcher<'a, K> {
-    fn new(cost: &'a Cost) -> Searcher<'a, K> {
-        Searcher {
-            cost,
-            st: Stage::new(),
-            sums: [0; ROWS],
-            evals: 0,
-            kernel: PhantomData,
-        }
-    }
+impl<K: TermKernel> Grid<K> {
+    /// No anchors, all zero.
+    const EMPTY: Self = Grid {
+        i0: 0,
+        j0: 0,
+        rows: 0,
+        evals: 0,
+        width: 0,
+        height: 0,
+        k26: 0,
+        p0: 0,
+        job: ColumnJob::EMPTY,
+        sums: [0; ROWS],
+        kernel: PhantomData,
+    };
 
-    fn run(&mut self, search: Search) -> LatticeMin {
-        match search {
-            Search::Thesis => self.thesis(),
-            Search::MultiStart => self.multi_start(),
-            Search::Exhaustive => self.exhaustive(),
-        }
-    }
-
-    /// Costs of column `i` of the current stage.
-    fn column(&mut self, i: usize, bound: u32, skip: u16) {
-        self.st
-            .column::<K>(self.cost, i, bound, skip, &mut self.sums);
-    }
-
-    /// Evaluates column `i` (rows in `skip`, `skipped` of them, left out) and offers its first
-    /// smallest cost to `best`: the same outcome as offering every row in order under the
-    /// strict `<`. With `before` (column `i` comes before `best`'s in the scan order of the
-    /// reference, `i` outer) a tie wins too, as it would have been found first.
-    fn column_offer(
-        &mut self,
-        i: usize,
-        skip: u16,
-        skipped: usize,
-        before: bool,
-        best: &mut LatticeMin,
-    ) {
-        let bound = if before {
-            best.cost.saturating_add(1)
+    /// Sets the cost of `obs` up: `ρ = (z − P0)/K − log2(1 m²)` per anchor (Q.20, `(z − P0)/K`
+    /// clamped to ±2^30), the anchors strongest (largest `ρ`) first, and each anchor's shift: the fewest
+    /// bits that bring its offsets anywhere in the area below 2^16.
+    /// (Callers bind [`Grid::EMPTY`] and set it up in place: a grid returned by value is
+    /// copied on AVR, and two 0.3 KB grids on the stack are too many.)
+    #[inline(never)]
+    fn setup(&mut self, obs: &Observations, model: PathLoss, area: AreaCm) {
+        // |α| ≤ 32 (ALPHA_LIMIT, 2^29 in Q.24): Q.27 fits a u32; K < 48.2 in Q.26 too. (P0
+        // needs no clamp: |z − P0| is limited below.)
+        let k26 = mul_hi(
+            model.alpha.unsigned_abs().min(super::ALPHA_LIMIT as u32) << 3,
+            FIVE_LOG10_2_Q31,
+        );
+        let flat = k26 < 1 << 10;
+        // 2^30/|K| (saturating below |K| = 1/4, where only the flatness of the cost matters).
+        let inv_k = if flat {
+            0
         } else {
-            best.cost
+            div_shl(1 << 30, k26 >> 1, 25)
         };
-        self.column(i, bound, skip);
-        let rows = self.st.rows;
-        self.evals += rows - skipped;
-        let (r, c) = if self.st.shifted || bound == INF || self.cost.flat {
-            // The kernel's minimum covers only the unshifted path's completed rows (a flat cost
-            // runs no kernel); with no bound a saturated cost (COST_MAX) may be the column's
-            // best.
-            let mut m = (0, INF);
-            for (r, &c) in self.sums[..rows].iter().enumerate() {
-                if c < m.1 {
-                    m = (r, c);
+        let g = self;
+        (g.width, g.height, g.k26, g.p0) = (area.width as i32, area.height as i32, k26, model.p0);
+        g.job.xstep = area.width;
+        g.job.seg_base = log2_segment_base();
+        let anchors = &mut g.job.anchors;
+        let mut n = 0;
+        for o in obs.as_slice() {
+            let d = o.z.wrapping_sub(model.p0);
+            // |z − P0| Q.16 (< 2^26) as Q.22, × 2^30/K → Q.20.
+            let r = mul_hi(d.unsigned_abs().min((1 << 26) - 1) << 6, inv_k).min(1 << 30) as i32;
+            let r = if (d < 0) != (model.alpha < 0) { -r } else { r };
+            // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32.
+            let rho = r - LOG2_M2;
+            // Strongest anchor first: its term grows fastest away from the winner, so
+            // evaluations stop after fewer terms. A completed cost is the same sum in any order,
+            // and one that reaches its bound is set to the bound: no result depends on it.
+            let mut b = n;
+            while b > 0 && rho > anchors[b - 1].rho {
+                anchors[b] = anchors[b - 1];
+                b -= 1;
+            }
+            // Field by field: a whole-struct store goes through a copy on AVR.
+            let t = &mut anchors[b];
+            t.dx0 = -50 * o.pos.x as i32;
+            t.dy0 = -50 * o.pos.y as i32;
+            t.rho = rho;
+            t.w = if (1..=3).contains(&o.weight) {
+                o.weight
+            } else {
+                4
+            };
+            n += 1;
+        }
+        let (xm, ym) = (50 * g.width, 50 * g.height);
+        for t in &mut anchors[..n] {
+            // The farthest offsets: from the area's sides.
+            let mut h = 0;
+            for v in [t.dx0, t.dx0 + xm, t.dy0, t.dy0 + ym] {
+                while v.unsigned_abs() >> h > 65534 {
+                    h += 1;
                 }
             }
-            m
-        } else {
-            (self.st.job.min_row as usize, self.st.job.min)
-        };
-        if c < bound {
-            let w = &self.st.w;
+            t.shift = h;
+            // d² in units of 2^(2h): log2 d² drops by 2h.
+            let sh = (h as i32) << 21;
+            t.rho += sh;
+            t.lclamp = LOG2_CLAMP - sh;
+            t.step = area.height;
+        }
+        g.job.n = if flat { 0 } else { n as u8 };
+    }
+
+    fn flat(&self) -> bool {
+        self.job.n == 0
+    }
+
+    /// A coarse point (coarse indices) near the likely winner: the anchors' centroid weighted
+    /// by `1/d̂² = 2^ρ` (to a power of two, the strongest anchor's 32 down to 1), rounded to the
+    /// coarse grid. Only a starting bound for [`Grid::coarse`]; any point would be correct.
+    /// (The window must be at the origin.)
+    fn guess(&self) -> (usize, usize) {
+        let a = &self.job.anchors[..self.job.n as usize];
+        let rho = |k: usize| a[k].rho - ((a[k].shift as i32) << 21);
+        // Σw ≤ 2^8; |Σw·x| < 2^29 (|x| < 2^21 lattice units).
+        let (mut sw, mut sx, mut sy) = (0i32, 0i32, 0i32);
+        for (k, t) in a.iter().enumerate() {
+            // w = 2^(5 − ⌊ρ_top − ρ⌋), or 0 (ρ is sorted, largest first).
+            let down = rho(0).wrapping_sub(rho(k)) as u32 >> 20;
+            if down > 5 {
+                break;
+            }
+            let up = 5 - down;
+            sw += 1 << up;
+            sx -= t.dx0 << up;
+            sy -= t.dy0 << up;
+        }
+        (snap(sx, self.width, sw), snap(sy, self.height, sw))
+    }
+
+    /// Moves the window to first column `i0`, first row `j0`, `rows` rows `stride` fine rows
+    /// apart.
+    #[inline(never)]
+    fn window(&mut self, i0: usize, j0: usize, stride: usize, rows: usize) {
+        let dx = self.width * (i0 as i32 - self.i0 as i32);
+        let dy = self.height * (j0 as i32 - self.j0 as i32);
+        for t in &mut self.job.anchors {
+            t.dx0 += dx;
+            t.dy0 += dy;
+        }
+        (self.i0, self.j0, self.rows) = (i0, j0, rows);
+        self.job.stride = stride as u8;
+    }
+
+    /// The costs of column `i`'s rows into `sums` (rows whose bit is set in `skip` are not
+    /// evaluated and get [`INF`]). A row whose sum reaches `min(bound, COST_MAX)` is set to it:
+    /// it is then `≥ bound`, which is all a comparison with `bound` needs to know, and with no
+    /// bound (`INF`) it is the cost saturated at [`COST_MAX`].
+    #[inline(never)]
+    fn column(&mut self, i: usize, bound: u32, skip: u16) {
+        self.job.col = (i - self.i0) as u8;
+        self.job.bound = bound.min(COST_MAX);
+        self.job.skip = skip;
+        K::column(&mut self.sums[..self.rows], &mut self.job);
+    }
+
+    /// Takes the last column's first smallest cost (column `i`) into `best` if it is below
+    /// `bound` (which the column was evaluated with, or a smaller one).
+    #[inline(never)]
+    fn take(&self, i: usize, bound: u32, best: &mut LatticeMin) {
+        if self.job.min < bound {
             *best = LatticeMin {
                 i,
-                j: w.j0 + r * w.step,
-                cost: c,
+                j: self.j0 + self.job.min_row as usize,
+                cost: self.job.min,
             };
         }
     }
 
     /// The thesis' coarse stage: the 11 × 11 coarse grid, with the reference's outcome (`i`
-    /// outer, strict `<`); leaves the stage set up for the coarse grid. The coarse point nearest
-    /// [`Cost::guess`] is evaluated first: its cost bounds every column's evaluations from the
-    /// start (ties go where the reference's scan puts them). (Not inlined: the thesis search and
-    /// the windowed MMSE share one copy in flash.)
+    /// outer, strict `<`). The coarse point nearest [`Grid::guess`] is evaluated first: its cost
+    /// bounds every column's evaluations from the start.
     #[inline(never)]
     fn coarse(&mut self) -> LatticeMin {
-        let (gi, gj) = self.cost.guess();
+        let (gi, gj) = self.guess();
         self.coarse_from(gi, gj)
     }
 
-    /// [`Searcher::coarse`] starting from coarse point `(gi, gj)` (the same result from any).
+    /// [`Grid::coarse`] starting from coarse point `(gi, gj)` (the same result from any).
     fn coarse_from(&mut self, gi: usize, gj: usize) -> LatticeMin {
-        self.st.init(self.cost, Window::COARSE, None);
+        self.window(0, 0, RATIO, COARSE_DIVS + 1);
         self.column(gi * RATIO, INF, !(1 << gj));
         self.evals += 1;
         let mut best = LatticeMin {
@@ -513,62 +350,75 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
             j: gj * RATIO,
             cost: self.sums[gj],
         };
-        for i in (0..=FINE_DIVS).step_by(RATIO) {
-            // Up to the guess's column a tie comes first in the reference's scan.
-            self.column_offer(i, 0, 0, i <= best.i, &mut best);
+        let mut i = 0;
+        while i <= FINE_DIVS {
+            // Up to the best point's column a tie comes first in the reference's scan.
+            let bound = if i <= best.i {
+                best.cost.saturating_add(1)
+            } else {
+                best.cost
+            };
+            self.column(i, bound, 0);
+            self.evals += COARSE_DIVS + 1;
+            self.take(i, bound, &mut best);
+            i += RATIO;
         }
         best
     }
 
-    /// The coarse stage, then the stage set up for the fine window around its winner; returns
-    /// the window and the winner with its cost under the window's shifts (re-evaluated when they
-    /// are finer, so that the window compares like with like).
+    /// The thesis' fine window (± one coarse step, clipped) around the coarse winner `start`:
+    /// the thesis MLE (strict `<` from `start`) and the evaluations it spends. Alone it skips
+    /// the window's coarse points (they cannot beat `start`); with `POST` it evaluates every
+    /// point up to the posterior's bound (or the MLE's, if larger) and adds it to `post`, and
+    /// the MLE is the same (a coarse point is never strictly below `start`). (Two copies: the
+    /// sink links only the one with `POST`.)
     #[inline(never)]
-    fn fine_window(&mut self) -> (Window, LatticeMin) {
-        let best = self.coarse();
-        let coarse_shift = self.st.shift;
-        let w = Window::around(best.i, best.j, RATIO);
-        self.st.init(self.cost, w, None);
-        let mut start = best;
-        if self.st.shift != coarse_shift {
-            let rb = best.j - w.j0;
-            self.column(best.i, INF, ((1u16 << w.rows()) - 1) & !(1 << rb));
-            self.evals += 1;
-            start.cost = self.sums[rb];
-        }
-        (w, start)
-    }
-
-    #[inline(never)]
-    fn thesis(&mut self) -> LatticeMin {
-        let (w, mut fine) = self.fine_window();
-        let rows = w.rows();
-        // The coarse rows of the window (j a multiple of RATIO).
-        let (mut coarse_rows, mut n_coarse) = (0u16, 0);
-        let mut r = (RATIO - w.j0 % RATIO) % RATIO;
+    fn fine<const POST: bool>(
+        &mut self,
+        start: LatticeMin,
+        post: &mut Posterior,
+    ) -> (LatticeMin, usize) {
+        let (i0, j0) = (start.i.saturating_sub(RATIO), start.j.saturating_sub(RATIO));
+        let i1 = (start.i + RATIO).min(FINE_DIVS);
+        let rows = (start.j + RATIO).min(FINE_DIVS) - j0 + 1;
+        self.window(i0, j0, 1, rows);
+        // The window's coarse rows (j a multiple of RATIO).
+        let (mut coarse, mut n_coarse) = (0u16, 0);
+        let mut r = (RATIO - j0 % RATIO) % RATIO;
         while r < rows {
-            coarse_rows |= 1 << r;
+            coarse |= 1 << r;
             n_coarse += 1;
             r += RATIO;
         }
-        // i mod RATIO.
-        let mut phase = w.i0 % RATIO;
-        for i in w.i0..=w.i1 {
-            // Coarse points cannot beat the coarse winner the window starts from.
-            let (skip, skipped) = if phase == 0 {
-                (coarse_rows, n_coarse)
+        let (mut best, mut mle_evals) = (start, self.evals);
+        for i in i0..=i1 {
+            let (mask, skipped) = if i % RATIO == 0 {
+                (coarse, n_coarse)
             } else {
                 (0, 0)
             };
-            self.column_offer(i, skip, skipped, false, &mut fine);
-            phase = if phase == RATIO - 1 { 0 } else { phase + 1 };
+            mle_evals += rows - skipped;
+            if POST {
+                self.column(i, post.bound().max(best.cost), 0);
+                self.evals += rows;
+                post.add_column((i - i0) as u32, &self.sums[..rows]);
+            } else {
+                self.column(i, best.cost, mask);
+                self.evals += rows - skipped;
+            }
+            self.take(i, best.cost, &mut best);
         }
-        fine
+        (best, mle_evals)
     }
 
-    #[inline(never)]
+    fn thesis(&mut self) -> LatticeMin {
+        let c = self.coarse();
+        self.fine::<false>(c, &mut Posterior::new(Weights::new(0, 0), 0))
+            .0
+    }
+
     fn multi_start(&mut self) -> LatticeMin {
-        self.st.init(self.cost, Window::COARSE, None);
+        self.window(0, 0, RATIO, COARSE_DIVS + 1);
         let mut top = [LatticeMin::NONE; STARTS];
         for i in (0..=FINE_DIVS).step_by(RATIO) {
             self.column(i, top[STARTS - 1].cost, 0);
@@ -585,11 +435,10 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
                 }
             }
         }
-        let shifts = self.st.shift;
         let mut best = top[0];
         let mut spent = (COARSE_DIVS + 1) * (COARSE_DIVS + 1);
         for start in top.iter().filter(|t| t.cost < INF) {
-            let end = self.descend(*start, &mut spent, &shifts);
+            let end = self.descend(*start, &mut spent);
             best.offer(end.i, end.j, end.cost);
         }
         best
@@ -597,23 +446,19 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
 
     /// Steepest descent over the 8 fine neighbours, exactly as [`crate::grid`]'s `descend`
     /// (same scan order, same skipped points, same budget check before every evaluation).
-    fn descend(
-        &mut self,
-        from: LatticeMin,
-        spent: &mut usize,
-        shifts: &[u8; MAX_ANCHORS],
-    ) -> LatticeMin {
+    fn descend(&mut self, from: LatticeMin, spent: &mut usize) -> LatticeMin {
         let mut cur = from;
         let mut prev: Option<(usize, usize)> = None;
         loop {
             let mut next = cur;
-            let w = Window::around(cur.i, cur.j, 1);
-            self.st.init(self.cost, w, Some(shifts));
-            let rows = w.rows();
-            for i in w.i0..=w.i1 {
+            let (i0, j0) = (cur.i.saturating_sub(1), cur.j.saturating_sub(1));
+            let i1 = (cur.i + 1).min(FINE_DIVS);
+            let rows = (cur.j + 1).min(FINE_DIVS) - j0 + 1;
+            self.window(i0, j0, 1, rows);
+            for i in i0..=i1 {
                 let (mut skip, mut candidates, mut over) = (0u16, 0, false);
                 for r in 0..rows {
-                    let j = w.j0 + r;
+                    let j = j0 + r;
                     let known = (i, j) == (cur.i, cur.j)
                         || prev.is_some_and(|(pi, pj)| pi.abs_diff(i) <= 1 && pj.abs_diff(j) <= 1);
                     if known {
@@ -632,7 +477,7 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
                         if skip & (1 << r) == 0 {
                             *spent += 1;
                             self.evals += 1;
-                            next.offer(i, w.j0 + r, self.sums[r]);
+                            next.offer(i, j0 + r, self.sums[r]);
                         }
                     }
                 }
@@ -651,17 +496,14 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
 
     /// Every lattice point, in bands of [`ROWS`] rows; ties go to the first point in x-major
     /// order, as in the reference's single scan.
-    #[inline(never)]
     fn exhaustive(&mut self) -> LatticeMin {
-        self.st.init(self.cost, Window::COARSE, None);
-        let shifts = self.st.shift;
         let mut best = LatticeMin::NONE;
         for j0 in (0..=FINE_DIVS).step_by(ROWS) {
-            let w = Window::band(j0);
-            self.st.init(self.cost, w, Some(&shifts));
+            let rows = (j0 + ROWS - 1).min(FINE_DIVS) - j0 + 1;
+            self.window(0, j0, 1, rows);
             for i in 0..=FINE_DIVS {
                 self.column(i, best.cost.saturating_add(1), 0);
-                for r in 0..w.rows() {
+                for r in 0..rows {
                     self.evals += 1;
                     let (j, c) = (j0 + r, self.sums[r]);
                     if c < best.cost || (c == best.cost && (i, j) < (best.i, best.j)) {
@@ -672,6 +514,50 @@ impl<'a, K: TermKernel> Searcher<'a, K> {
         }
         best
     }
+
+    /// The estimate at `pos` (the lattice point of `best` if `None`) with `best`'s cost.
+    fn finish(
+        &self,
+        obs: &Observations,
+        area: AreaCm,
+        pos: Option<PointMm>,
+        best: LatticeMin,
+        estimator: Estimator,
+        evals: usize,
+    ) -> Estimate {
+        let cost = if self.flat() {
+            // α = 0: `Σ w·(z − P0)²`, Q.4 dB residuals (< 2^14) squared into Q.8 dB², w ≤ 4.
+            let mut s = 0u32;
+            for o in obs.as_slice() {
+                let r = (o.z.wrapping_sub(self.p0).unsigned_abs() >> 12).min(0x3FFF);
+                s = s.saturating_add(r * r * (o.weight & 7) as u32);
+            }
+            s
+        } else {
+            // C = K²·C': K² Q.20 (< 2^32) × C' Q.20 → Q.8.
+            mul_hi(best.cost, mul_hi(self.k26, self.k26))
+        };
+        Estimate {
+            pos: pos.unwrap_or(PointMm {
+                x: to_mm(area.width, best.i, 0),
+                y: to_mm(area.height, best.j, 0),
+            }),
+            lattice: (best.i as u8, best.j as u8),
+            min_cost: cost.saturating_add(obs.const_cost),
+            estimator,
+            anchors: obs.len() as u8,
+            total_weight: obs.total_weight(),
+            evaluations: evals as u16,
+        }
+    }
+}
+
+/// `side·(o + f/2^12)/5` rounded: fine index `o` plus a fraction (`f ≤ 10·2^12`) in mm along a
+/// side of `side` cm (as [`AreaCm::lattice_mm`] for `f = 0`): `8·side·(…)` in Q.3 is below 2^32.
+#[inline(never)]
+fn to_mm(side: u16, o: usize, f: u32) -> u32 {
+    let side = side as u32;
+    (side * o as u32 * 8 + ((side * f) >> 9) + 20) / 40
 }
 
 fn check(obs: &Observations) -> Result<(), LocError> {
@@ -680,10 +566,6 @@ fn check(obs: &Observations) -> Result<(), LocError> {
     } else {
         Ok(())
     }
-}
-
-fn lattice_u8(m: &LatticeMin) -> (u8, u8) {
-    (m.i as u8, m.j as u8)
 }
 
 /// Maximum-likelihood position of `obs` under `model` within `area`, by `search`.
@@ -704,128 +586,159 @@ pub fn mle_with<K: TermKernel>(
     search: Search,
 ) -> Result<Estimate, LocError> {
     check(obs)?;
-    let cost = Cost::new(obs, model, area);
-    let mut s = Searcher::<K>::new(&cost);
-    let m = s.run(search);
-    let min_cost = if cost.flat {
-        Cost::flat_cost(obs, model)
-    } else {
-        cost.report(m.cost)
+    let mut g = Grid::<K>::EMPTY;
+    g.setup(obs, model, area);
+    let m = match search {
+        Search::Thesis => g.thesis(),
+        Search::MultiStart => g.multi_start(),
+        Search::Exhaustive => g.exhaustive(),
     };
-    Ok(Estimate {
-        pos: area.lattice_mm(m.i, m.j),
-        lattice: lattice_u8(&m),
-        min_cost: min_cost.saturating_add(obs.const_cost),
-        estimator: Estimator::Mle(search),
-        anchors: obs.len() as u8,
-        total_weight: obs.total_weight(),
-        evaluations: s.evals as u16,
-    })
+    Ok(g.finish(obs, area, None, m, Estimator::Mle(search), g.evals))
 }
 
-/// Posterior weights `2^(−y)`, `y = (C' − C'ref)·β`, in Q.26, relative to a reference cost that
+/// Posterior weights `2^(−y)`, `y = (C' − C'ref)·β` in Q.16, relative to a reference cost that
 /// only ever decreases (the sums are rescaled when a lower cost appears).
 ///
-/// With ΔC' in Q.20 and y in Q.16, `y = ΔC'·K²·log2(e)/(32σ²) = ΔC'·B/2^32` where
-/// `B = K_q16²·log2(e)·2^11/σ_q8²`. A weight is 0 from `y ≥ 27` (`< 2^−26`), i.e. from
-/// `ΔC' ≥ span = 27·2^48/B`; below it `ΔC'` is scaled into 16 bits (`a`) and `y = (a·b) >> 11`
-/// with one 32-bit multiply (`a·b < 2^32`; y within `27·2^−16` of exact).
+/// With ΔC' in Q.20, `β = K²·log2(e)/(32σ²)·2^−4`. A weight is 0 from `y ≥` [`Y_CUT`], i.e.
+/// from `ΔC' ≥ span`; below it `ΔC'` is scaled below 2^16 (`a`) and `y = (a·b) >> 11` with one
+/// 32-bit multiply (`a·b ≤ Y_CUT·2^27`; y within `Y_CUT·2^−15` of exact).
+#[derive(Clone, Copy)]
 struct Weights {
-    /// `C'` excess (Q.20) at or above which a weight is 0.
+    /// `C'` excess (Q.20) at or above which a weight is 0 (1 for σ = 0: only the minimisers).
     span: u32,
-    /// σ = 0: only the minimisers count.
-    hard: bool,
-    /// `a = (ΔC' << left) >> right`, `a < 2^16`.
-    left: u8,
-    right: u8,
+    /// `a = ΔC' >> ra`, `a < 2^16`.
+    ra: u8,
     b: u32,
 }
 
 impl Weights {
-    /// The weights of `cost` at σ (Q.8 dB); a flat cost's (α = 0) are all equal.
-    fn for_cost(cost: &Cost, sigma_q8: u16) -> Weights {
-        if cost.flat {
-            Weights::new(0, 1)
-        } else {
-            Weights::new(cost.k_q16, sigma_q8)
-        }
-    }
-
-    /// For `K` (Q.16) and σ (Q.8 dB).
+    /// For `|K|` (Q.26) and σ (Q.8 dB); a flat cost's (`K ≈ 0`) are all equal.
     #[inline(never)]
-    fn new(k_q16: i64, sigma_q8: u16) -> Weights {
+    fn new(k26: u32, sigma_q8: u16) -> Weights {
         let mut w = Weights {
             span: 1,
-            hard: sigma_q8 == 0,
-            left: 0,
-            right: 0,
+            ra: 16,
             b: 0,
         };
-        if w.hard {
+        if sigma_q8 == 0 {
             return w;
         }
-        // K_q16² (< 2^44) · log2(e) (Q.30), in two parts that stay below 2^59:
-        // (K_q16² >> 14)·(log2e_q30 >> 2) = K_q16²·log2e·2^14, so B = that / (8·σ_q8²).
-        let k2 = (k_q16 * k_q16) as u64;
-        let kl = (k2 >> 14) * (LOG2_E_Q30 as u64 >> 2);
-        let big_b = kl / (8 * sigma_q8 as u64 * sigma_q8 as u64);
-        if big_b == 0 {
-            // σ so large (or K so small) that every weight is 1.
-            w.span = INF;
+        w.span = INF;
+        if k26 < 1 << 10 {
             return w;
         }
-        w.span = ((27u64 << 48) / big_b).clamp(1, COST_MAX as u64) as u32;
-        // Bring span into [2^15, 2^16): a < 2^16.
-        let bits = 32 - w.span.leading_zeros() as i32; // 1..=32
-        let sh = bits - 16; // a = ΔC' · 2^−sh
-        if sh >= 0 {
-            w.right = sh as u8;
-        } else {
-            w.left = (-sh) as u8;
+        // K² normalised (kk ∈ [2^30, 2^32) = K²·2^(20 + 2z)), then p = K²·log2(e)·2^(18 + 2z).
+        let (mut kn, mut z) = (k26, 0);
+        while kn >> 31 == 0 {
+            kn <<= 1;
+            z += 1;
         }
-        // b = B·2^(sh − 21): ((ΔC'·2^−sh)·b) >> 11 = ΔC'·B/2^32.
-        let b = if sh >= 21 {
-            big_b << (sh - 21)
-        } else {
-            big_b >> (21 - sh)
-        };
-        w.b = b.min(u32::MAX as u64) as u32;
+        let p = mul_hi(mul_hi(kn, kn), LOG2_E_Q31) >> 1;
+        // span = Y_CUT·2^16/β = Y_CUT·σ_q8²·2^(23 + 2z)/p.
+        let s2 = sigma_q8 as u32 * sigma_q8 as u32;
+        w.span = div_shl(s2, p / Y_CUT, 23 + 2 * z).clamp(1, COST_MAX);
+        w.ra = 0;
+        while w.span >> w.ra > 0xFFFF {
+            w.ra += 1;
+        }
+        // b = β·2^(11 + ra) = p·2^(4 + ra − 2z)/σ_q8² (a·b ≤ Y_CUT·2^27 below span).
+        let mut e = 4 + w.ra as i32 - 2 * z as i32;
+        let (mut num, mut den) = (p, s2);
+        if den >> 31 != 0 {
+            den >>= 1;
+            e -= 1;
+        }
+        if e < 0 {
+            num = num.checked_shr(-e as u32).unwrap_or(0);
+            e = 0;
+        }
+        w.b = div_shl(num, den, e as u32);
         w
     }
 
-    /// Weight (Q.26) of a cost excess `excess < span` over the reference. (Out of line: one
-    /// copy of the `2^−y` evaluation in flash.)
+    /// Weight (Q.26) of a cost excess over the reference. (Out of line: one copy of the
+    /// `2^−y` evaluation in flash.)
     #[inline(never)]
     fn weight(&self, excess: u32) -> u32 {
-        if self.hard {
-            return if excess == 0 { 1 << 26 } else { 0 };
+        if excess >= self.span {
+            return 0;
         }
-        let a = (excess << self.left) >> self.right; // < 2^16
+        let a = excess >> self.ra;
         exp2_neg_q26(a.wrapping_mul(self.b) >> 11)
-    }
-
-    /// The factor `2^(−y)` (Q.26) that rescales the sums when the reference drops by `drop`.
-    fn rescale(&self, drop: u32) -> u32 {
-        if self.hard || drop >= self.span {
-            0
-        } else {
-            self.weight(drop)
-        }
     }
 }
 
-/// `x · f / 2^26` for `x < 2^52`, `f ≤ 2^26`. (Out of line: five call sites of 64-bit code.)
-#[inline(never)]
-fn scale(x: u64, f: u32) -> u64 {
-    (x >> 26) * f as u64 + (((x & ((1 << 26) - 1)) * f as u64) >> 26)
+/// A window's posterior sums (≤ 11 × 11 points, offsets from its first column and row):
+/// weights Q.20 relative to a reference cost that only ever decreases. Σw < 2^27, Σw·c and
+/// Σw·r < 2^31: all `u32`.
+struct Posterior {
+    wts: Weights,
+    cref: u32,
+    s: u32,
+    sx: u32,
+    sy: u32,
+}
+
+impl Posterior {
+    fn new(wts: Weights, cref: u32) -> Posterior {
+        Posterior {
+            wts,
+            cref,
+            s: 0,
+            sx: 0,
+            sy: 0,
+        }
+    }
+
+    /// The bound a column needs: costs from it on weigh nothing.
+    fn bound(&self) -> u32 {
+        self.cref.saturating_add(self.wts.span)
+    }
+
+    /// Adds the window's column `c` (offset) with costs `sums` (row offsets 0…).
+    #[inline(never)]
+    fn add_column(&mut self, c: u32, sums: &[u32]) {
+        for (r, &v) in sums.iter().enumerate() {
+            if v >= self.bound() {
+                continue;
+            }
+            if v < self.cref {
+                // The sums so far, relative to the new reference: × 2^(−y(drop)), Q.32.
+                let f = self.wts.weight(self.cref - v).min((1 << 26) - 1) << 6;
+                for x in [&mut self.s, &mut self.sx, &mut self.sy] {
+                    *x = mul_hi(*x, f);
+                }
+                self.cref = v;
+            }
+            let wt = self.wts.weight(v - self.cref) >> 6;
+            self.s += wt;
+            self.sx += wt * c;
+            self.sy += wt * r as u32;
+        }
+    }
+
+    /// The posterior mean of a window whose first point is `(i0, j0)`, mm (`None` if no
+    /// weight).
+    #[inline(never)]
+    fn mean(&self, area: AreaCm, i0: usize, j0: usize) -> Option<PointMm> {
+        if self.s == 0 {
+            return None;
+        }
+        // The mean offset Σw·k/Σw in Q.12 (≤ 10 steps).
+        Some(PointMm {
+            x: to_mm(area.width, i0, div_shl(self.sx, self.s, 12)),
+            y: to_mm(area.height, j0, div_shl(self.sy, self.s, 12)),
+        })
+    }
 }
 
 /// Posterior-mean position of `obs` under `model` within `area` with shadowing σ (Q.8 dB).
 ///
 /// The posterior mean over all 51 × 51 lattice points, weights `exp(−C/(2σ²))` relative to the
 /// smallest cost (computed as `2^(−y)`: integer part a shift, fraction from the flash table; a
-/// weight below `2^−26` of the largest is dropped, and the cost evaluation stops there). The thesis
-/// search runs first to give a good reference cost. Within 1 cm of [`crate::grid::mmse`].
+/// weight below `2^−20` of the largest is dropped, and the cost evaluation stops there), summed
+/// window by window (11 × 11) into 64-bit totals. The thesis search runs first to give a good
+/// reference cost. Within 1 cm of [`crate::grid::mmse`]. (Host-sized: not for the sink.)
 pub fn mmse(
     obs: &Observations,
     model: PathLoss,
@@ -843,42 +756,56 @@ pub fn mmse_with<K: TermKernel>(
     sigma: u16,
 ) -> Result<Estimate, LocError> {
     check(obs)?;
-    let cost = Cost::new(obs, model, area);
-    let mut srch = Searcher::<K>::new(&cost);
-    let first = srch.thesis();
-    let wts = Weights::for_cost(&cost, sigma);
-    let mut post = Posterior::new(wts, first);
-    srch.st.init(&cost, Window::COARSE, None);
-    let shifts = srch.st.shift;
+    let mut g = Grid::<K>::EMPTY;
+    g.setup(obs, model, area);
+    let mut best = g.thesis();
+    let wts = Weights::new(g.k26, sigma);
+    let mut cref = best.cost;
+    // Σw (< 2^32), Σw·i and Σw·j (< 2^38), relative to `cref`.
+    let (mut s, mut sx, mut sy) = (0u64, 0u64, 0u64);
     for j0 in (0..=FINE_DIVS).step_by(ROWS) {
-        let w = Window::band(j0);
-        srch.st.init(&cost, w, Some(&shifts));
-        for i in 0..=FINE_DIVS {
-            srch.column(i, post.bound(), 0);
-            srch.evals += w.rows();
-            post.add_column(i, j0, &srch.sums[..w.rows()]);
+        for i0 in (0..=FINE_DIVS).step_by(ROWS) {
+            let rows = (j0 + ROWS - 1).min(FINE_DIVS) - j0 + 1;
+            g.window(i0, j0, 1, rows);
+            let mut post = Posterior::new(wts, cref);
+            for i in i0..=(i0 + ROWS - 1).min(FINE_DIVS) {
+                // The smallest cost so far is the reference: costs below it are exact.
+                g.column(i, post.bound(), 0);
+                g.evals += rows;
+                post.add_column((i - i0) as u32, &g.sums[..rows]);
+                g.take(i, best.cost, &mut best);
+            }
+            if post.cref < cref {
+                let f = wts.weight(cref - post.cref) as u64;
+                for v in [&mut s, &mut sx, &mut sy] {
+                    *v = (*v >> 26) * f + (((*v & ((1 << 26) - 1)) * f) >> 26);
+                }
+                cref = post.cref;
+            }
+            s += post.s as u64;
+            sx += post.sx as u64 + i0 as u64 * post.s as u64;
+            sy += post.sy as u64 + j0 as u64 * post.s as u64;
         }
     }
-    Ok(post.estimate(
-        obs,
-        model,
-        &cost,
-        area,
-        Estimator::Mmse { sigma },
-        srch.evals,
-    ))
+    let pos = (s != 0).then(|| {
+        // mm = 10·side·(Σw·i/Σw)/50, rounded.
+        let f = |side: u16, v: u64| ((side as u64 * v + (5 * s) / 2) / (5 * s)) as u32;
+        PointMm {
+            x: f(area.width, sx),
+            y: f(area.height, sy),
+        }
+    });
+    Ok(g.finish(obs, area, pos, best, Estimator::Mmse { sigma }, g.evals))
 }
 
 /// Windowed posterior-mean position of `obs` under `model` within `area` with shadowing σ
 /// (Q.8 dB): [`crate::grid::mmse_window`] in fixed point, the sink's MMSE.
 ///
 /// The thesis' coarse stage picks the coarse winner, then the posterior mean runs over the
-/// thesis' fine window around it (≤ 11 × 11 points, the 9 coarse ones among them evaluated again
-/// with the window's shifts), weights as in [`mmse`]: at most 243 cost evaluations, as many as
-/// the thesis search, but fewer of them stop early (a weight needs the cost up to 27 bits of
-/// weight above the smallest, not just whether it beats it): ≈ 2.5× the thesis MLE's cycles on
-/// the AVR (module docs). Within 1 cm of the reference on all of `tests/fixed.rs`' 2 074 random
-/// trials (worst 3 mm).
+/// thesis' fine window around it (≤ 11 × 11 points, the coarse ones among them evaluated again),
+/// weights as in [`mmse`]: at most 242 cost evaluations, as many as the thesis search, but fewer
+/// of them stop early (a weight needs the cost up to 21 bits of weight above the smallest, not
+/// just whether it beats it). Its lattice point and cost are the thesis MLE's.
 pub fn mmse_window(
     obs: &Observations,
     model: PathLoss,
@@ -895,29 +822,7 @@ pub fn mmse_window_with<K: TermKernel>(
     area: AreaCm,
     sigma: u16,
 ) -> Result<Estimate, LocError> {
-    check(obs)?;
-    let cost = Cost::new(obs, model, area);
-    let mut srch = Searcher::<K>::new(&cost);
-    // The coarse winner, as the thesis search starts its window: the first reference cost, and
-    // the point that keeps the smallest cost on a tie.
-    let (w, best) = srch.fine_window();
-    let rows = w.rows();
-    let wts = Weights::for_cost(&cost, sigma);
-    // Σw (≤ 121·2^26 < 2^33), Σw·i and Σw·j (< 2^39): as in `mmse_with`, with far fewer points.
-    let mut post = Posterior::new(wts, best);
-    for i in w.i0..=w.i1 {
-        srch.column(i, post.bound(), 0);
-        srch.evals += rows;
-        post.add_column(i, w.j0, &srch.sums[..rows]);
-    }
-    Ok(post.estimate(
-        obs,
-        model,
-        &cost,
-        area,
-        Estimator::MmseWindow { sigma },
-        srch.evals,
-    ))
+    mle_and_mmse_window_with::<K>(obs, model, area, sigma).map(|[_, mmse]| mmse)
 }
 
 /// The sink's two estimates from one search: `[`[`mle_with`]` (Search::Thesis), `[`mmse_window_with`]`]`
@@ -925,12 +830,11 @@ pub fn mmse_window_with<K: TermKernel>(
 ///
 /// The windowed MMSE's window is the thesis' fine window around the same coarse winner, so the
 /// coarse stage runs once and each window column once, for both: its costs are exact up to the
-/// MMSE's bound (costs beyond weigh nothing), raised to the MLE's best cost when that is larger
-/// (it only can be when the window's shifts differ from the coarse grid's), so every cost that
-/// could beat the MLE's best is exact too; the MLE's winner is then the first smallest of the
-/// window's non-coarse points (the thesis skips the coarse ones) under the strict `<`, as in
-/// the thesis search. Costs ≈ the windowed MMSE's cycles, and one copy of the search code in
-/// flash (what `sink-fw` links).
+/// MMSE's bound (costs beyond weigh nothing), raised to the MLE's best cost when that is larger,
+/// so every cost that could beat the MLE's best is exact too; the MLE's winner is then the
+/// first strictly smallest from the coarse winner on, as in the thesis search (the window's
+/// coarse points, which the thesis skips, never are). Costs ≈ the windowed MMSE's cycles, and
+/// one copy of the search code in flash (what `sink-fw` links).
 #[inline(never)]
 pub fn mle_and_mmse_window_with<K: TermKernel>(
     obs: &Observations,
@@ -939,166 +843,27 @@ pub fn mle_and_mmse_window_with<K: TermKernel>(
     sigma: u16,
 ) -> Result<[Estimate; 2], LocError> {
     check(obs)?;
-    let cost = Cost::new(obs, model, area);
-    let mut srch = Searcher::<K>::new(&cost);
-    let (w, start) = srch.fine_window();
-    let rows = w.rows();
-    let mut mle_evals = srch.evals;
-    let mut post = Posterior::new(Weights::for_cost(&cost, sigma), start);
-    let mut fine = start;
-    // The coarse rows of the window (j a multiple of RATIO), as in `Searcher::thesis`.
-    let (mut coarse_rows, mut n_coarse) = (0u16, 0);
-    let mut r = (RATIO - w.j0 % RATIO) % RATIO;
-    while r < rows {
-        coarse_rows |= 1 << r;
-        n_coarse += 1;
-        r += RATIO;
-    }
-    let mut phase = w.i0 % RATIO;
-    for i in w.i0..=w.i1 {
-        srch.column(i, post.bound().max(fine.cost), 0);
-        srch.evals += rows;
-        post.add_column(i, w.j0, &srch.sums[..rows]);
-        let skip = if phase == 0 { coarse_rows } else { 0 };
-        mle_evals += rows - if phase == 0 { n_coarse } else { 0 };
-        for (r, &c) in srch.sums[..rows].iter().enumerate() {
-            if skip & (1 << r) == 0 && c < fine.cost {
-                fine = LatticeMin {
-                    i,
-                    j: w.j0 + r,
-                    cost: c,
-                };
-            }
-        }
-        phase = if phase == RATIO - 1 { 0 } else { phase + 1 };
-    }
-    let mle_cost = if cost.flat {
-        Cost::flat_cost(obs, model)
-    } else {
-        cost.report(fine.cost)
-    };
-    let mle = Estimate {
-        pos: area.lattice_mm(fine.i, fine.j),
-        lattice: lattice_u8(&fine),
-        min_cost: mle_cost.saturating_add(obs.const_cost),
-        estimator: Estimator::Mle(Search::Thesis),
-        anchors: obs.len() as u8,
-        total_weight: obs.total_weight(),
-        evaluations: mle_evals as u16,
-    };
-    let mmse = post.estimate(
+    let mut g = Grid::<K>::EMPTY;
+    g.setup(obs, model, area);
+    let start = g.coarse();
+    let mut post = Posterior::new(Weights::new(g.k26, sigma), start.cost);
+    let (best, mle_evals) = g.fine::<true>(start, &mut post);
+    let mle = g.finish(
         obs,
-        model,
-        &cost,
         area,
-        Estimator::MmseWindow { sigma },
-        srch.evals,
+        None,
+        best,
+        Estimator::Mle(Search::Thesis),
+        mle_evals,
     );
+    // The same lattice point and cost; its own position, estimator and evaluations.
+    let mut mmse = mle;
+    if let Some(pos) = post.mean(area, g.i0, g.j0) {
+        mmse.pos = pos;
+    }
+    mmse.estimator = Estimator::MmseWindow { sigma };
+    mmse.evaluations = g.evals as u16;
     Ok([mle, mmse])
-}
-
-/// The MMSE searches' posterior sums: weights relative to a reference cost that only ever
-/// decreases (the sums are rescaled when a lower cost appears, see [`Weights`]), and the
-/// smallest cost seen.
-struct Posterior {
-    wts: Weights,
-    cref: u32,
-    best: LatticeMin,
-    /// Σw (< 2^38), Σw·i and Σw·j (< 2^44).
-    s: u64,
-    sx: u64,
-    sy: u64,
-}
-
-impl Posterior {
-    /// Starting from a lattice point whose cost is the first reference (a search's winner).
-    fn new(wts: Weights, start: LatticeMin) -> Posterior {
-        Posterior {
-            wts,
-            cref: start.cost,
-            best: start,
-            s: 0,
-            sx: 0,
-            sy: 0,
-        }
-    }
-
-    /// The bound a column needs: costs from it on weigh nothing.
-    fn bound(&self) -> u32 {
-        self.cref.saturating_add(self.wts.span)
-    }
-
-    /// Adds column `i`'s rows `j0…` with costs `sums`.
-    #[inline(never)]
-    fn add_column(&mut self, i: usize, j0: usize, sums: &[u32]) {
-        // This column's Σw and Σw·j (< 2^30, < 2^36), rescaled with the totals: one loop over
-        // the five sums (one call site of the 64-bit `scale` in flash).
-        let mut col = [0u64; 2];
-        for (r, &c) in sums.iter().enumerate() {
-            let j = j0 + r;
-            if c >= self.bound() {
-                continue;
-            }
-            if c < self.cref {
-                let f = self.wts.rescale(self.cref - c);
-                for v in [&mut self.s, &mut self.sx, &mut self.sy]
-                    .into_iter()
-                    .chain(col.iter_mut())
-                {
-                    *v = scale(*v, f);
-                }
-                self.cref = c;
-            }
-            if c < self.best.cost {
-                self.best = LatticeMin { i, j, cost: c };
-            }
-            let wt = self.wts.weight(c - self.cref);
-            col[0] += wt as u64;
-            col[1] += (wt * j as u32) as u64; // < 2^26 · 51 < 2^32
-        }
-        self.s += col[0];
-        self.sx += col[0] * i as u64;
-        self.sy += col[1];
-    }
-
-    /// The estimate: the posterior mean (the smallest cost's lattice point if every weight is
-    /// 0) and the smallest cost.
-    #[inline(never)]
-    fn estimate(
-        &self,
-        obs: &Observations,
-        model: PathLoss,
-        cost: &Cost,
-        area: AreaCm,
-        estimator: Estimator,
-        evals: usize,
-    ) -> Estimate {
-        let (w, h) = (area.width as u64, area.height as u64);
-        let pos = if self.s == 0 {
-            area.lattice_mm(self.best.i, self.best.j)
-        } else {
-            // mm = 10·side·(Σw·i/Σw)/50 = side·Σw·i / (5·Σw), rounded; side·Σw·i < 2^60.
-            let d = 5 * self.s;
-            PointMm {
-                x: (((w * self.sx + d / 2) / d).min(10 * w)) as u32,
-                y: (((h * self.sy + d / 2) / d).min(10 * h)) as u32,
-            }
-        };
-        let min_cost = if cost.flat {
-            Cost::flat_cost(obs, model)
-        } else {
-            cost.report(self.best.cost)
-        };
-        Estimate {
-            pos,
-            lattice: lattice_u8(&self.best),
-            min_cost: min_cost.saturating_add(obs.const_cost),
-            estimator,
-            anchors: obs.len() as u8,
-            total_weight: obs.total_weight(),
-            evaluations: evals as u16,
-        }
-    }
 }
 
 /// `obs` located by `estimator`.
@@ -1163,9 +928,10 @@ mod tests {
     use std::vec::Vec;
 
     /// The reference's coarse scan: every coarse point's whole cost, `i` outer, strict `<`.
-    fn plain_coarse(cost: &Cost) -> LatticeMin {
-        let mut s = Searcher::<Portable>::new(cost);
-        s.st.init(cost, Window::COARSE, None);
+    fn plain_coarse(obs: &Observations, m: PathLoss, area: AreaCm) -> LatticeMin {
+        let mut s = Grid::<Portable>::EMPTY;
+        s.setup(obs, m, area);
+        s.window(0, 0, RATIO, COARSE_DIVS + 1);
         let mut best = LatticeMin::NONE;
         for i in (0..=FINE_DIVS).step_by(RATIO) {
             s.column(i, INF, 0);
@@ -1224,17 +990,80 @@ mod tests {
         let models = [PathLoss::THESIS, flat];
         for o in &cases {
             for &m in &models {
-                let cost = Cost::new(o, m, area);
-                let want = plain_coarse(&cost);
+                let want = plain_coarse(o, m, area);
                 for gi in 0..=COARSE_DIVS {
                     for gj in 0..=COARSE_DIVS {
-                        let mut s = Searcher::<Portable>::new(&cost);
+                        let mut s = Grid::<Portable>::EMPTY;
+                        s.setup(o, m, area);
                         assert_eq!(s.coarse_from(gi, gj), want, "start ({gi}, {gj})");
                     }
                 }
-                let mut s = Searcher::<Portable>::new(&cost);
+                let mut s = Grid::<Portable>::EMPTY;
+                s.setup(o, m, area);
                 assert_eq!(s.coarse(), want);
             }
+        }
+    }
+
+    /// The windowed MMSE's incremental sums (a reference that drops, rescaled sums, 32-bit
+    /// weights) against the posterior mean of the same window's exact costs with f64 weights:
+    /// within 2 mm (the mm rounding, the 2^−y table, weights below 2^−21 dropped; worst ≈ 1 mm).
+    #[test]
+    fn the_windowed_posterior_is_the_direct_mean_of_the_window() {
+        let mut seed = 0x1234_5678u32;
+        let mut next = |n: u32| {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed % n
+        };
+        for t in 0..300 {
+            let side = 300 + next(2700) as u16;
+            let area = AreaCm::new(side, 300 + next(2700) as u16);
+            let anchors: Vec<(i16, i16, i32)> = (0..3 + next(4))
+                .map(|_| {
+                    let x = next(area.width as u32 + 1) as i16;
+                    let y = next(area.height as u32 + 1) as i16;
+                    (x, y, -45 - next(40) as i32)
+                })
+                .collect();
+            let o = obs(&anchors);
+            let model = PathLoss::from_centi(-4000 - next(1000) as i32, 200 + next(250) as i32);
+            let sigma = 64 + next(6 << 8) as u16;
+            let got = mmse_window(&o, model, area, sigma).unwrap();
+            // The same window, every cost exact (no bound).
+            let mut g = Grid::<Portable>::EMPTY;
+            g.setup(&o, model, area);
+            let c = g.coarse();
+            let (i0, j0) = (c.i.saturating_sub(RATIO), c.j.saturating_sub(RATIO));
+            let i1 = (c.i + RATIO).min(FINE_DIVS);
+            let rows = (c.j + RATIO).min(FINE_DIVS) - j0 + 1;
+            g.window(i0, j0, 1, rows);
+            let mut costs = Vec::new();
+            for i in i0..=i1 {
+                g.column(i, INF, 0);
+                for r in 0..rows {
+                    costs.push((i, j0 + r, g.sums[r] as f64));
+                }
+            }
+            let min = costs.iter().map(|c| c.2).fold(f64::MAX, f64::min);
+            // y (log2 units) per Q.20 cost unit: K²·log2(e)/(2σ²) / 2^20.
+            let k = 5.0 * core::f64::consts::LOG10_2 * model.alpha as f64 / (1 << 24) as f64;
+            let sg = sigma as f64 / 256.0;
+            let beta = k * k * core::f64::consts::LOG2_E / (2.0 * sg * sg) / (1 << 20) as f64;
+            let (mut s, mut sx, mut sy) = (0.0, 0.0, 0.0);
+            for &(i, j, c) in &costs {
+                let w = libm::exp2(-(c - min) * beta);
+                s += w;
+                sx += w * i as f64;
+                sy += w * j as f64;
+            }
+            let x = area.width as f64 * sx / s / 5.0;
+            let y = area.height as f64 * sy / s / 5.0;
+            assert!(
+                (got.pos.x as f64 - x).abs() <= 2.0 && (got.pos.y as f64 - y).abs() <= 2.0,
+                "trial {t}: {got:?} vs ({x:.1}, {y:.1})"
+            );
         }
     }
 }

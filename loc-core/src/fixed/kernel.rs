@@ -33,30 +33,31 @@ pub trait TermKernel {
     }
 }
 
-/// One anchor of a [`ColumnJob`]: the unshifted case, where every column's `|dx|` and every
-/// row's `|dy|` are below `2^16` lattice units (13.1 m).
+/// One anchor of a [`ColumnJob`]. Its offsets `dx`, `dy` from the lattice point (24-bit
+/// values: `|·| < 2^23` lattice units) are rounded to multiples of `2^shift` before they are
+/// squared, so that each square fits 32 bits (`shift` is 0 within 13.1 m of the anchor).
 ///
 /// `repr(C)`: assembly kernels read it by offset (on AVR, where nothing is padded: `dx2` 0,
-/// `dx0` 4, `dy0` 8, `step` 12, `lclamp` 14, `rho` 18, `table` 22, `w` 24; 25 bytes).
+/// `dx0` 4, `dy0` 8, `step` 12, `lclamp` 14, `rho` 18, `w` 22, `shift` 23; 24 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct AnchorTerm {
-    /// `dx²` of the column: scratch, the kernel computes it.
+    /// `dx²` of the column (shifted): scratch, the kernel computes it.
     pub dx2: u32,
-    /// `dx` of the window's column 0, lattice units; column `c`'s is `dx0 + c·xstep`.
+    /// `dx` of the window's column 0, lattice units; column offset `c`'s is `dx0 + c·xstep`.
     pub dx0: i32,
-    /// `dy` of row 0, lattice units; row `r`'s is `dy0 + r·step` (`|dy| < 2^16` on every row).
+    /// `dy` of the window's row 0, lattice units; fine row offset `o`'s is `dy0 + o·step`.
     pub dy0: i32,
-    /// Row step, lattice units.
+    /// Fine row step, lattice units.
     pub step: u16,
-    /// `log2` of the 1 cm clamp, Q.20.
+    /// `log2` of the 1 cm clamp, Q.20, less `2·shift`.
     pub lclamp: i32,
-    /// The anchor's `ρ`, Q.20.
+    /// The anchor's `ρ`, Q.20, plus `2·shift`.
     pub rho: i32,
-    /// [`log2_segment_table`], for kernels that read it directly.
-    pub table: *const [u8; 6],
     /// The anchor's weight, 1 to 4.
     pub w: u8,
+    /// `dx` and `dy` are `|·|` rounded to `2^shift` units (0 to 7).
+    pub shift: u8,
 }
 
 impl AnchorTerm {
@@ -69,39 +70,47 @@ impl AnchorTerm {
         step: 0,
         lclamp: 0,
         rho: 0,
-        table: core::ptr::null(),
         w: 0,
+        shift: 0,
     };
 }
 
 /// A column of a search window, for [`TermKernel::column`] (on AVR: `bound` at offset 0, `n`
-/// 4, `rows` 5, `min` 6, `min_row` 10, `skip` 11, `col` 13, `xstep` 14, the anchors from 16).
+/// 4, `rows` 5, `min` 6, `min_row` 10, `skip` 11, `col` 13, `xstep` 14, `stride` 16, `end` 17,
+/// `seg_base` 18, the anchors from 20).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct ColumnJob {
     /// Rows whose sum reaches it stop there (they cannot win any more).
     pub bound: u32,
-    /// Anchors in use (1 to [`MAX_ANCHORS`]).
+    /// Anchors in use (0 to [`MAX_ANCHORS`]; 0: every row costs 0).
     pub n: u8,
     /// Rows of the column (kernels may set it from the slice length; the searches do).
     pub rows: u8,
     /// Output: the smallest sum the kernel completed below the bound (`u32::MAX` if none)…
     pub min: u32,
-    /// …and its first row.
+    /// …and its first row, as a fine row offset (`row·stride`).
     pub min_row: u8,
     /// Rows not to evaluate (bit `r` for row `r`, rows from 16 on are all evaluated): they get
     /// `u32::MAX`. Scratch: kernels may consume it.
     pub skip: u16,
-    /// The column, counted from the window's first.
+    /// The column's fine offset from the window's first.
     pub col: u8,
-    /// Column step, lattice units.
+    /// Fine column step, lattice units.
     pub xstep: u16,
+    /// Fine rows from one row of the column to the next (1: the fine lattice, 5: the coarse).
+    pub stride: u8,
+    /// Scratch for kernels.
+    pub end: u8,
+    /// [`log2_segment_base`], for kernels that read the table directly.
+    pub seg_base: *const u8,
     /// The anchors, in evaluation order.
     pub anchors: [AnchorTerm; MAX_ANCHORS],
 }
 
 impl ColumnJob {
-    /// No rows, no anchors.
+    /// No rows, no anchors, stride 0 (set it before use; all zero, so that zeroed memory, not
+    /// a copy from flash, initialises it).
     pub const EMPTY: ColumnJob = ColumnJob {
         bound: 0,
         n: 0,
@@ -111,43 +120,63 @@ impl ColumnJob {
         skip: 0,
         col: 0,
         xstep: 0,
+        stride: 0,
+        end: 0,
+        seg_base: core::ptr::null(),
         anchors: [AnchorTerm::NONE; MAX_ANCHORS],
     };
 }
 
-/// The reference of [`TermKernel::column`]: every row's cost from scratch, column `col`. Rows in `job.skip`
-/// get `u32::MAX`; for every other row the anchors' weighted terms `w·term(dx² + dy², ρ, clamp)`
-/// are added in order to 0, and a row whose sum reaches `job.bound` is set to the bound and the
-/// rest of its anchors are skipped (its exact cost no longer matters; with the bound at
-/// `u32::MAX − 1` that is the cost saturated there). Fills every `dx2`, and `min`/`min_row`
-/// with the first smallest completed sum below the bound (what a search offers).
+/// `|v|` rounded to `2^shift` units (half up), squared, as the kernels do it: `v` taken as a
+/// 24-bit value, the rounded magnitude as 16 bits.
+#[inline(always)]
+pub fn offset_square(v: i32, shift: u8) -> u32 {
+    let a = ((v << 8) >> 8).unsigned_abs();
+    let r = if shift == 0 {
+        a
+    } else {
+        (a >> shift) + ((a >> (shift - 1)) & 1)
+    };
+    sq16((r & 0xFFFF) as i32)
+}
+
+/// The reference of [`TermKernel::column`]: every row's cost from scratch, column offset `col`.
+/// Rows in `job.skip` get `u32::MAX`; for every other row the anchors' weighted terms
+/// `w·term(dx² + dy², ρ, clamp)` (squares from [`offset_square`]) are added in order to 0, and
+/// a row whose sum reaches `job.bound` is set to the bound and the rest of its anchors are
+/// skipped (its exact cost no longer matters; with the bound at `u32::MAX − 1` that is the cost
+/// saturated there). Fills every `dx2`, and `min`/`min_row` with the first smallest completed
+/// sum below the bound (what a search offers) and its fine row offset.
 #[inline(always)]
 pub fn portable_column<K: TermKernel>(sums: &mut [u32], job: &mut ColumnJob) {
     let n = (job.n as usize).min(MAX_ANCHORS);
     let dx = job.col as i32 * job.xstep as i32;
     for a in &mut job.anchors[..n] {
-        a.dx2 = sq16(a.dx0.wrapping_add(dx));
+        a.dx2 = offset_square(a.dx0.wrapping_add(dx), a.shift);
     }
     (job.min, job.min_row) = (u32::MAX, 0);
     let mut skip = job.skip;
-    for (r, sum) in sums.iter_mut().enumerate() {
+    let mut off = 0u8;
+    for sum in sums.iter_mut() {
         let skipped = skip & 1 != 0;
         skip >>= 1;
+        let o = off;
+        off = off.wrapping_add(job.stride);
         if skipped {
             *sum = u32::MAX;
             continue;
         }
         let mut s = 0u32;
         for a in &job.anchors[..n] {
-            let dy = a.dy0.wrapping_add((r as i32).wrapping_mul(a.step as i32));
-            s = add_term::<K>(s, a.dx2, sq16(dy), a.rho, a.lclamp, a.w);
+            let dy = a.dy0.wrapping_add(o as i32 * a.step as i32);
+            s = add_term::<K>(s, a.dx2, offset_square(dy, a.shift), a.rho, a.lclamp, a.w);
             if s >= job.bound {
                 s = job.bound;
                 break;
             }
         }
         if s < job.bound && s < job.min {
-            (job.min, job.min_row) = (s, r as u8);
+            (job.min, job.min_row) = (s, o);
         }
         *sum = s;
     }
@@ -210,6 +239,13 @@ pub fn portable_term(lo: u32, carry: bool, rho: i32, lclamp: i32) -> u32 {
 /// little endian, Q.20): on AVR a flash address, to be read with `lpm`.
 pub fn log2_segment_table() -> *const [u8; 6] {
     tables::log2_seg_table()
+}
+
+/// [`log2_segment_table`] less 384 bytes (never dereferenced as such): segment `k` of a
+/// normalised `d²` whose top byte is `64 + k` starts at `6·(64 + k)` from it, one add fewer per
+/// term in an assembly kernel.
+pub fn log2_segment_base() -> *const u8 {
+    log2_segment_table().cast::<u8>().wrapping_sub(6 * 64)
 }
 
 #[cfg(test)]

@@ -16,12 +16,12 @@
 //! `Z` (the body reads `lclamp`, `ρ` and the table address at their offsets, and restores `Z`
 //! from r25:r24 after the table reads); r2 is a zero register, r3–r11, r16, r17 scratch; r0/r1
 //! for `mul` (r1 cleared at the end, as the ABI requires). The column loop adds: X walks the
-//! sums, r21:r18 the room left below the bound, r22 the row, r23 the anchors left, and the job's
+//! sums, r21:r18 the room left below the bound, r22 the row's fine offset, r23 the anchors left, and the job's
 //! address in Y (r29:r28, saved on the stack).
 
 use core::arch::asm;
 use core::mem::{offset_of, size_of};
-use loc_core::fixed::{log2_segment_table, AnchorTerm, ColumnJob, TermKernel};
+use loc_core::fixed::{log2_segment_base, AnchorTerm, ColumnJob, TermKernel};
 
 // The offsets the assembly reads (AVR has no padding).
 const _: () = {
@@ -31,9 +31,9 @@ const _: () = {
     assert!(offset_of!(AnchorTerm, step) == 12);
     assert!(offset_of!(AnchorTerm, lclamp) == 14);
     assert!(offset_of!(AnchorTerm, rho) == 18);
-    assert!(offset_of!(AnchorTerm, table) == 22);
-    assert!(offset_of!(AnchorTerm, w) == 24);
-    assert!(size_of::<AnchorTerm>() == 25);
+    assert!(offset_of!(AnchorTerm, w) == 22);
+    assert!(offset_of!(AnchorTerm, shift) == 23);
+    assert!(size_of::<AnchorTerm>() == 24);
     assert!(offset_of!(ColumnJob, bound) == 0);
     assert!(offset_of!(ColumnJob, n) == 4);
     assert!(offset_of!(ColumnJob, rows) == 5);
@@ -42,7 +42,10 @@ const _: () = {
     assert!(offset_of!(ColumnJob, skip) == 11);
     assert!(offset_of!(ColumnJob, col) == 13);
     assert!(offset_of!(ColumnJob, xstep) == 14);
-    assert!(offset_of!(ColumnJob, anchors) == 16);
+    assert!(offset_of!(ColumnJob, stride) == 16);
+    assert!(offset_of!(ColumnJob, end) == 17);
+    assert!(offset_of!(ColumnJob, seg_base) == 18);
+    assert!(offset_of!(ColumnJob, anchors) == 20);
 };
 
 /// The AVR kernel for `loc_core::fixed::{mle_with, mmse_with, estimate_with}`.
@@ -78,11 +81,11 @@ macro_rules! term_body {
             "rjmp 14f\n",
             "10:\n",
             "ldi r16, 31\n",
-            "cp r14, r1\n",
-            "cpc r15, r1\n",
+            "cp r14, r2\n",
+            "cpc r15, r2\n",
             "brne 11f\n",
-            "cp r12, r1\n",
-            "cpc r13, r1\n",
+            "cp r12, r2\n",
+            "cpc r13, r2\n",
             "brne 12f\n",
             // d² = 0: log = 0.
             "clr r3\n",
@@ -121,17 +124,15 @@ macro_rules! term_body {
             "lsr r15\n",
             "ror r14\n",
             "ror r13\n",
-            // n3 = 64 + k: Z = table + 6·n3 − 384 (the job pointer waits in r25:r24).
+            // n3 = 64 + k: Z = (table − 384) + 6·n3, the base from Y+18 (the anchor pointer
+            // waits in r25:r24).
             "movw r24, r30\n",
-            "ldd r6, Z+22\n",
-            "ldd r7, Z+23\n",
-            "movw r30, r6\n",
+            "ldd r30, Y+18\n",
+            "ldd r31, Y+19\n",
             "ldi r17, 6\n",
             "mul r15, r17\n",
             "add r30, r0\n",
             "adc r31, r1\n",
-            "subi r30, 0x80\n",
-            "sbci r31, 0x01\n",
             "lpm r3, Z+\n",
             "lpm r4, Z+\n",
             "lpm r5, Z+\n",
@@ -274,8 +275,9 @@ macro_rules! term_body {
     };
 }
 
-/// `v = r3:r17:r16 + the 24-bit value at Z+$o0 (bytes $o0, $o1, $o2)`, then `|v|` (below 2^16) squared into r15:r12:
-/// a column's dx² and a row's dy², the same steps.
+/// `v = r3:r17:r16 + the 24-bit value at Z+$o0 (bytes $o0, $o1, $o2)`, then `|v|` rounded to
+/// `2^shift` units (the anchor's `shift`, half up; below 2^16 then) squared into r15:r12: a
+/// column's dx² and a row's dy², the same steps ([`loc_core::fixed::offset_square`]).
 macro_rules! offset_abs_square {
     ($o0:literal, $o1:literal, $o2:literal) => {
         concat!(
@@ -293,10 +295,18 @@ macro_rules! offset_abs_square {
             "adc r3, r4\n",
             "sbrs r3, 7\n",
             "rjmp 9f\n",
+            "com r3\n",
             "com r17\n",
             "neg r16\n",
             "sbci r17, 0xFF\n",
+            // r3 + 1 − borrow (r3 is not an immediate register).
+            "sbc r3, r2\n",
+            "inc r3\n",
             "9:\n",
+            // A shift: the subroutine at 45 (4 cycles when there is none).
+            "ldd r5, Z+23\n",
+            "cpse r5, r2\n",
+            "rcall 45f\n",
             "mul r16, r16\n",
             "movw r12, r0\n",
             "mul r17, r17\n",
@@ -319,16 +329,22 @@ pub fn term(lo: u32, carry: bool, rho: i32, lclamp: i32) -> u32 {
     let t = AnchorTerm {
         lclamp,
         rho,
-        table: log2_segment_table(),
         ..AnchorTerm::NONE
     };
+    // The body reads the table's base at Y+18, as in a `ColumnJob`.
+    let base = log2_segment_base();
+    let y = (&base as *const *const u8).cast::<u8>().wrapping_sub(18);
     let [mut n0, mut n1, mut n2, mut n3] = lo.to_le_bytes();
-    // SAFETY: the assembly reads `t` (25 bytes, at the offsets asserted above) through Z and
-    // 6 bytes of the log2 table (64 × 6 bytes in flash, index < 64 by construction) with `lpm`;
-    // it writes only the registers declared here, r0, and r1 (left at 0 as the ABI requires) and
-    // the flags.
+    // SAFETY: the assembly reads `t` (24 bytes, at the offsets asserted above) through Z, the
+    // table base through Y (`base`, at Y+18) and 6 bytes of the log2 table (64 × 6 bytes in
+    // flash, index < 64 by construction) with `lpm`; it writes only the registers declared
+    // here, r0, r1 (left at 0 as the ABI requires), the flags and Y (saved on the stack and
+    // restored).
     unsafe {
         asm!(
+            "push r28",
+            "push r29",
+            "movw r28, r26",
             "clr r2",
             "clt",
             "tst r22",
@@ -336,17 +352,20 @@ pub fn term(lo: u32, carry: bool, rho: i32, lclamp: i32) -> u32 {
             "set",
             "1:",
             term_body!(),
+            "pop r29",
+            "pop r28",
             "clr r1",
             inout("r12") n0,
             inout("r13") n1,
             inout("r14") n2,
             inout("r15") n3,
             in("r22") carry as u8,
+            inout("X") y => _,
             inout("Z") &t as *const AnchorTerm => _,
             out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
             out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r16") _, out("r17") _,
             out("r24") _, out("r25") _,
-            options(readonly, nostack),
+            options(readonly),
         );
     }
     u32::from_le_bytes([n0, n1, n2, n3])
@@ -363,21 +382,24 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             job.skip >>= 1;
             *s = if skipped { u32::MAX } else { 0 };
             if !skipped && job.bound > 0 && job.min == u32::MAX {
-                (job.min, job.min_row) = (0, r as u8);
+                (job.min, job.min_row) = (0, (r as u8).wrapping_mul(job.stride));
             }
         }
         return;
     }
-    // The assembly reads both from the job.
+    // The assembly reads both from the job. Rows × stride stays within the 8-bit fine offset
+    // (the searches use at most 11 × 5); a stride of 0 ends the loop after one row.
     job.n = n;
-    job.rows = sums.len().min(255) as u8;
-    // SAFETY: X walks the first `rows` (1 to 255) sums, each written once; Z points at `job`
+    job.rows = sums.len().min(255 / job.stride.max(1) as usize) as u8;
+    // SAFETY: X walks the first `rows` (1 to 255) sums, each written once (the row loop ends
+    // when the fine offset reaches rows·stride ≤ 255, so it never wraps); Z points at `job`
     // (its address also kept in Y, whose value is saved on the stack and restored before the
     // end; nothing here uses the frame): the loop reads its bound,
     // its skip mask (shifting it in place) and its first `n` (1 to 8) anchors and writes their
     // `dx2`; `lpm` reads 6 bytes of the log2 table per term as in [`term`]. Only the declared
-    // registers, r0, r1 (left at 0), the flags, Y (restored) and two stack bytes are written (and the
-    // job's `min`, `min_row`, `skip` and `dx2` fields).
+    // registers, r0, r1 (left at 0), the flags, Y (restored) and four stack bytes (Y, a return
+    // address) are written (and the
+    // job's `min`, `min_row`, `skip`, `end` and `dx2` fields).
     unsafe {
         asm!(
             "clr r2",
@@ -391,12 +413,17 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "std Z+8, r16",
             "std Z+9, r16",
             "std Z+10, r2",
-            // ---- dx² of every anchor: dx = dx0 + col·xstep (24 bits; |dx| < 2^16) ----
+            // ---- the row loop's end: rows·stride fine rows ----
+            "ldd r16, Z+5",
+            "ldd r17, Z+16",
+            "mul r16, r17",
+            "std Z+17, r0",
+            // ---- dx² of every anchor: dx = dx0 + col·xstep (24 bits) ----
             "ldd r23, Z+4",
             "ldd r22, Z+13",
             "ldd r24, Z+14",
             "ldd r25, Z+15",
-            "adiw r30, 16",
+            "adiw r30, 20",
             "8:",
             "mul r22, r24",
             "movw r16, r0",
@@ -409,11 +436,12 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "std Z+1, r13",
             "std Z+2, r14",
             "std Z+3, r15",
-            "adiw r30, 25",
+            "adiw r30, 24",
             "dec r23",
             "brne 8b",
             "clr r22",
-            // ---- row r22: skipped (the next bit of `skip`) → u32::MAX; else room = bound ----
+            // ---- row at fine offset r22: skipped (the next bit of `skip`) → u32::MAX; else
+            // room = bound ----
             "1:",
             "movw r30, r28",
             "ldd r16, Z+11",
@@ -435,8 +463,8 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "ldd r20, Z+2",
             "ldd r21, Z+3",
             "ldd r23, Z+4",
-            "adiw r30, 16",
-            // ---- anchor at Z: dy = dy0 + r·step (24 bits; |dy| < 2^16) ----
+            "adiw r30, 20",
+            // ---- anchor at Z: dy = dy0 + r22·step (24 bits) ----
             "5:",
             "ldd r16, Z+12",
             "mul r22, r16",
@@ -462,7 +490,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "7:",
             term_body!(),
             // ---- room −= w·term; at or below 0 the row has reached the bound ----
-            "ldd r17, Z+24",
+            "ldd r17, Z+22",
             "31:",
             "sub r18, r12",
             "sbc r19, r13",
@@ -472,7 +500,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "breq 35f",
             "dec r17",
             "brne 31b",
-            "adiw r30, 25",
+            "adiw r30, 24",
             "dec r23",
             "breq 3f",
             "rjmp 5b",
@@ -521,8 +549,9 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "st X+, r21",
             // ---- next row ----
             "37:",
-            "inc r22",
-            "ldd r16, Z+5",
+            "ldd r16, Z+16",
+            "add r22, r16",
+            "ldd r16, Z+17",
             "cp r22, r16",
             "brsh 38f",
             "rjmp 1b",
@@ -530,6 +559,18 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "pop r29",
             "pop r28",
             "clr r1",
+            "rjmp 46f",
+            // ---- r3:r17:r16 >> r5 (≥ 1), rounded by the last bit shifted out ----
+            "45:",
+            "lsr r3",
+            "ror r17",
+            "ror r16",
+            "dec r5",
+            "brne 45b",
+            "adc r16, r2",
+            "adc r17, r2",
+            "ret",
+            "46:",
             inout("X") sums.as_mut_ptr() => _,
             inout("Z") &mut *job as *mut ColumnJob => _,
             out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
