@@ -23,9 +23,9 @@
 
 use core::marker::PhantomData;
 use loc_core::fixed::{
-    fit_least_squares, mle_and_mmse_window_with, observations, observations_of, AreaCm, Bounds,
-    CalStats, ChannelBytes, Estimate, FitMethod, LocError, Measurements, Observations,
-    OnlineParams, ParamMode, PathLoss, PointCm, Refinement, TermKernel,
+    extended, fit_least_squares, mle_and_mmse_window_with, observations, AreaCm, Bounds, CalStats,
+    Estimate, FitMethod, LocError, Measurements, Obs, Observations, OnlineParams, ParamMode,
+    PathLoss, PointCm, Refinement, TermKernel,
 };
 use loc_proto::msg::{Position, Report};
 use loc_proto::sink_line::{Estimator, SinkLine, FLAG_FITTED};
@@ -142,7 +142,17 @@ impl Fix {
     /// The two `fix` lines (MLE, then MMSE) of loc-proto's [`SinkLine`]: cm rounded from mm,
     /// α and P0 in hundredths, rounded.
     pub fn lines(&self) -> [SinkLine; 2] {
-        let line = |e: &Estimate, estimator| SinkLine::Fix {
+        [self.line(Estimator::Mle), self.line(Estimator::Mmse)]
+    }
+
+    /// The `fix` line of `estimator` (one copy in flash for both).
+    #[inline(never)]
+    pub fn line(&self, estimator: Estimator) -> SinkLine {
+        let e = match estimator {
+            Estimator::Mle => &self.mle,
+            Estimator::Mmse => &self.mmse,
+        };
+        SinkLine::Fix {
             agent: self.agent,
             seq: self.seq,
             estimator,
@@ -152,11 +162,7 @@ impl Fix {
             p0_x100: centi(self.model.p0, 16) as i16,
             anchors: e.anchors,
             flags: if self.fitted { FLAG_FITTED } else { 0 },
-        };
-        [
-            line(&self.mle, Estimator::Mle),
-            line(&self.mmse, Estimator::Mmse),
-        ]
+        }
     }
 }
 
@@ -355,15 +361,22 @@ pub fn report_inputs(r: &Report) -> (CalStats, Observations) {
             }
         }
     }
-    let mut anchors = [PointCm::default(); loc_core::MAX_ANCHORS];
-    let mut rssi: [ChannelBytes; loc_core::MAX_ANCHORS] = Default::default();
+    // The Extended refinement of each anchor's bytes (0 = not heard), as `observations_of`.
+    let mut obs = Observations::new();
     for i in 0..n {
-        anchors[i] = pos(i);
-        for (v, row) in rssi[i].iter_mut().zip(&r.rssi[..c]) {
-            *v = heard(row[i]);
+        let mut bytes = [0u8; loc_core::MAX_CHANNELS];
+        for (v, row) in bytes.iter_mut().zip(&r.rssi[..c]) {
+            *v = row[i];
+        }
+        if let Some((z, weight, spread)) = extended(&bytes) {
+            obs.const_cost = obs.const_cost.saturating_add(spread);
+            obs.push(Obs {
+                pos: pos(i),
+                z,
+                weight,
+            });
         }
     }
-    let obs = observations_of(&anchors[..n], &rssi[..n], c, Refinement::Extended);
     (stats, obs)
 }
 

@@ -121,7 +121,8 @@ pub use params::{
     MAX_SAMPLES,
 };
 pub use refine::{
-    db_mean, linear_avg, max_rssi, observations, observations_of, refine_anchor, Obs, Observations,
+    db_mean, extended, linear_avg, max_rssi, observations, observations_of, refine_anchor, Obs,
+    Observations,
 };
 
 pub use crate::grid::Search;

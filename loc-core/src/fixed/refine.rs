@@ -190,6 +190,32 @@ fn spread(rssi: &[Option<u8>]) -> u32 {
     div_count((n * s2 - s * s) << 8, n)
 }
 
+/// The Extended refinement of one anchor's raw radio bytes (`0`: channel not heard; at most
+/// [`MAX_CHANNELS`] are read): the dB mean (Q.16 dBm), the channel count and the spread
+/// `Σ_c (z_c − z̄)²` (Q.8 dB²) — exactly [`db_mean`] and the spread [`observations_of`] adds to
+/// `const_cost`, without `Option` bytes, for the sink, which reads the bytes straight from a
+/// report. `None` if no channel was heard.
+#[inline(never)]
+pub fn extended(bytes: &[u8]) -> Option<(i32, u8, u32)> {
+    let (mut s, mut s2, mut n) = (0u32, 0u32, 0u32);
+    for &b in &bytes[..bytes.len().min(MAX_CHANNELS)] {
+        if b != 0 {
+            s += b as u32;
+            s2 += b as u32 * b as u32;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        return None;
+    }
+    // s ≤ 4·255 < 2^15 (db_mean's usual case); n·Σb² < 4·4·65025 < 2^24.
+    Some((
+        -(div_count(s << 16, n) as i32),
+        n as u8,
+        div_count((n * s2 - s * s) << 8, n),
+    ))
+}
+
 /// Observations of anchors at `anchors` with the agent's bytes `rssi` (same order; the shorter
 /// decides), channels `0..n_channels`, under `refinement`: one per usable anchor, in anchor order.
 pub fn observations_of(
@@ -215,4 +241,47 @@ pub fn observations_of(
 /// The observations of `m` under `refinement`.
 pub fn observations(m: &Measurements, refinement: Refinement) -> Observations {
     observations_of(m.anchors(), &m.rssi, m.channels(), refinement)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn extended_of_raw_bytes_is_db_mean_and_spread() {
+        // Every combination of up to 4 channels over a spread of byte values, 0 = not heard.
+        let values = [0u8, 1, 2, 37, 64, 65, 90, 91, 200, 254, 255];
+        let mut checked = 0;
+        for a in values {
+            for b in values {
+                for c in values {
+                    for d in [0u8, 71, 255] {
+                        let raw = [a, b, c, d];
+                        let opt: [Option<u8>; 4] = raw.map(|v| (v != 0).then_some(v));
+                        let want = db_mean(&opt).map(|(z, w)| (z, w, spread(&opt)));
+                        assert_eq!(extended(&raw), want, "{raw:?}");
+                        let obs = observations_of(
+                            &[PointCm::new(1, 2)],
+                            &[[opt[0], opt[1], opt[2], opt[3]]],
+                            4,
+                            Refinement::Extended,
+                        );
+                        match want {
+                            Some((z, w, sp)) => {
+                                assert_eq!(obs.as_slice()[0].z, z);
+                                assert_eq!(obs.as_slice()[0].weight, w);
+                                assert_eq!(obs.const_cost, sp);
+                            }
+                            None => assert!(obs.as_slice().is_empty()),
+                        }
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert_eq!(checked, 11 * 11 * 11 * 3);
+        // Bytes past MAX_CHANNELS are not read.
+        assert_eq!(extended(&[60, 0, 0, 0, 99]), extended(&[60]));
+        assert_eq!(extended(&[]), None);
+    }
 }

@@ -114,14 +114,15 @@ fn on_report(
     raw: &[u8],
     radio: &mut uno_board::NodeRadio,
 ) {
+    use loc_proto::sink_line::Estimator;
     {
         let serial = radio.serial_mut();
         loc_proto::sink_line::RawReport::write(raw, |b| serial.write_byte(b));
     }
     match sink.on_report(report) {
         Ok(fix) => {
-            for line in fix.lines() {
-                write(radio, &line);
+            for e in [Estimator::Mle, Estimator::Mmse] {
+                write(radio, &fix.line(e));
             }
         }
         Err(e) => write(radio, &sink_fw::no_fix_line(report.agent, report.seq, e)),
