@@ -16,10 +16,14 @@
 use std::path::Path;
 
 use loc_core::fixed::{mle_and_mmse_window_with, AreaCm, PathLoss, Portable};
+use loc_core::grid::{self, Search};
+use loc_core::params::{Bounds, FitMethod, OnlineParams, ParamMode};
+use loc_core::refine::{observations, Refinement};
+use loc_core::Area;
 use loc_proto::config::Config;
 use loc_proto::msg::{Beacon, ChannelList, Position, Report};
 use loc_proto::schedule::Schedule;
-use loc_proto::sink_line::SinkLine;
+use loc_proto::sink_line::{Estimator, SinkLine, FLAG_FITTED};
 use loc_proto::Role;
 use simavr::medium::{Medium, NodeRadio};
 use simavr::network::{Network, NetworkConfig, NodeId, NodeSpec, Outcome, TxRecord};
@@ -66,10 +70,23 @@ pub struct Observed {
     /// Whether the whole superframe the report measured lies after the warm-up and within this
     /// stop (else the fix mixes two positions or the network's start: left out of statistics).
     pub settled: bool,
-    /// Not a sink line but the host's reference, as a `fix` line: the MLE of the same report
-    /// with P0 and α fixed at the scenario's starting values, as a sink without online P0/α
-    /// estimation would give it (host sink only; experiment 3's comparison).
-    pub reference: bool,
+    /// Not a sink line but one of the host's references, as a `fix` line (host sink only;
+    /// experiment 3's comparison); `None` for the sink's lines.
+    pub reference: Option<Reference>,
+}
+
+/// The host's reference fixes of each report the host sink receives: other ways the same
+/// report could have been located, next to the sink's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Reference {
+    /// The sink's MLE (fixed point) with P0 and α fixed at the scenario's starting values, as
+    /// a sink without online P0/α estimation would give it.
+    Fixed,
+    /// The f64 MLE (`loc_core::grid`, Extended refinement, the thesis search) with P0 fitted
+    /// online from the anchor-to-anchor RSSI (least squares within the thesis bounds, AR(1)
+    /// smoothed) and α fixed at the scenario's starting value: `ParamMode::P0Only`, the mode
+    /// that follows battery droop without trying to identify α from few anchor distances.
+    P0Only,
 }
 
 /// How a run is set up.
@@ -102,6 +119,8 @@ struct HostSink {
     fixed: (PathLoss, AreaCm),
     /// Every report received (time s, report), until [`Testbed::take_reports`].
     reports: Vec<(f64, Report)>,
+    /// The [`Reference::P0Only`] estimator's parameters and room.
+    p0_only: (OnlineParams, Area),
 }
 
 /// A scenario running on the emulated network.
@@ -158,6 +177,33 @@ pub fn superframe_s(s: &Scenario) -> Result<f64, String> {
         .map_err(|e| format!("{e:?}"))?;
     let sched = Schedule::for_config(&c).map_err(|e| format!("schedule: {e:?}"))?;
     Ok(sched.superframe_us() as f64 / 1e6)
+}
+
+/// The [`Reference::P0Only`] fix of `r` as a `fix` line (its P0 fit first, as the sink does);
+/// `None` when it gives none (fewer than 3 anchors heard).
+fn p0_only_fix((params, area): &mut (OnlineParams, Area), r: &Report) -> Option<SinkLine> {
+    let m = crate::replay::measurements(r);
+    // A report without a usable calibration sample keeps the model as it was.
+    let _ = params.update(&m);
+    let model = params.current();
+    let e = grid::mle(
+        &observations(&m, Refinement::Extended),
+        model,
+        *area,
+        Search::Thesis,
+    )
+    .ok()?;
+    Some(SinkLine::Fix {
+        agent: r.agent,
+        seq: r.seq,
+        estimator: Estimator::Mle,
+        x: (e.pos.x * 100.0).round() as i16,
+        y: (e.pos.y * 100.0).round() as i16,
+        alpha_x100: (model.alpha * 100.0).round() as u16,
+        p0_x100: (model.p0 * 100.0).round() as i16,
+        anchors: e.anchors as u8,
+        flags: FLAG_FITTED,
+    })
 }
 
 /// Serial numbers (`SH:SL`) of a testbed's radios start here: anchor `i` (0-based) gets
@@ -287,6 +333,18 @@ impl Testbed {
                     sink: Sink::new(Some(s.area_cm())),
                     fixed: (fixed, s.area_cm()),
                     reports: Vec::new(),
+                    p0_only: (
+                        OnlineParams::new(
+                            ParamMode::P0Only,
+                            FitMethod::LeastSquares,
+                            Bounds::THESIS,
+                            loc_core::PathLoss {
+                                p0: s.medium.p0_dbm,
+                                alpha: s.medium.alpha,
+                            },
+                        ),
+                        Area::new(s.area.width_m, s.area.height_m),
+                    ),
                 });
             }
             SinkSource::Firmware => fw_sink = Some((nodes.sink, 0)),
@@ -410,7 +468,7 @@ impl Testbed {
 
     /// The sink lines written since the last call, with their truth.
     fn collect(&mut self, out: &mut Vec<Observed>) {
-        let mut lines: Vec<(f64, SinkLine, bool)> = Vec::new();
+        let mut lines: Vec<(f64, SinkLine, Option<Reference>)> = Vec::new();
         if let Some(h) = &mut self.host {
             let bytes = self.net.core_mut(h.node).take_output();
             let mut frames: Vec<(u64, Vec<u8>)> = Vec::new();
@@ -439,8 +497,8 @@ impl Testbed {
                 };
                 h.reports.push((ms / 1000.0, r));
                 match h.sink.on_report(&r) {
-                    Ok(fix) => lines.extend(fix.lines().map(|l| (ms, l, false))),
-                    Err(e) => lines.push((ms, sink_fw::no_fix_line(r.agent, r.seq, e), false)),
+                    Ok(fix) => lines.extend(fix.lines().map(|l| (ms, l, None))),
+                    Err(e) => lines.push((ms, sink_fw::no_fix_line(r.agent, r.seq, e), None)),
                 }
                 let (model, area) = h.fixed;
                 let (_, obs) = sink_fw::report_inputs(&r);
@@ -455,7 +513,10 @@ impl Testbed {
                         model,
                         fitted: false,
                     };
-                    lines.push((ms, fix.lines()[0], true));
+                    lines.push((ms, fix.lines()[0], Some(Reference::Fixed)));
+                }
+                if let Some(line) = p0_only_fix(&mut h.p0_only, &r) {
+                    lines.push((ms, line, Some(Reference::P0Only)));
                 }
             }
         }
@@ -463,7 +524,7 @@ impl Testbed {
             let all = self.net.lines(*node);
             for l in &all[*seen..] {
                 if let Ok(line) = SinkLine::parse(&l.text) {
-                    lines.push((l.ms(), line, false));
+                    lines.push((l.ms(), line, None));
                 }
             }
             *seen = all.len();
