@@ -72,6 +72,17 @@ const VARIANTS: &[Variant] = &[
         change: |s| s.medium.fading_sigma_db = 0.0,
     },
     Variant {
+        name: "fading1",
+        change: |s| s.medium.fading_sigma_db = 1.0,
+    },
+    Variant {
+        name: "fading1-iso",
+        change: |s| {
+            s.medium.fading_sigma_db = 1.0;
+            isotropic(s);
+        },
+    },
+    Variant {
         name: "static0",
         change: |s| {
             s.medium.fading_sigma_db = 0.0;

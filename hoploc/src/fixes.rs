@@ -174,7 +174,7 @@ pub fn table(rows: &[FixRow], stops: usize) -> Vec<Stat> {
 /// The table as text: stop, truth, estimator, fixes, RMSE, bias x and y, max error.
 pub fn table_text(stats: &[Stat], s: &Scenario) -> String {
     let mut t = format!(
-        "{:<5} {:>13} {:>6} {:<9} {:>5} {:>8} {:>8} {:>8} {:>7}\n",
+        "{:<5} {:>13} {:>6} {:<10} {:>5} {:>8} {:>8} {:>8} {:>7}\n",
         "stop", "truth (m)", "orient", "est", "fixes", "RMSE m", "bias x", "bias y", "max m"
     );
     for st in stats {
@@ -192,7 +192,7 @@ pub fn table_text(stats: &[Stat], s: &Scenario) -> String {
         };
         if st.n == 0 {
             t += &format!(
-                "{stop:<5} {truth:>13} {orient:>6} {:<9} {:>5} {:>8} {:>8} {:>8} {:>7}\n",
+                "{stop:<5} {truth:>13} {orient:>6} {:<10} {:>5} {:>8} {:>8} {:>8} {:>7}\n",
                 name(st.estimator),
                 0,
                 "-",
@@ -202,7 +202,7 @@ pub fn table_text(stats: &[Stat], s: &Scenario) -> String {
             );
         } else {
             t += &format!(
-                "{stop:<5} {truth:>13} {orient:>6} {:<9} {:>5} {:>8.3} {:>+8.3} {:>+8.3} {:>7.3}\n",
+                "{stop:<5} {truth:>13} {orient:>6} {:<10} {:>5} {:>8.3} {:>+8.3} {:>+8.3} {:>7.3}\n",
                 name(st.estimator),
                 st.n,
                 st.rmse,
