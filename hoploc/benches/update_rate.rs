@@ -1,7 +1,7 @@
 //! Position update rate and beacon delivery of the emulated testbed against SPEC §8 (≥ 5 fixes
 //! per second with 4 anchors × 2 channels, ≥ 99 % of beacons delivered), swept over the slot
 //! length (issue 6: "at the fastest stable slot length"). room10 as shipped (4 corner anchors,
-//! channels 1 and 12, its medium), anchors and agent as firmware in simavr, the host sink; only
+//! channels 1 and 12, its medium), anchors and agent as firmware in simavr, the host sink by default; only
 //! `timing.slot_ms` changes. Per slot length, after the warm-up:
 //! * fixes/s: the sink's MLE fix lines per second, against 1 / superframe;
 //! * beacon delivery: beacons the agent's radio passed to its MCU / beacons the anchors sent,
@@ -21,7 +21,8 @@
 //!
 //! `cargo bench -p hoploc --bench update_rate`; `HOPLOC_BENCH_SECONDS` sets the measured time
 //! after the warm-up (default: room10's whole path, 24 s); `HOPLOC_SLOTS` the slot lengths
-//! (comma-separated ms).
+//! (comma-separated ms); `HOPLOC_SINK=firmware` takes the fixes from the sink firmware's UART
+//! instead of the host sink (the delivery figures come from the TX log either way).
 
 use std::time::Instant;
 
@@ -67,16 +68,21 @@ fn main() {
         .ok()
         .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
         .unwrap_or_else(|| vec![40, 30, 25, 20, 16, 14, 12, 10, 9, 8, 7, 6, 5]);
+    let sink = match std::env::var("HOPLOC_SINK") {
+        Ok(v) => <SinkSource as clap::ValueEnum>::from_str(&v, true).expect("HOPLOC_SINK"),
+        Err(_) => SinkSource::Host,
+    };
     let dir = firmware::default_dir();
     firmware::ensure_built(&dir).expect("firmware");
     let base = Scenario::load(&scenario::resolve("room10")).expect("room10");
     println!(
-        "update_rate: room10 ({} anchors, channels {:?}, σ {} dB, fading σ {} dB), host sink, \
+        "update_rate: room10 ({} anchors, channels {:?}, σ {} dB, fading σ {} dB), {}, \
          1 thread; beacon latency (UART + air + radio) {} µs",
         base.anchors.len(),
         base.timing.channels,
         base.medium.sigma_db,
         base.medium.fading_sigma_db,
+        sink.describe(),
         beacon_latency_us(base.anchors.len() as u8)
     );
     println!(
@@ -110,7 +116,7 @@ fn main() {
         let latency = beacon_latency_us(s.anchors.len() as u8);
         let room = sched.slot_us() - sched.guard_us();
         let cfg = RunConfig {
-            sink: SinkSource::Host,
+            sink,
             threads: 1,
             ..RunConfig::default()
         };
