@@ -1,8 +1,8 @@
 //! Position update rate and beacon delivery of the emulated testbed against SPEC §8 (≥ 5 fixes
 //! per second with 4 anchors × 2 channels, ≥ 99 % of beacons delivered), swept over the slot
 //! length (issue 6: "at the fastest stable slot length"). room10 as shipped (4 corner anchors,
-//! channels 1 and 12, its medium), anchors and agent as firmware in simavr, the host sink by default; only
-//! `timing.slot_ms` changes. Per slot length, after the warm-up:
+//! channels 1 and 12, its medium: the default one), anchors and agent as firmware in simavr, the
+//! host sink by default; only `timing.slot_ms` changes. Per slot length, after the warm-up:
 //! * fixes/s: the sink's MLE fix lines per second, against 1 / superframe;
 //! * beacon delivery: beacons the agent's radio passed to its MCU / beacons the anchors sent,
 //!   from the network's TX log and its per-receiver outcomes. By the schedule the agent listens
