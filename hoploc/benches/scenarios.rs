@@ -49,7 +49,7 @@ fn main() {
                     .step(1.0)
                     .iter()
                     .filter(|o| {
-                        !o.reference
+                        o.reference.is_none()
                             && o.time_s >= s.timing.warmup_s
                             && matches!(
                                 o.line,

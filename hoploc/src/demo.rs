@@ -299,6 +299,11 @@ pub fn run(args: &Args) -> Result<(), String> {
              P0 {} dBm and α {} fixed (no online estimation)",
             s.medium.p0_dbm, s.medium.alpha
         );
+        println!(
+            "  MLE-P0only: the host's reference, not a sink line: the f64 MLE of the same report \
+             with P0 fitted online from the anchor-to-anchor RSSI and α {} fixed",
+            s.medium.alpha
+        );
     }
     println!(
         "  {duration:.0} s simulated: {} s warm-up (boot, provisioning window, radio bring-up), \
@@ -319,7 +324,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         "α",
         "P0",
         if args.sink == SinkSource::Host {
-            "  fixed err"
+            "  fixed err  P0only err"
         } else {
             ""
         }
@@ -369,8 +374,13 @@ pub fn run(args: &Args) -> Result<(), String> {
             };
             let (mle, mmse) = (find(Algo::Mle), find(Algo::Mmse));
             let model = mle.or(mmse).map_or((0.0, 0.0), |r| (r.alpha, r.p0));
-            let fixed =
-                find(Algo::MleFixed).map_or(String::new(), |r| format!(" {:>6.2}", r.distance()));
+            let reference =
+                |e, w: usize| find(e).map_or(String::new(), |r| format!(" {:>w$.2}", r.distance()));
+            let fixed = format!(
+                "{}{}",
+                reference(Algo::MleFixed, 10),
+                reference(Algo::MleP0Only, 11)
+            );
             let note = if o.settled {
                 ""
             } else if o.time_s < s.timing.warmup_s + sf {
@@ -394,7 +404,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         obs.extend(new);
         if args.sink == SinkSource::Firmware
             && tb.time_s() > s.timing.warmup_s + 3.0
-            && !obs.iter().any(|o| !o.reference)
+            && !obs.iter().any(|o| o.reference.is_none())
         {
             bar.finish_and_clear();
             return Err(format!(
@@ -456,7 +466,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         ),
     )?;
     let mut log = String::new();
-    for o in obs.iter().filter(|o| !o.reference) {
+    for o in obs.iter().filter(|o| o.reference.is_none()) {
         let mut bytes = Vec::new();
         o.line.write(|b| bytes.push(b));
         log += &String::from_utf8_lossy(&bytes);

@@ -1,7 +1,7 @@
 //! The fixes of a testbed run against the ground truth: the per-position, per-estimator
 //! RMSE/bias table of `hoploc demo`, its CSV, and its plots (fixes against the truth; error
 //! over time). The estimators are the sink's two (from its lines) and, with the host sink, the
-//! host's fixed-parameter reference ([`crate::testbed::Observed::reference`]).
+//! host's references ([`crate::testbed::Reference`]: fixed parameters, online P0 only).
 
 use std::path::{Path, PathBuf};
 
@@ -11,7 +11,7 @@ use plotters::prelude::*;
 
 use crate::scenario::Scenario;
 use crate::simulate::{register_font, write_png};
-use crate::testbed::Observed;
+use crate::testbed::{Observed, Reference};
 
 /// Where a fix comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -22,10 +22,12 @@ pub enum Algo {
     Mmse,
     /// The host's reference: the MLE with P0 and α fixed at the scenario's starting values.
     MleFixed,
+    /// The host's reference: the f64 MLE with P0 estimated online, α fixed.
+    MleP0Only,
 }
 
 /// Every [`Algo`], in table order.
-pub const ALGOS: [Algo; 3] = [Algo::Mle, Algo::Mmse, Algo::MleFixed];
+pub const ALGOS: [Algo; 4] = [Algo::Mle, Algo::Mmse, Algo::MleFixed, Algo::MleP0Only];
 
 /// An estimator's name in tables and plots.
 pub fn name(a: Algo) -> &'static str {
@@ -33,6 +35,7 @@ pub fn name(a: Algo) -> &'static str {
         Algo::Mle => "MLE",
         Algo::Mmse => "MMSE",
         Algo::MleFixed => "MLE-fixed",
+        Algo::MleP0Only => "MLE-P0only",
     }
 }
 
@@ -93,9 +96,10 @@ pub fn rows(obs: &[Observed]) -> Vec<FixRow> {
                 stop: o.stop,
                 truth: o.truth,
                 estimator: match (o.reference, estimator) {
-                    (true, _) => Algo::MleFixed,
-                    (false, Estimator::Mle) => Algo::Mle,
-                    (false, Estimator::Mmse) => Algo::Mmse,
+                    (Some(Reference::Fixed), _) => Algo::MleFixed,
+                    (Some(Reference::P0Only), _) => Algo::MleP0Only,
+                    (None, Estimator::Mle) => Algo::Mle,
+                    (None, Estimator::Mmse) => Algo::Mmse,
                 },
                 pos: [x as f64 / 100.0, y as f64 / 100.0],
                 alpha: alpha_x100 as f64 / 100.0,
@@ -170,7 +174,7 @@ pub fn table(rows: &[FixRow], stops: usize) -> Vec<Stat> {
 /// The table as text: stop, truth, estimator, fixes, RMSE, bias x and y, max error.
 pub fn table_text(stats: &[Stat], s: &Scenario) -> String {
     let mut t = format!(
-        "{:<5} {:>13} {:>6} {:<9} {:>5} {:>8} {:>8} {:>8} {:>7}\n",
+        "{:<5} {:>13} {:>6} {:<10} {:>5} {:>8} {:>8} {:>8} {:>7}\n",
         "stop", "truth (m)", "orient", "est", "fixes", "RMSE m", "bias x", "bias y", "max m"
     );
     for st in stats {
@@ -188,7 +192,7 @@ pub fn table_text(stats: &[Stat], s: &Scenario) -> String {
         };
         if st.n == 0 {
             t += &format!(
-                "{stop:<5} {truth:>13} {orient:>6} {:<9} {:>5} {:>8} {:>8} {:>8} {:>7}\n",
+                "{stop:<5} {truth:>13} {orient:>6} {:<10} {:>5} {:>8} {:>8} {:>8} {:>7}\n",
                 name(st.estimator),
                 0,
                 "-",
@@ -198,7 +202,7 @@ pub fn table_text(stats: &[Stat], s: &Scenario) -> String {
             );
         } else {
             t += &format!(
-                "{stop:<5} {truth:>13} {orient:>6} {:<9} {:>5} {:>8.3} {:>+8.3} {:>+8.3} {:>7.3}\n",
+                "{stop:<5} {truth:>13} {orient:>6} {:<10} {:>5} {:>8.3} {:>+8.3} {:>+8.3} {:>7.3}\n",
                 name(st.estimator),
                 st.n,
                 st.rmse,
@@ -431,6 +435,7 @@ where
         RGBColor(31, 119, 180),
         RGBColor(214, 39, 40),
         RGBColor(44, 160, 44),
+        RGBColor(148, 103, 189),
     ];
     for (e, c) in algos(rows).into_iter().zip(colors) {
         chart

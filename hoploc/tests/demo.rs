@@ -112,12 +112,14 @@ fn a_scenario_run_prints_its_table_and_writes_plots() {
             .unwrap_or_else(|| panic!("no {stop} {est} row:\n{stdout}"))
             .to_string()
     };
-    // The host's fixed-parameter reference is named as not coming from the sink.
-    assert!(
-        stdout.contains("MLE-fixed: the host's reference, not a sink line"),
-        "{stdout}"
-    );
-    for est in ["MLE", "MMSE", "MLE-fixed"] {
+    // The host's references are named as not coming from the sink.
+    for est in ["MLE-fixed", "MLE-P0only"] {
+        assert!(
+            stdout.contains(&format!("{est}: the host's reference, not a sink line")),
+            "{stdout}"
+        );
+    }
+    for est in ["MLE", "MMSE", "MLE-fixed", "MLE-P0only"] {
         for stop in ["1", "all"] {
             let r = row(stop, est);
             let w: Vec<&str> = r.split_whitespace().collect();

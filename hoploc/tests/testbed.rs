@@ -3,9 +3,15 @@
 
 use hoploc::firmware;
 use hoploc::scenario::{self, Scenario};
-use hoploc::testbed::{RunConfig, SinkSource, Testbed};
+use hoploc::testbed::{self, RunConfig, SinkSource, Testbed, SERIAL_BASE};
+use loc_proto::config::Config;
 use loc_proto::line::BootLine;
+use loc_proto::schedule::Schedule;
 use loc_proto::sink_line::{Estimator, SinkLine};
+use loc_proto::Role;
+use simavr::medium::Medium;
+use simavr::ms_to_cycles;
+use simavr::network::{Network, NetworkConfig};
 
 /// room10 with a noise-free medium and two short stops.
 fn quiet_room10() -> Scenario {
@@ -40,7 +46,7 @@ fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step(
     // After the warm-up: one report per superframe, each giving an MLE and an MMSE fix.
     let after: Vec<_> = obs
         .iter()
-        .filter(|o| o.time_s >= s.timing.warmup_s && !o.reference)
+        .filter(|o| o.time_s >= s.timing.warmup_s && o.reference.is_none())
         .collect();
     let mle: Vec<(u16, f64)> = after
         .iter()
@@ -81,7 +87,7 @@ fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step(
         after.iter().all(|o| matches!(o.line, SinkLine::Fix { .. })),
         "a nofix"
     );
-    // Every settled fix (the sink's two and the host's fixed-parameter reference) within one
+    // Every settled fix (the sink's two and the host's two references) within one
     // fine grid step (2 % of the 10 m side) of the truth in x and in y: the truth's lattice
     // point or a neighbour of it. (Not closer: the sink fits α and P0 from the anchors'
     // integer-dBm RSSI at only two distances, 10 m and 14.1 m, so its model is off by a few
@@ -101,13 +107,14 @@ fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step(
             ex.abs() <= step + 1e-9 && ey.abs() <= step + 1e-9,
             "{o:?}: ({ex:.3}, {ey:.3}) m off"
         );
-        if o.reference {
+        if o.reference.is_some() {
             references += 1;
         } else {
             settled += 1;
         }
     }
-    assert_eq!(2 * references, settled, "one reference per report");
+    // Two references per report (MLE-fixed, MLE-P0only) to the sink's two lines.
+    assert_eq!(references, settled, "two references per report");
     // Both stops, each but its first superframes (two lines per report).
     let per_stop = (4.0 / sf) as usize;
     assert!(settled >= 2 * 2 * (per_stop - 3), "{settled} settled lines");
@@ -115,6 +122,107 @@ fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step(
     let c = tb.host_counters().unwrap();
     assert_eq!(c.drops, 0);
     assert_eq!(c.checksum_errors + c.foreign, 0);
+    // The TX log after the warm-up: every beacon delivered to the agent, every report to the
+    // sink, no collision, every slot of every whole superframe used once, and the anchors
+    // within the guard time (3 ms) of one timeline.
+    let t = tb.traffic(s.timing.warmup_s).unwrap();
+    let superframes = ((s.duration_s() - s.timing.warmup_s) / sf).round() as usize;
+    assert!(t.superframes + 2 >= superframes, "{t:?}");
+    assert_eq!(t.beacons, t.beacons_delivered, "{t:?}");
+    assert!(t.beacons >= 8 * t.superframes, "{t:?}");
+    // One report per MLE fix line after the warm-up (± the one at the boundary).
+    assert_eq!(t.reports, t.reports_delivered, "{t:?}");
+    assert!(
+        t.reports.abs_diff(mle.len()) <= 1,
+        "{t:?}, {} MLE fixes",
+        mle.len()
+    );
+    assert_eq!(
+        t.collisions + t.missing_slots + t.duplicate_slots,
+        0,
+        "{t:?}"
+    );
+    assert!(t.worst_spread_us < 3000.0, "{t:?}");
+}
+
+/// Two room10 testbeds on disjoint channels (1, 12 sink 3; 2, 13 sink 4) in one medium, 12 m
+/// apart, each with its host sink: each testbed's traffic is whole, the other's ignored.
+#[test]
+fn two_testbeds_on_disjoint_channels_share_a_medium() {
+    let s = quiet_room10();
+    let dir = firmware::default_dir();
+    firmware::ensure_built(&dir).unwrap();
+    let mut net = Network::with_config(
+        Medium::new(s.medium_config()),
+        NetworkConfig {
+            threads: 2,
+            ..NetworkConfig::default()
+        },
+    );
+    let mut other = s.clone();
+    other.timing.channels = vec![2, 13];
+    other.timing.sink_channel = 4;
+    let a = testbed::add_scenario(
+        &mut net,
+        &s,
+        &dir,
+        SinkSource::Host,
+        [0.0, 0.0],
+        SERIAL_BASE,
+    )
+    .unwrap();
+    let b = testbed::add_scenario(
+        &mut net,
+        &other,
+        &dir,
+        SinkSource::Host,
+        [12.0, 0.0],
+        SERIAL_BASE + 0x100,
+    )
+    .unwrap();
+    assert_eq!(net.len(), 12);
+    assert_eq!(
+        b.anchors[0],
+        a.sink + 1,
+        "nodes in order: anchors, agent, sink"
+    );
+    assert_eq!(net.medium().node(b.agent).position, [17.0, 5.0]);
+    net.run_for_ms(14_000.0);
+    let warmup = ms_to_cycles(8_000.0);
+    let mut totals = Vec::new();
+    for (nodes, sc) in [(&a, &s), (&b, &other)] {
+        let c =
+            Config::from_bytes(&testbed::eeprom(sc, Role::Agent, 1, Default::default()).unwrap())
+                .unwrap();
+        let sched = Schedule::for_config(&c).unwrap();
+        let t = testbed::traffic(
+            net.log(),
+            &nodes.anchors,
+            nodes.agent,
+            nodes.sink,
+            &sched,
+            &sc.timing.channels,
+            warmup,
+        );
+        // 6 s of 200 ms superframes: 30, the first and last partial.
+        assert!(t.superframes >= 27, "{t:?}");
+        assert_eq!(t.beacons, t.beacons_delivered, "{t:?}");
+        assert_eq!(t.reports, t.reports_delivered, "{t:?}");
+        assert!(t.reports >= 28, "{t:?}");
+        assert_eq!(
+            t.collisions + t.missing_slots + t.duplicate_slots,
+            0,
+            "{t:?}"
+        );
+        totals.push(t.beacons + t.reports);
+    }
+    // Every packet after the warm-up is one of the two testbeds'.
+    let after = net
+        .log()
+        .iter()
+        .filter(|r| r.tx.start_cycle >= warmup)
+        .count();
+    assert_eq!(after, totals[0] + totals[1]);
 }
 
 #[test]
@@ -134,7 +242,7 @@ fn with_an_anchor_gone_the_fixes_go_on_from_three() {
         obs.extend(tb.step(1.0));
     }
     let mle = |o: &&hoploc::testbed::Observed| {
-        !o.reference
+        o.reference.is_none()
             && matches!(
                 o.line,
                 SinkLine::Fix {
@@ -219,7 +327,7 @@ fn uart_noise_is_counted_and_the_fixes_go_on() {
     let fixes = obs
         .iter()
         .filter(|o| {
-            !o.reference
+            o.reference.is_none()
                 && o.time_s >= s.timing.warmup_s
                 && matches!(
                     o.line,
@@ -265,7 +373,7 @@ fn with_anchor_1_gone_anchor_2_takes_over_and_the_fixes_go_on() {
     let after: Vec<_> = obs
         .iter()
         .filter(|o| {
-            !o.reference
+            o.reference.is_none()
                 && o.time_s > killed
                 && matches!(
                     o.line,
