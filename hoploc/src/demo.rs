@@ -465,12 +465,7 @@ pub fn run(args: &Args) -> Result<(), String> {
             args.sink.describe()
         ),
     )?;
-    let mut log = String::new();
-    for o in obs.iter().filter(|o| o.reference.is_none()) {
-        let mut bytes = Vec::new();
-        o.line.write(|b| bytes.push(b));
-        log += &String::from_utf8_lossy(&bytes);
-    }
+    let log = tb.sink_log().to_string();
     write("sink.log", log)?;
     println!("\nwritten:");
     for f in files {

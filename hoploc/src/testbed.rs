@@ -23,7 +23,7 @@ use loc_core::Area;
 use loc_proto::config::Config;
 use loc_proto::msg::{Beacon, ChannelList, Position, Report};
 use loc_proto::schedule::Schedule;
-use loc_proto::sink_line::{Estimator, SinkLine, FLAG_FITTED};
+use loc_proto::sink_line::{Estimator, RawReport, SinkLine, SinkOutput, FLAG_FITTED};
 use loc_proto::Role;
 use simavr::medium::{Medium, NodeRadio};
 use simavr::network::{Network, NetworkConfig, NodeId, NodeSpec, Outcome, TxRecord};
@@ -136,6 +136,9 @@ pub struct Testbed {
     stop_start_s: Vec<f64>,
     stop: usize,
     superframe_s: f64,
+    /// The sink's output as `hoploc monitor --log` would save it (every sink line, `report`
+    /// lines included), with `# truth X Y` lines where the agent moved: `hoploc replay` input.
+    log: String,
 }
 
 /// Simulated time `s` seconds in cycles.
@@ -355,7 +358,9 @@ impl Testbed {
             t += stop.dwell_s;
             stop_start_s.push(t);
         }
+        let first = s.agent.path[0].position;
         Ok(Testbed {
+            log: truth_line(first),
             superframe_s: superframe_s(&s)?,
             scenario: s,
             net,
@@ -461,9 +466,17 @@ impl Testbed {
                 let node = self.net.medium_mut().node_mut(self.agent);
                 node.position = stop.position;
                 node.orientation_deg = stop.orientation_deg.unwrap_or(default_deg);
+                self.log += &truth_line(stop.position);
             }
         }
         out
+    }
+
+    /// The sink's log so far: every sink line as written (the host sink writes the same lines
+    /// as the firmware: a `report` line, then the fix lines), with `# truth X Y` lines (metres)
+    /// at the start and at every move of the agent, so `hoploc replay` can score it.
+    pub fn sink_log(&self) -> &str {
+        &self.log
     }
 
     /// The sink lines written since the last call, with their truth.
@@ -496,9 +509,14 @@ impl Testbed {
                     }
                 };
                 h.reports.push((ms / 1000.0, r));
-                match h.sink.on_report(&r) {
-                    Ok(fix) => lines.extend(fix.lines().map(|l| (ms, l, None))),
-                    Err(e) => lines.push((ms, sink_fw::no_fix_line(r.agent, r.seq, e), None)),
+                RawReport::write(data, |b| self.log.push(b as char));
+                let written = match h.sink.on_report(&r) {
+                    Ok(fix) => fix.lines().to_vec(),
+                    Err(e) => vec![sink_fw::no_fix_line(r.agent, r.seq, e)],
+                };
+                for l in written {
+                    l.write(|b| self.log.push(b as char));
+                    lines.push((ms, l, None));
                 }
                 let (model, area) = h.fixed;
                 let (_, obs) = sink_fw::report_inputs(&r);
@@ -523,9 +541,13 @@ impl Testbed {
         if let Some((node, seen)) = &mut self.fw_sink {
             let all = self.net.lines(*node);
             for l in &all[*seen..] {
-                if let Ok(line) = SinkLine::parse(&l.text) {
-                    lines.push((l.ms(), line, None));
+                match SinkOutput::parse(&l.text) {
+                    Ok(SinkOutput::Line(line)) => lines.push((l.ms(), line, None)),
+                    Ok(SinkOutput::Report(_)) => {}
+                    Err(_) => continue,
                 }
+                self.log += &l.text;
+                self.log += "\r\n";
             }
             *seen = all.len();
         }
@@ -547,6 +569,11 @@ impl Testbed {
     fn stop_at(&self, t: f64) -> usize {
         self.stop_start_s.iter().rposition(|&s| s <= t).unwrap_or(0)
     }
+}
+
+/// The log annotation `hoploc replay` reads: the agent is at `p` (metres) from here on.
+fn truth_line(p: [f64; 2]) -> String {
+    format!("# truth {} {}\n", p[0], p[1])
 }
 
 /// One anchor's beacon as the TX log shows it.

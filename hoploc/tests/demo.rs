@@ -151,12 +151,38 @@ fn a_scenario_run_prints_its_table_and_writes_plots() {
             _ => {}
         }
     }
-    // The sink's log holds its lines as the firmware would write them: they parse.
+    // The sink's log holds its lines as the firmware would write them (a report line, then
+    // the report's fix lines), and `# truth` lines where the agent moved: it replays.
     let log = std::fs::read_to_string(dir.join("sink.log")).unwrap();
-    assert!(log.lines().count() >= 2 * 30);
+    assert!(log.lines().count() >= 3 * 30);
+    let mut kinds = [0usize; 3];
     for l in log.lines() {
-        loc_proto::sink_line::SinkLine::parse(l).unwrap_or_else(|e| panic!("{l}: {e:?}"));
+        if l.starts_with("# truth ") {
+            kinds[0] += 1;
+            continue;
+        }
+        match loc_proto::sink_line::SinkOutput::parse(l) {
+            Ok(loc_proto::sink_line::SinkOutput::Report(_)) => kinds[1] += 1,
+            Ok(_) => kinds[2] += 1,
+            Err(e) => panic!("{l}: {e:?}"),
+        }
     }
+    assert!(
+        kinds[0] >= 1 && kinds[2] >= 2 * kinds[1] && kinds[1] >= 30,
+        "{kinds:?}"
+    );
+    let replay = Command::new(env!("CARGO_BIN_EXE_hoploc"))
+        .arg("replay")
+        .arg(dir.join("sink.log"))
+        .output()
+        .expect("run hoploc replay");
+    let text = String::from_utf8_lossy(&replay.stdout);
+    assert!(replay.status.success(), "{text}");
+    assert!(
+        text.contains(&format!("{} reports (0 unreadable)", kinds[1])),
+        "{text}"
+    );
+    assert!(text.contains("sink MLE") && text.contains("MDS"), "{text}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

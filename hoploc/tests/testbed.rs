@@ -143,6 +143,49 @@ fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step(
         "{t:?}"
     );
     assert!(t.worst_spread_us < 3000.0, "{t:?}");
+    // The sink's log replays: a report line per report, the sink's own fixes under the truth
+    // of their time, and the host's f64 MLE (the reference of the sink's fixed-point path) on
+    // the same lattice point as the sink's MLE for nearly every report.
+    let mut r = hoploc::replay::Replay::new(None, None);
+    for line in tb.sink_log().lines() {
+        r.feed(line);
+    }
+    let all_mle = obs
+        .iter()
+        .filter(|o| {
+            o.reference.is_none()
+                && matches!(
+                    o.line,
+                    SinkLine::Fix {
+                        estimator: Estimator::Mle,
+                        ..
+                    }
+                )
+        })
+        .count();
+    assert_eq!(r.counts.reports, all_mle, "{:?}", r.counts);
+    assert_eq!(r.counts.fixes, 2 * all_mle, "{:?}", r.counts);
+    assert_eq!(r.counts.damaged + r.counts.bad_reports, 0, "{:?}", r.counts);
+    let (mut same, mut total) = (0, 0);
+    for stop in &s.agent.path {
+        let k = hoploc::tally::truth_key(Some(loc_core::Point::new(
+            stop.position[0],
+            stop.position[1],
+        )));
+        let (sink, host) = (
+            r.tally.get(k, "sink MLE").unwrap(),
+            r.tally.get(k, "MLE").unwrap(),
+        );
+        assert_eq!(sink.len(), host.len());
+        for (a, b) in sink.fixes.iter().zip(&host.fixes) {
+            total += 1;
+            same += usize::from(a.dist(*b) <= 0.01);
+        }
+    }
+    assert!(
+        same * 100 >= 99 * total,
+        "{same} of {total} sink MLE fixes = host f64 MLE"
+    );
 }
 
 /// Two room10 testbeds on disjoint channels (1, 12 sink 3; 2, 13 sink 4) in one medium, 12 m
