@@ -156,14 +156,20 @@ impl Fix {
             agent: self.agent,
             seq: self.seq,
             estimator,
-            x: ((e.pos.x + 5) / 10).min(i16::MAX as u32) as i16,
-            y: ((e.pos.y + 5) / 10).min(i16::MAX as u32) as i16,
+            x: cm(e.pos.x),
+            y: cm(e.pos.y),
             alpha_x100: centi(self.model.alpha.max(0), 24) as u16,
             p0_x100: centi(self.model.p0, 16) as i16,
             anchors: e.anchors,
             flags: if self.fitted { FLAG_FITTED } else { 0 },
         }
     }
+}
+
+/// Millimetres as whole centimetres, rounded (half up), saturating at `i16::MAX`.
+#[inline(never)]
+fn cm(mm: u32) -> i16 {
+    (mm.saturating_add(5) / 10).min(i16::MAX as u32) as i16
 }
 
 /// `v·100 / 2^q` rounded (half up), `q ≥ 8`, for `|v| ≤ 2^30`: `(v·100 + 2^(q−1)) >> q` in 32

@@ -1,6 +1,6 @@
 //! Channel refinements on RSSI bytes ([`crate::refine`] in fixed point).
 
-use super::math::{log2_u32, log2_u33, log2_u64, mul_shr};
+use super::math::{log2_u32, log2_u33, log2_u64, m8, mul_shr};
 use super::tables::{decade, decibel};
 use super::{ChannelBytes, Measurements, PointCm, DB};
 use crate::refine::Refinement;
@@ -197,23 +197,31 @@ fn spread(rssi: &[Option<u8>]) -> u32 {
 /// report. `None` if no channel was heard.
 #[inline(never)]
 pub fn extended(bytes: &[u8]) -> Option<(i32, u8, u32)> {
-    let (mut s, mut s2, mut n) = (0u32, 0u32, 0u32);
+    let (mut s, mut s2, mut n) = (0u16, 0u32, 0u8);
     for &b in &bytes[..bytes.len().min(MAX_CHANNELS)] {
         if b != 0 {
-            s += b as u32;
-            s2 += b as u32 * b as u32;
+            s += b as u16;
+            s2 += m8(b, b) as u32;
             n += 1;
         }
     }
     if n == 0 {
         return None;
     }
-    // s ≤ 4·255 < 2^15 (db_mean's usual case); n·Σb² < 4·4·65025 < 2^24.
+    // s ≤ 4·255 < 2^15 (db_mean's usual case); n·Σb² < 4·4·65025 < 2^24. `div_count`'s
+    // shortcuts for 1, 2 and 4 give what the plain rounding division gives.
+    let (s, n32) = (s as u32, n as u32);
     Some((
-        -(div_count(s << 16, n) as i32),
-        n as u8,
-        div_count((n * s2 - s * s) << 8, n),
+        -(div_round(s << 16, n32) as i32),
+        n,
+        div_round((n32 * s2 - s * s) << 8, n32),
     ))
+}
+
+/// `num / d` rounded half up, `d ≥ 1` (one copy for both of [`extended`]'s divisions).
+#[inline(never)]
+fn div_round(num: u32, d: u32) -> u32 {
+    (num + d / 2) / d
 }
 
 /// Observations of anchors at `anchors` with the agent's bytes `rssi` (same order; the shorter
