@@ -11,7 +11,6 @@ use std::time::Instant;
 use hoploc::firmware;
 use hoploc::scenario::{self, Scenario};
 use hoploc::testbed::{RunConfig, SinkSource, Testbed};
-use loc_proto::sink_line::{Estimator, SinkLine};
 
 fn main() {
     let cap: Option<f64> = std::env::var("HOPLOC_BENCH_SECONDS")
@@ -48,17 +47,7 @@ fn main() {
                 fixes += tb
                     .step(1.0)
                     .iter()
-                    .filter(|o| {
-                        o.reference.is_none()
-                            && o.time_s >= s.timing.warmup_s
-                            && matches!(
-                                o.line,
-                                SinkLine::Fix {
-                                    estimator: Estimator::Mle,
-                                    ..
-                                }
-                            )
-                    })
+                    .filter(|o| o.is_sink_mle() && o.time_s >= s.timing.warmup_s)
                     .count();
             }
             let wall = t0.elapsed().as_secs_f64();

@@ -31,7 +31,6 @@ use hoploc::scenario::{self, Scenario};
 use hoploc::testbed::{self, RunConfig, SinkSource, Testbed, Traffic};
 use loc_proto::config::Config;
 use loc_proto::schedule::{beacon_latency_us, Schedule};
-use loc_proto::sink_line::{Estimator, SinkLine};
 use loc_proto::Role;
 
 /// One slot length's run.
@@ -127,17 +126,7 @@ fn main() {
             fixes += tb
                 .step(1.0)
                 .iter()
-                .filter(|o| {
-                    o.reference.is_none()
-                        && o.time_s >= s.timing.warmup_s
-                        && matches!(
-                            o.line,
-                            SinkLine::Fix {
-                                estimator: Estimator::Mle,
-                                ..
-                            }
-                        )
-                })
+                .filter(|o| o.is_sink_mle() && o.time_s >= s.timing.warmup_s)
                 .count();
         }
         let row = Row {

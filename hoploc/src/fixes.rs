@@ -241,19 +241,9 @@ pub fn csv(rows: &[FixRow]) -> String {
     t
 }
 
-/// Colour of stop `i`.
+/// Colour of stop `i` (the plots' one palette).
 fn stop_color(i: usize) -> RGBColor {
-    const C: [RGBColor; 8] = [
-        RGBColor(31, 119, 180),
-        RGBColor(214, 39, 40),
-        RGBColor(44, 160, 44),
-        RGBColor(148, 103, 189),
-        RGBColor(255, 127, 14),
-        RGBColor(23, 190, 207),
-        RGBColor(140, 86, 75),
-        RGBColor(227, 119, 194),
-    ];
-    C[i % C.len()]
+    crate::tally::color(i)
 }
 
 /// Writes `fixes.svg/png` (per estimator: the settled fixes around each stop's truth, the

@@ -172,8 +172,8 @@ impl Tally {
     }
 }
 
-/// A colour per algorithm (by legend position).
-fn color(k: usize) -> RGBColor {
+/// A colour per algorithm or stop (by legend position): the plots' one palette.
+pub(crate) fn color(k: usize) -> RGBColor {
     const C: [RGBColor; 10] = [
         RGBColor(31, 119, 180),
         RGBColor(214, 39, 40),

@@ -75,6 +75,21 @@ pub struct Observed {
     pub reference: Option<Reference>,
 }
 
+impl Observed {
+    /// Whether this is the sink's own MLE `fix` line (one per located report), not a host
+    /// reference.
+    pub fn is_sink_mle(&self) -> bool {
+        self.reference.is_none()
+            && matches!(
+                self.line,
+                SinkLine::Fix {
+                    estimator: Estimator::Mle,
+                    ..
+                }
+            )
+    }
+}
+
 /// The host's reference fixes of each report the host sink receives: other ways the same
 /// report could have been located, next to the sink's.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -369,17 +369,7 @@ fn uart_noise_is_counted_and_the_fixes_go_on() {
     let c = tb.host_counters().unwrap();
     let fixes = obs
         .iter()
-        .filter(|o| {
-            o.reference.is_none()
-                && o.time_s >= s.timing.warmup_s
-                && matches!(
-                    o.line,
-                    SinkLine::Fix {
-                        estimator: Estimator::Mle,
-                        ..
-                    }
-                )
-        })
+        .filter(|o| o.is_sink_mle() && o.time_s >= s.timing.warmup_s)
         .count();
     let superframes = (s.duration_s() - s.timing.warmup_s) / sf;
     eprintln!(
