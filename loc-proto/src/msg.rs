@@ -507,6 +507,128 @@ impl Report {
     }
 }
 
+/// A report checked in place: what [`Report::decode`] accepts (the same errors, the same
+/// order), its fields read from the bytes on demand. A sink needs only a few of a report's
+/// bytes once each; decoding into the 330-byte [`Report`] costs flash and stack on the AVR.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReportView<'a> {
+    buf: &'a [u8],
+    /// N (3…8), C (1…4).
+    n: u8,
+    c: u8,
+    has_relay: bool,
+}
+
+impl<'a> ReportView<'a> {
+    /// Checks that `buf` (all of it) is a report, as [`Report::decode`] does.
+    pub fn parse(buf: &'a [u8]) -> Result<ReportView<'a>, Error> {
+        let (kind, mut r) = open(buf)?;
+        if kind != KIND_REPORT {
+            return Err(Error::BadKind { found: kind });
+        }
+        let agent = r.u8()?;
+        r.u16()?;
+        let anchors = r.u8()?;
+        let cf = r.u8()?;
+        if cf & !(RELAY_FLAG | 0x07) != 0 {
+            return Err(bad(Field::Flags));
+        }
+        let c = (cf & 0x07) as usize;
+        if !(1..=MAX_CHANNELS).contains(&c) {
+            return Err(bad(Field::ChannelCount));
+        }
+        let mut list = [0; MAX_CHANNELS];
+        for ch in &mut list[..c] {
+            *ch = r.u8()?;
+        }
+        ChannelList::new(&list[..c])?;
+        if agent == 0 {
+            return Err(bad(Field::AgentId));
+        }
+        if !(3..=MAX_ANCHORS as u8).contains(&anchors) {
+            return Err(bad(Field::Anchors));
+        }
+        let has_relay = cf & RELAY_FLAG != 0;
+        // Every field left is a byte string of fixed length: too few or too many bytes is all
+        // that can be wrong with them.
+        if buf.len() != Report::wire_size(anchors as usize, c, has_relay) {
+            return Err(Error::BadLength);
+        }
+        Ok(ReportView {
+            buf,
+            n: anchors,
+            c: c as u8,
+            has_relay,
+        })
+    }
+
+    fn at(&self, i: usize) -> u8 {
+        self.buf.get(i).copied().unwrap_or(0)
+    }
+
+    /// The report's bytes.
+    pub fn bytes(&self) -> &'a [u8] {
+        self.buf
+    }
+
+    /// The reporting agent.
+    pub fn agent(&self) -> u8 {
+        self.at(4)
+    }
+
+    /// The superframe sequence number.
+    pub fn seq(&self) -> u16 {
+        u16::from_le_bytes([self.at(5), self.at(6)])
+    }
+
+    /// N, the number of anchors.
+    pub fn anchors(&self) -> usize {
+        self.n as usize
+    }
+
+    /// C, the number of channels.
+    pub fn channels(&self) -> usize {
+        self.c as usize
+    }
+
+    /// Whether the relay matrix was sent.
+    pub fn has_relay(&self) -> bool {
+        self.has_relay
+    }
+
+    /// Offset of anchor 0's position.
+    fn positions_at(&self) -> usize {
+        9 + self.channels()
+    }
+
+    /// Anchor `i + 1`'s position ([`Report::positions`]).
+    pub fn position(&self, i: usize) -> Position {
+        let at = self.positions_at() + 4 * i;
+        Position {
+            x: i16::from_le_bytes([self.at(at), self.at(at + 1)]),
+            y: i16::from_le_bytes([self.at(at + 2), self.at(at + 3)]),
+        }
+    }
+
+    /// The RSSI byte of anchor `i + 1`'s beacon on channel number `c` ([`Report::rssi`]).
+    pub fn rssi(&self, c: usize, i: usize) -> u8 {
+        let n = self.anchors();
+        self.at(self.positions_at() + 4 * n + c * n + i)
+    }
+
+    /// What anchor `i + 1` relayed on channel number `c` as heard from anchor `j + 1`
+    /// ([`Report::relay`]): 0 on the diagonal and without the relay matrix.
+    pub fn relay(&self, c: usize, i: usize, j: usize) -> u8 {
+        if !self.has_relay || i == j {
+            return 0;
+        }
+        let n = self.anchors();
+        let m = n - 1;
+        let at = self.positions_at() + 4 * n + self.channels() * n;
+        self.at(at + (c * n + i) * m + j - usize::from(j > i))
+    }
+}
+
 /// Any hoploc radio message, told apart by its kind byte.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[allow(clippy::large_enum_variant)] // no_std, no alloc: nothing to box into

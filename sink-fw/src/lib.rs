@@ -27,7 +27,7 @@ use loc_core::fixed::{
     Estimate, FitMethod, LocError, Measurements, Obs, Observations, OnlineParams, ParamMode,
     PathLoss, PointCm, Refinement, TermKernel,
 };
-use loc_proto::msg::{Position, Report};
+use loc_proto::msg::{Position, Report, ReportView};
 use loc_proto::sink_line::{Estimator, SinkLine, FLAG_FITTED};
 use loc_proto::Error;
 
@@ -56,6 +56,79 @@ pub fn measurements(r: &Report) -> Measurements {
         }
     }
     m
+}
+
+/// What [`Sink::on_report`] reads of a report: a decoded [`Report`] (host, tests) or a
+/// [`ReportView`] over its bytes (the firmware: no 330-byte copy).
+pub trait ReportData {
+    /// The reporting agent.
+    fn agent(&self) -> u8;
+    /// The superframe sequence number.
+    fn seq(&self) -> u16;
+    /// The anchors in use, at most [`loc_core::MAX_ANCHORS`].
+    fn anchors(&self) -> usize;
+    /// The channels in use, at most [`loc_core::MAX_CHANNELS`].
+    fn channels(&self) -> usize;
+    /// Anchor `i + 1`'s position.
+    fn position(&self, i: usize) -> PointCm;
+    /// The RSSI byte of anchor `i + 1`'s beacon on channel number `c`.
+    fn rssi(&self, c: usize, i: usize) -> u8;
+    /// The relayed byte anchor `i + 1` heard from `j + 1` on channel number `c`, 0 without the
+    /// relay matrix.
+    fn relay(&self, c: usize, i: usize, j: usize) -> u8;
+}
+
+impl ReportData for Report {
+    fn agent(&self) -> u8 {
+        self.agent
+    }
+    fn seq(&self) -> u16 {
+        self.seq
+    }
+    fn anchors(&self) -> usize {
+        (self.anchors as usize).min(loc_core::MAX_ANCHORS)
+    }
+    fn channels(&self) -> usize {
+        self.channels.len().min(loc_core::MAX_CHANNELS)
+    }
+    fn position(&self, i: usize) -> PointCm {
+        PointCm::new(self.positions[i].x, self.positions[i].y)
+    }
+    fn rssi(&self, c: usize, i: usize) -> u8 {
+        self.rssi[c][i]
+    }
+    fn relay(&self, c: usize, i: usize, j: usize) -> u8 {
+        if self.has_relay {
+            self.relay[c][i][j]
+        } else {
+            0
+        }
+    }
+}
+
+impl ReportData for ReportView<'_> {
+    fn agent(&self) -> u8 {
+        ReportView::agent(self)
+    }
+    fn seq(&self) -> u16 {
+        ReportView::seq(self)
+    }
+    fn anchors(&self) -> usize {
+        ReportView::anchors(self).min(loc_core::MAX_ANCHORS)
+    }
+    fn channels(&self) -> usize {
+        ReportView::channels(self).min(loc_core::MAX_CHANNELS)
+    }
+    fn position(&self, i: usize) -> PointCm {
+        let p = ReportView::position(self, i);
+        PointCm::new(p.x, p.y)
+    }
+    fn rssi(&self, c: usize, i: usize) -> u8 {
+        ReportView::rssi(self, c, i)
+    }
+    fn relay(&self, c: usize, i: usize, j: usize) -> u8 {
+        ReportView::relay(self, c, i, j)
+    }
 }
 
 /// Most agents a sink tracks (report sequence numbers for the drop count).
@@ -259,17 +332,17 @@ impl<K: TermKernel> Sink<K> {
     /// A decoded report: as [`Sink::on_measurements`] of its [`measurements`] (the same
     /// result, `tests` checks), with the calibration statistics and the observations taken
     /// straight from the report's bytes.
-    pub fn on_report(&mut self, r: &Report) -> Result<Fix, LocError> {
+    pub fn on_report(&mut self, r: &impl ReportData) -> Result<Fix, LocError> {
         let (stats, obs) = report_inputs(r);
         let area = self.area.unwrap_or_else(|| {
-            let n = (r.anchors as usize).min(loc_core::MAX_ANCHORS);
+            let n = r.anchors();
             let mut pos = [PointCm::default(); loc_core::MAX_ANCHORS];
-            for (p, q) in pos.iter_mut().zip(&r.positions[..n]) {
-                *p = PointCm::new(q.x, q.y);
+            for (i, p) in pos[..n].iter_mut().enumerate() {
+                *p = r.position(i);
             }
             anchors_box(&pos[..n])
         });
-        self.locate(r.agent, r.seq, area, &stats, &obs)
+        self.locate(r.agent(), r.seq(), area, &stats, &obs)
     }
 
     /// Agent `agent`'s report of superframe `seq`, as measurements: fit, smooth, locate.
@@ -349,35 +422,33 @@ impl<K: TermKernel> Sink<K> {
 /// [`CalStats::from_measurements`] of [`measurements`]) and the agent's observations under the
 /// Extended refinement (as [`observations`]).
 #[inline(never)]
-pub fn report_inputs(r: &Report) -> (CalStats, Observations) {
-    let n = (r.anchors as usize).min(loc_core::MAX_ANCHORS);
-    let c = r.channels.len().min(loc_core::MAX_CHANNELS);
+pub fn report_inputs(r: &impl ReportData) -> (CalStats, Observations) {
+    let n = r.anchors();
+    let c = r.channels();
     let heard = |b: u8| (b != 0).then_some(b);
-    let pos = |i: usize| PointCm::new(r.positions[i].x, r.positions[i].y);
     let mut stats = CalStats::new();
-    if r.has_relay {
-        for i in 0..n {
-            for j in i + 1..n {
-                let mut bytes = [None; 2 * loc_core::MAX_CHANNELS];
-                for ch in 0..c {
-                    bytes[ch] = heard(r.relay[ch][i][j]);
-                    bytes[loc_core::MAX_CHANNELS + ch] = heard(r.relay[ch][j][i]);
-                }
-                stats.push_pair(pos(i), pos(j), &bytes);
+    // Without the relay matrix every byte is 0 (not heard): no samples.
+    for i in 0..n {
+        for j in i + 1..n {
+            let mut bytes = [None; 2 * loc_core::MAX_CHANNELS];
+            for ch in 0..c {
+                bytes[ch] = heard(r.relay(ch, i, j));
+                bytes[loc_core::MAX_CHANNELS + ch] = heard(r.relay(ch, j, i));
             }
+            stats.push_pair(r.position(i), r.position(j), &bytes);
         }
     }
     // The Extended refinement of each anchor's bytes (0 = not heard), as `observations_of`.
     let mut obs = Observations::new();
     for i in 0..n {
         let mut bytes = [0u8; loc_core::MAX_CHANNELS];
-        for (v, row) in bytes.iter_mut().zip(&r.rssi[..c]) {
-            *v = row[i];
+        for (ch, v) in bytes[..c].iter_mut().enumerate() {
+            *v = r.rssi(ch, i);
         }
         if let Some((z, weight, spread)) = extended(&bytes) {
             obs.const_cost = obs.const_cost.saturating_add(spread);
             obs.push(Obs {
-                pos: pos(i),
+                pos: r.position(i),
                 z,
                 weight,
             });

@@ -61,7 +61,7 @@ fn run(
     mut watchdog: uno_board::Watchdog,
     config: &loc_proto::config::Config,
 ) -> ! {
-    use loc_proto::msg::Report;
+    use loc_proto::msg::ReportView;
     use sink_fw::{BadFrame, Sink};
     use uno_board::node::{self, Event};
     use uno_board::{now_ms, rx_pending, sleep_unless, AvrTerm};
@@ -69,30 +69,27 @@ fn run(
     let mut sink = Sink::<AvrTerm>::new(sink_fw::room(config.position));
     let mut last_status = now_ms();
     let mut uptime_s = 0u32;
-    // The report's bytes as received, for its `report` line.
-    let mut raw = [0u8; loc_proto::msg::MAX_PAYLOAD];
-    let mut raw_len = 0;
+    // A packet's bytes (the radio's buffer is lent only while polling): the report is read in
+    // place from here and written as its `report` line. RX16 data always fits.
+    let mut raw = [0u8; xbee_api::MAX_FRAME_DATA];
     loop {
         watchdog.feed();
         while let Some(got) = node::poll(&mut radio, |ev| match ev {
             Event::Packet { data, .. } => {
-                let decoded = Report::decode(data).map_err(BadFrame::of);
-                if decoded.is_ok() {
-                    // A report fits the radio payload, so `data` fits `raw`.
-                    raw_len = data.len().min(raw.len());
-                    raw[..raw_len].copy_from_slice(&data[..raw_len]);
-                }
-                Some(decoded)
+                let len = data.len().min(raw.len());
+                raw[..len].copy_from_slice(&data[..len]);
+                Some(len)
             }
             _ => None,
         }) {
-            match got {
-                Some(Ok(report)) => {
-                    led.toggle();
-                    on_report(&mut sink, &report, &raw[..raw_len], &mut radio);
+            if let Some(len) = got {
+                match ReportView::parse(&raw[..len]) {
+                    Ok(report) => {
+                        led.toggle();
+                        on_report(&mut sink, &report, &mut radio);
+                    }
+                    Err(e) => sink.on_bad_frame(BadFrame::of(e)),
                 }
-                Some(Err(kind)) => sink.on_bad_frame(kind),
-                None => {}
             }
         }
         if now_ms().wrapping_sub(last_status) >= STATUS_PERIOD_MS {
@@ -104,20 +101,19 @@ fn run(
     }
 }
 
-/// A report's lines: its `report` line (the bytes `raw` it came in), then two `fix` lines or a
+/// A report's lines: its `report` line (the bytes it came in), then two `fix` lines or a
 /// `nofix` line. Out of line, as [`run`].
 #[cfg(target_arch = "avr")]
 #[inline(never)]
 fn on_report(
     sink: &mut sink_fw::Sink<uno_board::AvrTerm>,
-    report: &loc_proto::msg::Report,
-    raw: &[u8],
+    report: &loc_proto::msg::ReportView,
     radio: &mut uno_board::NodeRadio,
 ) {
     use loc_proto::sink_line::Estimator;
     {
         let serial = radio.serial_mut();
-        loc_proto::sink_line::RawReport::write(raw, |b| serial.write_byte(b));
+        loc_proto::sink_line::RawReport::write(report.bytes(), |b| serial.write_byte(b));
     }
     match sink.on_report(report) {
         Ok(fix) => {
@@ -125,7 +121,10 @@ fn on_report(
                 write(radio, &fix.line(e));
             }
         }
-        Err(e) => write(radio, &sink_fw::no_fix_line(report.agent, report.seq, e)),
+        Err(e) => write(
+            radio,
+            &sink_fw::no_fix_line(report.agent(), report.seq(), e),
+        ),
     }
 }
 
