@@ -335,3 +335,24 @@ fn largest_reports_that_fit() {
         }
     }
 }
+
+/// The channel checks of [`ReportView::parse`] are [`Report::decode`]'s: every pair of channel
+/// bytes in a 3-anchor, 2-channel report, and every count/flag byte.
+#[test]
+fn report_views_check_channels_as_decode_does() {
+    let r = Report::new(7, 513, 3, ChannelList::new(&[1, 2]).unwrap());
+    let mut buf = [0; MAX_PAYLOAD];
+    let n = r.encode(&mut buf).unwrap();
+    for a in 0..=255u8 {
+        for b in 0..=255u8 {
+            buf[9] = a;
+            buf[10] = b;
+            view_is_decode(&buf[..n]).unwrap();
+        }
+    }
+    buf[9..11].copy_from_slice(&[3, 4]);
+    for cf in 0..=255u8 {
+        buf[8] = cf;
+        view_is_decode(&buf[..n]).unwrap();
+    }
+}
