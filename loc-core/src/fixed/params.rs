@@ -607,7 +607,9 @@ impl Ar1 {
         Ar1 { a, b, y: None }
     }
 
-    /// Feeds `x`, returns the new output (rounded; saturating at the `i32` range).
+    /// Feeds `x`, returns the new output (rounded; saturating at the `i32` range). Out of line:
+    /// P0's and α's smoothers share one copy.
+    #[inline(never)]
     pub fn update(&mut self, x: i32) -> i32 {
         let y = match self.y {
             Some(prev) => weigh(self.a, prev, self.b, x),
@@ -712,15 +714,12 @@ impl OnlineParams {
     /// Feeds the smoothers with a fit made elsewhere (e.g. [`fit_least_squares`] with
     /// [`OnlineParams::current`] as the prior, so that only that method is linked).
     pub fn feed(&mut self, f: &ParamFit) {
-        match self.mode {
-            ParamMode::Fixed => {}
-            ParamMode::P0Only => {
-                self.p0.update(f.model.p0);
-            }
-            ParamMode::P0AndAlpha => {
-                self.p0.update(f.model.p0);
-                self.alpha.update(f.model.alpha);
-            }
+        // One call site per smoother (the mode is not known at compile time on the sink).
+        if self.mode != ParamMode::Fixed {
+            self.p0.update(f.model.p0);
+        }
+        if self.mode == ParamMode::P0AndAlpha {
+            self.alpha.update(f.model.alpha);
         }
         let dof = f.n.saturating_sub(f.fitted as u16);
         if dof > 0 {
