@@ -613,9 +613,12 @@ impl<'a> ReportView<'a> {
     /// Anchor `i + 1`'s position ([`Report::positions`]).
     pub fn position(&self, i: usize) -> Position {
         let at = self.positions_at() + 4 * i;
-        Position {
-            x: i16::from_le_bytes([self.at(at), self.at(at + 1)]),
-            y: i16::from_le_bytes([self.at(at + 2), self.at(at + 3)]),
+        match self.buf.get(at..at + 4) {
+            Some(&[x0, x1, y0, y1]) => Position {
+                x: i16::from_le_bytes([x0, x1]),
+                y: i16::from_le_bytes([y0, y1]),
+            },
+            _ => Position::default(),
         }
     }
 
