@@ -333,7 +333,8 @@ impl<K: TermKernel> Sink<K> {
     /// result, `tests` checks), with the calibration statistics and the observations taken
     /// straight from the report's bytes.
     pub fn on_report(&mut self, r: &impl ReportData) -> Result<Fix, LocError> {
-        let (stats, obs) = report_inputs(r);
+        let (mut stats, mut obs) = (CalStats::new(), Observations::new());
+        report_inputs_into(r, &mut stats, &mut obs);
         let area = self.area.unwrap_or_else(|| {
             let n = r.anchors();
             let mut pos = [PointCm::default(); loc_core::MAX_ANCHORS];
@@ -421,12 +422,19 @@ impl<K: TermKernel> Sink<K> {
 /// statistics of every anchor pair (both directions' relayed bytes, as
 /// [`CalStats::from_measurements`] of [`measurements`]) and the agent's observations under the
 /// Extended refinement (as [`observations`]).
-#[inline(never)]
 pub fn report_inputs(r: &impl ReportData) -> (CalStats, Observations) {
+    let (mut stats, mut obs) = (CalStats::new(), Observations::new());
+    report_inputs_into(r, &mut stats, &mut obs);
+    (stats, obs)
+}
+
+/// [`report_inputs`] added to `stats` and `obs` (new ones: [`report_inputs`]'s result), in
+/// place: a returned pair is copied on the AVR.
+#[inline(never)]
+pub fn report_inputs_into(r: &impl ReportData, stats: &mut CalStats, obs: &mut Observations) {
     let n = r.anchors();
     let c = r.channels();
     let heard = |b: u8| (b != 0).then_some(b);
-    let mut stats = CalStats::new();
     // Without the relay matrix every byte is 0 (not heard): no samples.
     for i in 0..n {
         for j in i + 1..n {
@@ -439,7 +447,6 @@ pub fn report_inputs(r: &impl ReportData) -> (CalStats, Observations) {
         }
     }
     // The Extended refinement of each anchor's bytes (0 = not heard), as `observations_of`.
-    let mut obs = Observations::new();
     for i in 0..n {
         let mut bytes = [0u8; loc_core::MAX_CHANNELS];
         for (ch, v) in bytes[..c].iter_mut().enumerate() {
@@ -454,7 +461,6 @@ pub fn report_inputs(r: &impl ReportData) -> (CalStats, Observations) {
             });
         }
     }
-    (stats, obs)
 }
 
 #[cfg(test)]
