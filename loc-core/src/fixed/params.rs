@@ -689,7 +689,9 @@ impl OnlineParams {
         }
     }
 
-    /// The smoothed model (the prior for parameters not yet estimated).
+    /// The smoothed model (the prior for parameters not yet estimated). Out of line: a sink
+    /// asks twice per report.
+    #[inline(never)]
     pub fn current(&self) -> PathLoss {
         PathLoss {
             p0: self.p0.value().unwrap_or(self.prior.p0),
