@@ -17,7 +17,7 @@
 //! rounding) and once in 32 (P0). `tests` holds every result to the previous all-`i64`
 //! implementation (`params_old.rs`).
 
-use super::math::{clamp_i32, clamp_i64, isqrt_u32, log2_u33, m8, mul8_16, mul_shr, sq_u16};
+use super::math::{clamp_i32, clamp_i64, isqrt_u32, log2_u33, m8, mul_shr, sq_u16};
 use super::{Measurements, PathLoss, PointCm, ALPHA, ALPHA_LIMIT, DB, P0_LIMIT};
 use crate::params::{FitMethod, ParamMode};
 use crate::{LocError, MAX_CHANNELS};
@@ -154,22 +154,15 @@ impl CalStats {
         self.n += k;
         self.sb += s;
         self.sbb += s2;
-        // |x| ≤ 2^23 as h·2^16 + l; x² = h²·2^32 + 2hl·2^16 + l² (< 2^47).
+        // |x| ≤ 2^23: x² < 2^46.
         let ax = x.unsigned_abs();
-        let (h, l) = ((ax >> 16) as u8, ax as u16);
-        let x2 = ((m8(h, h) as u64) << 32 | (l as u32 * l as u32) as u64)
-            + ((mul8_16(h, l) as u64) << 17);
-        // k·|x| and k·x² by k additions (a second pass over the same samples: the count stays
-        // unknown to the optimiser, which would turn a counted loop into 64-bit multiplies).
-        let (mut kx, mut kx2) = (0, 0);
-        for _ in bytes.iter().flatten().take(k as usize) {
-            kx += ax;
-            kx2 += x2;
-        }
-        self.sxx += kx2;
+        // (64-bit products: per anchor pair, not per sample; split into 8- and 16-bit ones they
+        // cost 0.2 KB of AVR flash.)
+        let x2 = ax as u64 * ax as u64;
+        self.sxx += k as u64 * x2;
         let side = (x < 0) as usize;
-        self.sx[side] += kx;
-        self.sxb[side] += ((mul8_16(h, s) as u64) << 16) + (l as u32 * s as u32) as u64;
+        self.sx[side] += k as u32 * ax;
+        self.sxb[side] += ax as u64 * s as u64;
         k as usize
     }
 
