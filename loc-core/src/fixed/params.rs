@@ -220,7 +220,7 @@ impl CalStats {
         let p_sx = (p * self.sx()) >> 18;
         let a_sxx = (a * (self.sxx >> 20) as i64) >> 16;
         // Σz² − 2·P0·Σz + n·P0² = Σb² + P0·(2·Σb + n·P0).
-        let w = ((self.sb as i64) << 17) + mul_n(self.n, p0);
+        let w = ((self.sb as i64) << 17) + self.n as i64 * p0 as i64;
         // 2·P0·α·Σx + α²·Σx² − 2α·Σxz = α·(2·Σxb + 4·P0Σx + 2·αΣx²) / 2, the half rounded up as
         // the definition's rounded-down −2α·Σxz term.
         let v = self.sxb() + 4 * p_sx + 2 * a_sxx;
@@ -270,12 +270,6 @@ impl CalStats {
         let num = -self.sxb() - ((p0 as i64 * self.sx()) >> 16); // Q.18
         (self.sxx > 0).then(|| div_alpha(num, self.sxx))
     }
-}
-
-/// `n·v` for `n ≤ 256`, from two 32-bit products.
-fn mul_n(n: u16, v: i32) -> i64 {
-    let (h, l) = ((v >> 16) * n as i32, (v & 0xFFFF) as u32 * n as u32);
-    ((h as i64) << 16) + l as i64
 }
 
 /// `num·2^42/den` rounded as the reference computed it, clamped to ±[`ALPHA_LIMIT`], for
