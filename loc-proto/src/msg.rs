@@ -630,14 +630,17 @@ impl<'a> ReportView<'a> {
 
     /// What anchor `i + 1` relayed on channel number `c` as heard from anchor `j + 1`
     /// ([`Report::relay`]): 0 on the diagonal and without the relay matrix.
+    /// (0 too for `c`, `i` or `j` out of range.)
     pub fn relay(&self, c: usize, i: usize, j: usize) -> u8 {
-        if !self.has_relay || i == j {
+        let (n, cs) = (self.n, self.c);
+        if !self.has_relay || i == j || i >= n as usize || j >= n as usize || c >= cs as usize {
             return 0;
         }
-        let n = self.anchors();
-        let m = n - 1;
-        let at = self.positions_at() + 4 * n + self.channels() * n;
-        self.at(at + (c * n + i) * m + j - usize::from(j > i))
+        // In bytes (N ≤ 8, C ≤ 4): 8 × 8-bit products, the offset below 2^9.
+        let (c, i, j) = (c as u8, i as u8, j as u8);
+        let base = 9 + cs + 4 * n + cs * n;
+        let row = (c * n + i) as u16 * (n - 1) as u16;
+        self.at(base as usize + row as usize + (j - u8::from(j > i)) as usize)
     }
 }
 

@@ -154,6 +154,10 @@ fn view_is_decode(v: &[u8]) -> Result<(), TestCaseError> {
                     for j in 0..n {
                         prop_assert_eq!(view.relay(k, i, j), r.relay[k][i][j]);
                     }
+                    // Out of range: nothing relayed.
+                    prop_assert_eq!(view.relay(k, i, n), 0);
+                    prop_assert_eq!(view.relay(k, n, i), 0);
+                    prop_assert_eq!(view.relay(c, i, (i + 1) % n), 0);
                 }
             }
         }
