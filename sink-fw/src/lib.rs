@@ -187,11 +187,16 @@ pub fn room(p: Position) -> Option<AreaCm> {
 /// (negative coordinates count as 0).
 pub fn anchors_box(anchors: &[PointCm]) -> AreaCm {
     let mut a = AreaCm::new(0, 0);
-    for p in anchors {
-        a.width = a.width.max(p.x.max(0) as u16);
-        a.height = a.height.max(p.y.max(0) as u16);
+    for &p in anchors {
+        widen(&mut a, p);
     }
     a
+}
+
+/// `a` widened to take in `p` (negative coordinates count as 0).
+fn widen(a: &mut AreaCm, p: PointCm) {
+    a.width = a.width.max(p.x.max(0) as u16);
+    a.height = a.height.max(p.y.max(0) as u16);
 }
 
 /// One report's estimates.
@@ -335,13 +340,13 @@ impl<K: TermKernel> Sink<K> {
     pub fn on_report(&mut self, r: &impl ReportData) -> Result<Fix, LocError> {
         let (mut stats, mut obs) = (CalStats::new(), Observations::new());
         report_inputs_into(r, &mut stats, &mut obs);
+        // `anchors_box` of the report's positions, read one by one.
         let area = self.area.unwrap_or_else(|| {
-            let n = r.anchors();
-            let mut pos = [PointCm::default(); loc_core::MAX_ANCHORS];
-            for (i, p) in pos[..n].iter_mut().enumerate() {
-                *p = r.position(i);
+            let mut a = AreaCm::new(0, 0);
+            for i in 0..r.anchors() {
+                widen(&mut a, r.position(i));
             }
-            anchors_box(&pos[..n])
+            a
         });
         self.locate(r.agent(), r.seq(), area, &stats, &obs)
     }
