@@ -560,7 +560,14 @@ impl<'a> ReportView<'a> {
         let has_relay = cf & RELAY_FLAG != 0;
         // Every field left is a byte string of fixed length: too few or too many bytes is all
         // that can be wrong with them.
-        if buf.len() != Report::wire_size(anchors as usize, c, has_relay) {
+        // `Report::wire_size` with 8-bit products (N ≤ 8, C ≤ 4).
+        let per_channel = if has_relay {
+            anchors * anchors
+        } else {
+            anchors
+        };
+        let size = (9 + c as u8 + 4 * anchors) as u16 + c as u8 as u16 * per_channel as u16;
+        if buf.len() != size as usize {
             return Err(Error::BadLength);
         }
         Ok(ReportView {
