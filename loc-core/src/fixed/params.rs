@@ -154,15 +154,16 @@ impl CalStats {
         self.n += k;
         self.sb += s;
         self.sbb += s2;
-        // |x| ≤ 2^23: x² < 2^46.
+        // |x| ≤ 2^23: x² < 2^46. Plain 64-bit products (per anchor pair, not per sample), but
+        // |x|·Σb from two 32-bit ones: 16 B more AVR flash, 1 000 cycles less per report (a
+        // 64-bit product costs ≈ 170 cycles; x² and k·x² that way cost 0.2 KB of flash).
         let ax = x.unsigned_abs();
-        // (64-bit products: per anchor pair, not per sample; split into 8- and 16-bit ones they
-        // cost 0.2 KB of AVR flash.)
         let x2 = ax as u64 * ax as u64;
         self.sxx += k as u64 * x2;
         let side = (x < 0) as usize;
         self.sx[side] += k as u32 * ax;
-        self.sxb[side] += ax as u64 * s as u64;
+        let (h, l) = (ax >> 16, ax & 0xFFFF);
+        self.sxb[side] += (((h * s as u32) as u64) << 16) + (l * s as u32) as u64;
         k as usize
     }
 
