@@ -9,14 +9,14 @@
 //!
 //! What a report costs (SPEC §8: the sink firmware within 16 KB of flash): [`Sink::on_report`]
 //! takes the calibration statistics and the Extended observations straight from the report's
-//! bytes ([`report_inputs`], no [`Measurements`] of 8 × 8 × 4 optional bytes in between), fits
+//! bytes ([`report_inputs`] over a [`ReportView`] in the firmware: no decoded [`Report`], no
+//! [`Measurements`] of 8 × 8 × 4 optional bytes in between), fits
 //! P0/α by least squares only, and gets both estimates from one search
 //! (`loc_core::fixed::mle_and_mmse_window_with`: the MMSE's window is the thesis' fine window,
 //! so the coarse stage and the window run once). The results are those of the generic path,
 //! [`Sink::on_measurements`] (thesis MLE, then windowed MMSE), bit for bit (`tests`). Its flash
-//! is measured by the mcu-bench firmware `est-sink` (`cargo fw-sink`): 36.6 KB with the bench's
-//! scaffolding and the line writing, against 41.4 KB before the one-pass search, so not yet
-//! within the budget.
+//! is that of the `sink-wired` firmware (31.9 KB with the node's boot, config and radio code: it
+//! fits the Uno, not yet the budget).
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
