@@ -1,5 +1,5 @@
 //! sink-wired: the hoploc sink firmware for the Arduino Uno as it is meant to be. It fits the
-//! ATmega328P's flash now (31 884 B text + 132 B data of the 32 256 B beside the bootloader;
+//! ATmega328P's flash now (31 868 B text + 122 B data of the 32 256 B beside the bootloader;
 //! the SPEC's 16 KB is a later job), but `src/main.rs` is still the boot firmware. Built only
 //! with the `wired` feature: `cargo fw-build -p sink-fw --features wired --bin sink-wired`.
 //!
@@ -110,10 +110,7 @@ fn on_report(
     radio: &mut uno_board::NodeRadio,
 ) {
     use loc_proto::sink_line::Estimator;
-    {
-        let serial = radio.serial_mut();
-        loc_proto::sink_line::RawReport::write(report.bytes(), |b| serial.write_byte(b));
-    }
+    loc_proto::sink_line::RawReport::write(report.bytes(), uart(radio));
     match sink.on_report(report) {
         Ok(fix) => {
             for e in [Estimator::Mle, Estimator::Mmse] {
@@ -139,6 +136,12 @@ fn status(radio: &mut uno_board::NodeRadio, counters: &sink_fw::Counters, uptime
 #[cfg(target_arch = "avr")]
 #[inline(never)]
 fn write(radio: &mut uno_board::NodeRadio, line: &loc_proto::sink_line::SinkLine) {
+    line.write(uart(radio));
+}
+
+/// The UART as a byte sink: one closure type, so one copy of the line writers' glue.
+#[cfg(target_arch = "avr")]
+fn uart(radio: &mut uno_board::NodeRadio) -> impl FnMut(u8) + '_ {
     let serial = radio.serial_mut();
-    line.write(|b| serial.write_byte(b));
+    move |b| serial.write_byte(b)
 }
