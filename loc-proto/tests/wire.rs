@@ -5,7 +5,8 @@
 use loc_proto::config::{self, Config};
 use loc_proto::error::crc16;
 use loc_proto::msg::{
-    decode_any, Beacon, ChannelList, Message, Position, Report, MAX_ANCHORS, MAX_PAYLOAD,
+    decode_any, Beacon, ChannelList, Message, Position, Report, ReportView, MAX_ANCHORS,
+    MAX_CHANNELS, MAX_PAYLOAD,
 };
 use loc_proto::provision::{self, ProvisionParser, MAX_FRAME};
 use loc_proto::{Error, Role};
@@ -128,6 +129,77 @@ fn bytes_like(prefix: &'static [u8], max: usize) -> impl Strategy<Value = Vec<u8
             }
             v
         })
+}
+
+/// `v` parses as a [`ReportView`] exactly when it decodes as a [`Report`] (with the same error
+/// otherwise), and then every field the view reads is the report's.
+fn view_is_decode(v: &[u8]) -> Result<(), TestCaseError> {
+    let view = ReportView::parse(v);
+    match Report::decode(v) {
+        Err(e) => prop_assert_eq!(view, Err(e)),
+        Ok(r) => {
+            let view = view.unwrap();
+            prop_assert_eq!(view.agent(), r.agent);
+            prop_assert_eq!(view.seq(), r.seq);
+            prop_assert_eq!(view.anchors(), r.anchors as usize);
+            prop_assert_eq!(view.channels(), r.channels.len());
+            prop_assert_eq!(view.has_relay(), r.has_relay);
+            let (n, c) = (view.anchors(), view.channels());
+            for i in 0..n {
+                prop_assert_eq!(view.position(i), r.positions[i]);
+            }
+            for k in 0..c.min(MAX_CHANNELS) {
+                for i in 0..n {
+                    prop_assert_eq!(view.rssi(k, i), r.rssi[k][i]);
+                    for j in 0..n {
+                        prop_assert_eq!(view.relay(k, i, j), r.relay[k][i][j]);
+                    }
+                    // Out of range: nothing relayed.
+                    prop_assert_eq!(view.relay(k, i, n), 0);
+                    prop_assert_eq!(view.relay(k, n, i), 0);
+                    prop_assert_eq!(view.relay(c, i, (i + 1) % n), 0);
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    #[test]
+    fn report_views_read_what_reports_decode(r in report()) {
+        let mut buf = [0; 256];
+        if let Ok(n) = r.encode(&mut buf) {
+            view_is_decode(&buf[..n])?;
+        }
+        // 8 anchors with relay, past the radio payload (the decoder still takes it with up to 3
+        // channels; 4 do not fit the length byte).
+        let n = Report::wire_size(8, r.channels.len(), true);
+        buf[..4].copy_from_slice(&[0xB5, 1, 2, n.min(255) as u8]);
+        buf[4] = r.agent;
+        buf[5..7].copy_from_slice(&r.seq.to_le_bytes());
+        buf[7] = 8;
+        buf[8] = r.channels.len() as u8 | 0x80;
+        for (k, &ch) in r.channels.as_slice().iter().enumerate() {
+            buf[9 + k] = ch;
+        }
+        for (k, b) in buf[9 + r.channels.len()..n.min(255)].iter_mut().enumerate() {
+            *b = (k as u8).wrapping_mul(37) ^ r.seq as u8;
+        }
+        view_is_decode(&buf[..n.min(255)])?;
+    }
+
+    #[test]
+    fn report_views_take_any_bytes_as_decode_does(
+        v in prop_oneof![
+            bytes_like(&[0xB5, 1, 2], 110),
+            proptest::collection::vec(any::<u8>(), 0..110),
+        ]
+    ) {
+        view_is_decode(&v)?;
+    }
 }
 
 proptest! {
@@ -265,5 +337,26 @@ fn largest_reports_that_fit() {
                 "{n}x{c} without relay"
             );
         }
+    }
+}
+
+/// The channel checks of [`ReportView::parse`] are [`Report::decode`]'s: every pair of channel
+/// bytes in a 3-anchor, 2-channel report, and every count/flag byte.
+#[test]
+fn report_views_check_channels_as_decode_does() {
+    let r = Report::new(7, 513, 3, ChannelList::new(&[1, 2]).unwrap());
+    let mut buf = [0; MAX_PAYLOAD];
+    let n = r.encode(&mut buf).unwrap();
+    for a in 0..=255u8 {
+        for b in 0..=255u8 {
+            buf[9] = a;
+            buf[10] = b;
+            view_is_decode(&buf[..n]).unwrap();
+        }
+    }
+    buf[9..11].copy_from_slice(&[3, 4]);
+    for cf in 0..=255u8 {
+        buf[8] = cf;
+        view_is_decode(&buf[..n]).unwrap();
     }
 }

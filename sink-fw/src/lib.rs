@@ -9,14 +9,14 @@
 //!
 //! What a report costs (SPEC §8: the sink firmware within 16 KB of flash): [`Sink::on_report`]
 //! takes the calibration statistics and the Extended observations straight from the report's
-//! bytes ([`report_inputs`], no [`Measurements`] of 8 × 8 × 4 optional bytes in between), fits
+//! bytes ([`report_inputs`] over a [`ReportView`] in the firmware: no decoded [`Report`], no
+//! [`Measurements`] of 8 × 8 × 4 optional bytes in between), fits
 //! P0/α by least squares only, and gets both estimates from one search
 //! (`loc_core::fixed::mle_and_mmse_window_with`: the MMSE's window is the thesis' fine window,
 //! so the coarse stage and the window run once). The results are those of the generic path,
 //! [`Sink::on_measurements`] (thesis MLE, then windowed MMSE), bit for bit (`tests`). Its flash
-//! is measured by the mcu-bench firmware `est-sink` (`cargo fw-sink`): 36.6 KB with the bench's
-//! scaffolding and the line writing, against 41.4 KB before the one-pass search, so not yet
-//! within the budget.
+//! is that of the `sink-wired` firmware (31.9 KB with the node's boot, config and radio code: it
+//! fits the Uno, not yet the budget).
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -27,7 +27,7 @@ use loc_core::fixed::{
     Estimate, FitMethod, LocError, Measurements, Obs, Observations, OnlineParams, ParamMode,
     PathLoss, PointCm, Refinement, TermKernel,
 };
-use loc_proto::msg::{Position, Report};
+use loc_proto::msg::{Position, Report, ReportView};
 use loc_proto::sink_line::{Estimator, SinkLine, FLAG_FITTED};
 use loc_proto::Error;
 
@@ -56,6 +56,79 @@ pub fn measurements(r: &Report) -> Measurements {
         }
     }
     m
+}
+
+/// What [`Sink::on_report`] reads of a report: a decoded [`Report`] (host, tests) or a
+/// [`ReportView`] over its bytes (the firmware: no 330-byte copy).
+pub trait ReportData {
+    /// The reporting agent.
+    fn agent(&self) -> u8;
+    /// The superframe sequence number.
+    fn seq(&self) -> u16;
+    /// The anchors in use, at most [`loc_core::MAX_ANCHORS`].
+    fn anchors(&self) -> usize;
+    /// The channels in use, at most [`loc_core::MAX_CHANNELS`].
+    fn channels(&self) -> usize;
+    /// Anchor `i + 1`'s position.
+    fn position(&self, i: usize) -> PointCm;
+    /// The RSSI byte of anchor `i + 1`'s beacon on channel number `c`.
+    fn rssi(&self, c: usize, i: usize) -> u8;
+    /// The relayed byte anchor `i + 1` heard from `j + 1` on channel number `c`, 0 without the
+    /// relay matrix.
+    fn relay(&self, c: usize, i: usize, j: usize) -> u8;
+}
+
+impl ReportData for Report {
+    fn agent(&self) -> u8 {
+        self.agent
+    }
+    fn seq(&self) -> u16 {
+        self.seq
+    }
+    fn anchors(&self) -> usize {
+        (self.anchors as usize).min(loc_core::MAX_ANCHORS)
+    }
+    fn channels(&self) -> usize {
+        self.channels.len().min(loc_core::MAX_CHANNELS)
+    }
+    fn position(&self, i: usize) -> PointCm {
+        PointCm::new(self.positions[i].x, self.positions[i].y)
+    }
+    fn rssi(&self, c: usize, i: usize) -> u8 {
+        self.rssi[c][i]
+    }
+    fn relay(&self, c: usize, i: usize, j: usize) -> u8 {
+        if self.has_relay {
+            self.relay[c][i][j]
+        } else {
+            0
+        }
+    }
+}
+
+impl ReportData for ReportView<'_> {
+    fn agent(&self) -> u8 {
+        ReportView::agent(self)
+    }
+    fn seq(&self) -> u16 {
+        ReportView::seq(self)
+    }
+    fn anchors(&self) -> usize {
+        ReportView::anchors(self).min(loc_core::MAX_ANCHORS)
+    }
+    fn channels(&self) -> usize {
+        ReportView::channels(self).min(loc_core::MAX_CHANNELS)
+    }
+    fn position(&self, i: usize) -> PointCm {
+        let p = ReportView::position(self, i);
+        PointCm::new(p.x, p.y)
+    }
+    fn rssi(&self, c: usize, i: usize) -> u8 {
+        ReportView::rssi(self, c, i)
+    }
+    fn relay(&self, c: usize, i: usize, j: usize) -> u8 {
+        ReportView::relay(self, c, i, j)
+    }
 }
 
 /// Most agents a sink tracks (report sequence numbers for the drop count).
@@ -114,11 +187,16 @@ pub fn room(p: Position) -> Option<AreaCm> {
 /// (negative coordinates count as 0).
 pub fn anchors_box(anchors: &[PointCm]) -> AreaCm {
     let mut a = AreaCm::new(0, 0);
-    for p in anchors {
-        a.width = a.width.max(p.x.max(0) as u16);
-        a.height = a.height.max(p.y.max(0) as u16);
+    for &p in anchors {
+        widen(&mut a, p);
     }
     a
+}
+
+/// `a` widened to take in `p` (negative coordinates count as 0).
+fn widen(a: &mut AreaCm, p: PointCm) {
+    a.width = a.width.max(p.x.max(0) as u16);
+    a.height = a.height.max(p.y.max(0) as u16);
 }
 
 /// One report's estimates.
@@ -249,27 +327,28 @@ impl<K: TermKernel> Sink<K> {
 
     /// A frame that is not a usable report.
     pub fn on_bad_frame(&mut self, kind: BadFrame) {
-        self.counters.frames += 1;
-        match kind {
-            BadFrame::Corrupt => self.counters.checksum_errors += 1,
-            BadFrame::Foreign => self.counters.foreign += 1,
-        }
+        bump(&mut self.counters.frames);
+        bump(match kind {
+            BadFrame::Corrupt => &mut self.counters.checksum_errors,
+            BadFrame::Foreign => &mut self.counters.foreign,
+        });
     }
 
     /// A decoded report: as [`Sink::on_measurements`] of its [`measurements`] (the same
     /// result, `tests` checks), with the calibration statistics and the observations taken
     /// straight from the report's bytes.
-    pub fn on_report(&mut self, r: &Report) -> Result<Fix, LocError> {
-        let (stats, obs) = report_inputs(r);
+    pub fn on_report(&mut self, r: &impl ReportData) -> Result<Fix, LocError> {
+        let (mut stats, mut obs) = (CalStats::new(), Observations::new());
+        report_inputs_into(r, &mut stats, &mut obs);
+        // `anchors_box` of the report's positions, read one by one.
         let area = self.area.unwrap_or_else(|| {
-            let n = (r.anchors as usize).min(loc_core::MAX_ANCHORS);
-            let mut pos = [PointCm::default(); loc_core::MAX_ANCHORS];
-            for (p, q) in pos.iter_mut().zip(&r.positions[..n]) {
-                *p = PointCm::new(q.x, q.y);
+            let mut a = AreaCm::new(0, 0);
+            for i in 0..r.anchors() {
+                widen(&mut a, r.position(i));
             }
-            anchors_box(&pos[..n])
+            a
         });
-        self.locate(r.agent, r.seq, area, &stats, &obs)
+        self.locate(r.agent(), r.seq(), area, &stats, &obs)
     }
 
     /// Agent `agent`'s report of superframe `seq`, as measurements: fit, smooth, locate.
@@ -298,8 +377,8 @@ impl<K: TermKernel> Sink<K> {
         stats: &CalStats,
         obs: &Observations,
     ) -> Result<Fix, LocError> {
-        self.counters.frames += 1;
-        self.counters.reports += 1;
+        bump(&mut self.counters.frames);
+        bump(&mut self.counters.reports);
         if let Some(next) = self.next_seq.get_mut((agent as usize).wrapping_sub(1)) {
             if let Some(want) = *next {
                 let gap = seq.wrapping_sub(want);
@@ -336,54 +415,64 @@ impl<K: TermKernel> Sink<K> {
                 model,
                 fitted,
             });
-        match result {
-            Ok(_) => self.counters.fixes += 1,
-            Err(_) => self.counters.no_fixes += 1,
-        }
+        bump(match result {
+            Ok(_) => &mut self.counters.fixes,
+            Err(_) => &mut self.counters.no_fixes,
+        });
         result
     }
+}
+
+/// `c + 1`, out of line: each inlined 32-bit increment of a counter in memory costs ≈ 20 B of
+/// AVR flash.
+#[inline(never)]
+fn bump(c: &mut u32) {
+    *c += 1;
 }
 
 /// What [`Sink::on_report`] works from, straight from the report's bytes: the calibration
 /// statistics of every anchor pair (both directions' relayed bytes, as
 /// [`CalStats::from_measurements`] of [`measurements`]) and the agent's observations under the
 /// Extended refinement (as [`observations`]).
+pub fn report_inputs(r: &impl ReportData) -> (CalStats, Observations) {
+    let (mut stats, mut obs) = (CalStats::new(), Observations::new());
+    report_inputs_into(r, &mut stats, &mut obs);
+    (stats, obs)
+}
+
+/// [`report_inputs`] added to `stats` and `obs` (new ones: [`report_inputs`]'s result), in
+/// place: a returned pair is copied on the AVR.
 #[inline(never)]
-pub fn report_inputs(r: &Report) -> (CalStats, Observations) {
-    let n = (r.anchors as usize).min(loc_core::MAX_ANCHORS);
-    let c = r.channels.len().min(loc_core::MAX_CHANNELS);
+pub fn report_inputs_into(r: &impl ReportData, stats: &mut CalStats, obs: &mut Observations) {
+    let n = r.anchors();
+    let c = r.channels();
     let heard = |b: u8| (b != 0).then_some(b);
-    let pos = |i: usize| PointCm::new(r.positions[i].x, r.positions[i].y);
-    let mut stats = CalStats::new();
-    if r.has_relay {
-        for i in 0..n {
-            for j in i + 1..n {
-                let mut bytes = [None; 2 * loc_core::MAX_CHANNELS];
-                for ch in 0..c {
-                    bytes[ch] = heard(r.relay[ch][i][j]);
-                    bytes[loc_core::MAX_CHANNELS + ch] = heard(r.relay[ch][j][i]);
-                }
-                stats.push_pair(pos(i), pos(j), &bytes);
+    // Without the relay matrix every byte is 0 (not heard): no samples.
+    for i in 0..n {
+        for j in i + 1..n {
+            let mut bytes = [None; 2 * loc_core::MAX_CHANNELS];
+            for ch in 0..c {
+                bytes[ch] = heard(r.relay(ch, i, j));
+                bytes[loc_core::MAX_CHANNELS + ch] = heard(r.relay(ch, j, i));
             }
+            stats.push_pair(r.position(i), r.position(j), &bytes);
         }
     }
     // The Extended refinement of each anchor's bytes (0 = not heard), as `observations_of`.
-    let mut obs = Observations::new();
     for i in 0..n {
         let mut bytes = [0u8; loc_core::MAX_CHANNELS];
-        for (v, row) in bytes.iter_mut().zip(&r.rssi[..c]) {
-            *v = row[i];
+        for (ch, v) in bytes[..c].iter_mut().enumerate() {
+            *v = r.rssi(ch, i);
         }
         if let Some((z, weight, spread)) = extended(&bytes) {
             obs.const_cost = obs.const_cost.saturating_add(spread);
             obs.push(Obs {
-                pos: pos(i),
+                pos: r.position(i),
                 z,
                 weight,
             });
         }
     }
-    (stats, obs)
 }
 
 #[cfg(test)]

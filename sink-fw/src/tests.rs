@@ -270,7 +270,7 @@ fn reports_go_the_same_way_as_their_measurements() {
         x % n
     };
     let (mut a, mut b) = (sink(), sink());
-    let mut fixes = 0;
+    let (mut fixes, mut views) = (0, 0);
     for t in 0..3000u16 {
         let anchors = 1 + next(8) as u8;
         let chans = [1, 12, 3, 16];
@@ -310,11 +310,21 @@ fn reports_go_the_same_way_as_their_measurements() {
         assert_eq!(obs, observations(&m, Refinement::Extended), "report {t}");
         let fa = a.on_report(&r);
         assert_eq!(fa, b.on_measurements(r.agent, r.seq, &m), "report {t}");
+        // Off the wire, read in place (what the firmware does): the same inputs.
+        let mut buf = [0; 256];
+        if (3..=8).contains(&anchors) {
+            if let Ok(n) = r.encode(&mut buf) {
+                let view = loc_proto::msg::ReportView::parse(&buf[..n]).unwrap();
+                assert_eq!(report_inputs(&view), (stats, obs), "report {t}");
+                views += 1;
+            }
+        }
         fixes += usize::from(fa.is_ok());
         assert_eq!(a.counters(), b.counters());
         assert_eq!(a.model(), b.model());
     }
     assert!(fixes > 1000, "{fixes}");
+    assert!(views > 500, "{views}");
 }
 
 /// `centi` is the 64-bit rounding it replaces, on the edges and across the whole range of α

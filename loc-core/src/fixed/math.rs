@@ -12,15 +12,9 @@ pub(crate) fn m8(a: u8, b: u8) -> u16 {
     a as u16 * b as u16
 }
 
-/// `a·b` for an 8-bit `a` and a 16-bit `b` (two 8 × 8 multiplies).
-#[inline(always)]
-pub(crate) fn mul8_16(a: u8, b: u16) -> u32 {
-    let [b0, b1] = b.to_le_bytes();
-    m8(a, b0) as u32 + ((m8(a, b1) as u32) << 8)
-}
-
-/// `a²` for a 16-bit `a` (three 8 × 8 multiplies).
-#[inline(always)]
+/// `a²` for a 16-bit `a` (three 8 × 8 multiplies). Out of line: `distance_x`'s two squares share
+/// one copy (92 B less AVR flash).
+#[inline(never)]
 pub(crate) fn sq_u16(a: u16) -> u32 {
     let [a0, a1] = a.to_le_bytes();
     (m8(a0, a0) as u32 | (m8(a1, a1) as u32) << 16) + ((m8(a0, a1) as u32) << 9)
@@ -399,10 +393,6 @@ mod tests {
     fn byte_products_are_exact() {
         for a in 0..=u16::MAX {
             assert_eq!(sq_u16(a), a as u32 * a as u32, "{a}");
-            let k = (a >> 8) as u8;
-            let b = a.wrapping_mul(40_503);
-            assert_eq!(mul8_16(k, b), k as u32 * b as u32, "{k} {b}");
-            assert_eq!(mul8_16(255, a), 255 * a as u32);
         }
     }
 }
