@@ -174,11 +174,11 @@ pub struct Args {
     /// scenario file (format: scenarios/README.md).
     #[arg(default_value = "room10")]
     pub scenario: String,
-    /// Where the sink lines come from: `host` is the host sink (the sink firmware's logic,
-    /// sink_fw::Sink, run on the host behind a host radio on the sink channel — not the
-    /// firmware); `firmware` reads them off the sink firmware's UART in simavr, which needs a
-    /// sink firmware that fits the Uno (not yet: sink-fw is still the boot firmware).
-    #[arg(long, value_enum, default_value_t = SinkSource::Host)]
+    /// Where the sink lines come from: `firmware` reads them off the sink firmware's UART in
+    /// simavr (sink-fw, as on a board); `host` is the host sink (the sink firmware's logic,
+    /// sink_fw::Sink, run on the host behind a host radio on the sink channel: the same lines,
+    /// not the firmware).
+    #[arg(long, value_enum, default_value_t = SinkSource::Firmware)]
     pub sink: SinkSource,
     /// The medium's seed [default: the scenario's].
     #[arg(long)]
@@ -293,7 +293,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         s.seed
     );
     println!("  sink: {}", args.sink.describe());
-    if args.sink == SinkSource::Host {
+    {
         println!(
             "  MLE-fixed: the host's reference, not a sink line: the MLE of the same report with \
              P0 {} dBm and α {} fixed (no online estimation)",
@@ -323,11 +323,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         "err",
         "α",
         "P0",
-        if args.sink == SinkSource::Host {
-            "  fixed err  P0only err"
-        } else {
-            ""
-        }
+        "  fixed err  P0only err"
     );
     let bar = ProgressBar::with_draw_target(
         Some((duration * 1000.0) as u64),
@@ -408,8 +404,8 @@ pub fn run(args: &Args) -> Result<(), String> {
         {
             bar.finish_and_clear();
             return Err(format!(
-                "the sink firmware wrote no sink line in {:.0} s: {} is not (yet) a sink that \
-                 locates (the wired sink does not fit the Uno); run with --sink host",
+                "the sink firmware wrote no sink line in {:.0} s: is {} a sink firmware that \
+                 locates? (`cargo fw` builds it; --sink host runs the sink's logic on the host)",
                 tb.time_s(),
                 firmware::elf(&fw_dir, Role::Sink).display()
             ));

@@ -6,8 +6,9 @@
 //! * stack peak: measured in simavr by painting free SRAM at load and scanning it after the run,
 //!   the deepest of two boot-and-run scenarios, each on a fresh core:
 //!   1. **factory radio**: a modelled XBee as Digi ships it (transparent mode, 9600 baud), so the
-//!      whole command-mode bring-up runs, then [`LISTEN_PACKETS`] RX16 packets arrive while the
-//!      node listens;
+//!      whole command-mode bring-up runs, then [`LISTEN_PACKETS`] RX16 packets of the node's
+//!      traffic arrive while it runs ([`traffic`]: reports for the sink, so every one goes
+//!      through its estimator; beacons for anchors and agents);
 //!   2. **no radio**: nothing answers, so one full failed bring-up (every baud rate), the error
 //!      line, the LED code, and the start of the retry run.
 //!
@@ -78,6 +79,49 @@ fn stack_of(avr: &Avr) -> Result<usize, String> {
         .ok_or_else(|| format!("{}: no static-data symbols", avr.firmware().display()))
 }
 
+/// Packet `i` of what a node of `role` hears in the factory-radio scenario: (source address,
+/// payload). The sink gets agent 1's reports (4 anchors at the corners of a 10 m room, 2
+/// channels, relays; levels varied per packet, so the fit and the searches take varied
+/// paths); anchors and agents get anchor 2's beacons on the default config's first channel.
+pub fn traffic(role: Role, i: usize) -> (u16, Vec<u8>) {
+    use loc_proto::config::Config;
+    use loc_proto::msg::{Beacon, ChannelList, Position, Report, MAX_PAYLOAD};
+    let corners = [(0, 0), (1000, 0), (1000, 1000), (0, 1000)];
+    let mut buf = [0u8; MAX_PAYLOAD];
+    let level = |k: usize| 55 + ((i * 7 + k * 5) % 25) as u8;
+    match role {
+        Role::Sink => {
+            let channels = ChannelList::new(&[1, 12]).expect("valid channels");
+            let mut r = Report::new(1, i as u16, 4, channels);
+            for (a, &(x, y)) in corners.iter().enumerate() {
+                r.positions[a] = Position { x, y };
+                for c in 0..2 {
+                    r.rssi[c][a] = level(a + 4 * c);
+                    for b in 0..4 {
+                        if a != b {
+                            r.relay[c][a][b] = level(8 + a * 4 + b + c);
+                        }
+                    }
+                }
+            }
+            let n = r.encode(&mut buf).expect("a 4 × 2 report fits");
+            (Role::Agent.address(1), buf[..n].to_vec())
+        }
+        Role::Anchor | Role::Agent => {
+            let b = Beacon {
+                anchor: 2,
+                seq: i as u16,
+                channel: Config::DEFAULT.channels.as_slice()[0],
+                position: Position { x: 1000, y: 0 },
+                relay_count: 4,
+                relay: [level(0), 0, level(1), level(2), 0, 0, 0, 0],
+            };
+            let n = b.encode(&mut buf).expect("a beacon fits");
+            (Role::Anchor.address(2), buf[..n].to_vec())
+        }
+    }
+}
+
 /// Measures `role`'s firmware in `dir` (see the module docs).
 pub fn measure(dir: &Path, role: Role) -> Result<Footprint, String> {
     let elf = firmware::elf(dir, role);
@@ -95,14 +139,14 @@ pub fn measure(dir: &Path, role: Role) -> Result<Footprint, String> {
     let (ch, pan) = (radio.registers().ch(), radio.registers().id());
     for i in 0..LISTEN_PACKETS {
         let at = avr.cycle() + ms_to_cycles(1.0 + 50.0 * i as f64);
-        let payload = [0x55; 40];
-        radio.deliver(RxPacket::broadcast16(ch, pan, 0x0002, -60, &payload), at);
+        let (source, payload) = traffic(role, i);
+        radio.deliver(RxPacket::broadcast16(ch, pan, source, -60, &payload), at);
     }
     radio.run_until(&mut avr, ms_to_cycles(FACTORY_RUN_MS));
     let factory_lines = radio
         .text_lines()
         .iter()
-        .filter(|l| l.text.starts_with("hoploc "))
+        .filter(|l| loc_proto::line::BootLine::parse(&l.text).is_ok())
         .map(|l| l.text.clone())
         .collect();
     let stack_factory = stack_of(&avr)?;

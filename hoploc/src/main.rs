@@ -19,14 +19,14 @@ struct Cli {
 enum Command {
     /// Run a testbed scenario on every node's real firmware in simavr with modelled XBee radios.
     ///
-    /// The scenario's anchors (anchor-fw) and agent (agent-fw) run in simavr on the radio
-    /// medium of SPEC §7, each with its config in EEPROM; the agent moves along the scenario's
-    /// path. The sink's lines give its fixes, shown live against the truth; at the end an
-    /// RMSE/bias table per position and estimator (the sink's MLE and MMSE, and with the host
-    /// sink MLE-fixed: the host's reference with P0/α fixed), and plots, CSV and the sink's
-    /// log in the out dir. The sink is the host sink by default: the sink firmware's logic
-    /// (sink_fw::Sink) on the host behind a host radio, because the sink firmware does not fit
-    /// the Uno yet. Builds the firmware first if needed (cargo fw). Scenarios: scenarios/.
+    /// The scenario's anchors (anchor-fw), agent (agent-fw) and sink (sink-fw) run in simavr on
+    /// the radio medium of SPEC §7, each with its config in EEPROM; the agent moves along the
+    /// scenario's path. The sink firmware's lines give its fixes, shown live against the truth;
+    /// at the end an RMSE/bias table per position and estimator (the sink's MLE and MMSE, and
+    /// the host's references of the same reports: MLE-fixed with P0/α fixed, MLE-P0only with
+    /// P0 fitted and α fixed), and plots, CSV and the sink's log in the out dir. --sink host
+    /// runs the sink's logic on the host instead (the same lines, faster). Builds the firmware
+    /// first if needed (cargo fw). Scenarios: scenarios/.
     /// Examples:
     ///
     ///     hoploc demo                          # room10: 10 m × 10 m, 4 anchors, 5 fixes/s

@@ -6,12 +6,14 @@
 //!
 //! The lines come from one of two sinks ([`SinkSource`]):
 //! * [`SinkSource::Firmware`]: the sink node's firmware (`sink-fw`), its lines read off its
-//!   UART as `hoploc monitor` would read them off the USB serial. This is the intended sink;
-//!   but while the wired sink does not fit the Uno, `sink-fw` is the boot firmware and writes
-//!   no sink lines.
+//!   UART as `hoploc monitor` would read them off the USB serial: the testbed as on boards.
 //! * [`SinkSource::Host`]: the host sink, a host radio on the sink channel at the sink's
 //!   address whose received reports go through `sink_fw::Sink<loc_core::fixed::Portable>` —
-//!   the sink firmware's logic, bit-identical to it, but run on the host, not in simavr.
+//!   the sink firmware's logic, bit-identical to it, but run on the host, not in simavr
+//!   (`hoploc/tests/testbed.rs` checks that both write the same lines).
+//!
+//! Either way the host adds its references of every report the sink received (the firmware's
+//! `report` lines carry them): [`Reference`].
 
 use std::path::Path;
 
@@ -130,12 +132,42 @@ struct HostSink {
     node: NodeId,
     decoder: Decoder,
     sink: Sink<Portable>,
+}
+
+/// The host's references of every report the sink received (either sink: the firmware's
+/// `report` lines carry the reports too).
+struct References {
     /// The reference's fixed model and room.
     fixed: (PathLoss, AreaCm),
     /// Every report received (time s, report), until [`Testbed::take_reports`].
     reports: Vec<(f64, Report)>,
     /// The [`Reference::P0Only`] estimator's parameters and room.
     p0_only: (OnlineParams, Area),
+}
+
+impl References {
+    /// Report `r` received at `ms`: kept, and its reference fixes added to `lines`.
+    fn add(&mut self, ms: f64, r: Report, lines: &mut Vec<(f64, SinkLine, Option<Reference>)>) {
+        let (model, area) = self.fixed;
+        let (_, obs) = sink_fw::report_inputs(&r);
+        if let Ok([mle, mmse]) =
+            mle_and_mmse_window_with::<Portable>(&obs, model, area, sink_fw::DEFAULT_SIGMA)
+        {
+            let fix = sink_fw::Fix {
+                agent: r.agent,
+                seq: r.seq,
+                mle,
+                mmse,
+                model,
+                fitted: false,
+            };
+            lines.push((ms, fix.lines()[0], Some(Reference::Fixed)));
+        }
+        if let Some(line) = p0_only_fix(&mut self.p0_only, &r) {
+            lines.push((ms, line, Some(Reference::P0Only)));
+        }
+        self.reports.push((ms / 1000.0, r));
+    }
 }
 
 /// A scenario running on the emulated network.
@@ -145,6 +177,7 @@ pub struct Testbed {
     nodes: ScenarioNodes,
     agent: NodeId,
     host: Option<HostSink>,
+    refs: References,
     /// The sink firmware's node and the lines of it already taken.
     fw_sink: Option<(NodeId, usize)>,
     /// Start of each stop (stop 0: 0), s.
@@ -339,30 +372,32 @@ impl Testbed {
         );
         let nodes = add_scenario(&mut net, &s, fw_dir, cfg.sink, [0.0, 0.0], SERIAL_BASE)?;
         let (agent, mut host, mut fw_sink) = (nodes.agent, None, None);
+        let fixed = PathLoss::from_centi(
+            (s.medium.p0_dbm * 100.0).round() as i32,
+            (s.medium.alpha * 100.0).round() as i32,
+        );
+        let refs = References {
+            fixed: (fixed, s.area_cm()),
+            reports: Vec::new(),
+            p0_only: (
+                OnlineParams::new(
+                    ParamMode::P0Only,
+                    FitMethod::LeastSquares,
+                    Bounds::THESIS,
+                    loc_core::PathLoss {
+                        p0: s.medium.p0_dbm,
+                        alpha: s.medium.alpha,
+                    },
+                ),
+                Area::new(s.area.width_m, s.area.height_m),
+            ),
+        };
         match cfg.sink {
             SinkSource::Host => {
-                let fixed = PathLoss::from_centi(
-                    (s.medium.p0_dbm * 100.0).round() as i32,
-                    (s.medium.alpha * 100.0).round() as i32,
-                );
                 host = Some(HostSink {
                     node: nodes.sink,
                     decoder: Decoder::new(Mode::Escaped),
                     sink: Sink::new(Some(s.area_cm())),
-                    fixed: (fixed, s.area_cm()),
-                    reports: Vec::new(),
-                    p0_only: (
-                        OnlineParams::new(
-                            ParamMode::P0Only,
-                            FitMethod::LeastSquares,
-                            Bounds::THESIS,
-                            loc_core::PathLoss {
-                                p0: s.medium.p0_dbm,
-                                alpha: s.medium.alpha,
-                            },
-                        ),
-                        Area::new(s.area.width_m, s.area.height_m),
-                    ),
                 });
             }
             SinkSource::Firmware => fw_sink = Some((nodes.sink, 0)),
@@ -376,6 +411,7 @@ impl Testbed {
         let first = s.agent.path[0].position;
         Ok(Testbed {
             log: truth_line(first),
+            refs,
             superframe_s: superframe_s(&s)?,
             scenario: s,
             net,
@@ -441,13 +477,11 @@ impl Testbed {
         self.net.cycle() >= cycle_of(self.scenario.duration_s())
     }
 
-    /// The reports the host sink received since the last call (time s, report), in order
-    /// (none with the firmware sink): for host-side analyses of the same reports.
+    /// The reports the sink received since the last call (time s, report), in order (from the
+    /// firmware sink's `report` lines, or the host sink's radio): for host-side analyses of the
+    /// same reports.
     pub fn take_reports(&mut self) -> Vec<(f64, Report)> {
-        self.host
-            .as_mut()
-            .map(|h| std::mem::take(&mut h.reports))
-            .unwrap_or_default()
+        std::mem::take(&mut self.refs.reports)
     }
 
     /// The agent's stop at time `t` s, its true position, and whether a report sent then
@@ -523,7 +557,6 @@ impl Testbed {
                         continue;
                     }
                 };
-                h.reports.push((ms / 1000.0, r));
                 RawReport::write(data, |b| self.log.push(b as char));
                 let written = match h.sink.on_report(&r) {
                     Ok(fix) => fix.lines().to_vec(),
@@ -533,24 +566,7 @@ impl Testbed {
                     l.write(|b| self.log.push(b as char));
                     lines.push((ms, l, None));
                 }
-                let (model, area) = h.fixed;
-                let (_, obs) = sink_fw::report_inputs(&r);
-                if let Ok([mle, mmse]) =
-                    mle_and_mmse_window_with::<Portable>(&obs, model, area, sink_fw::DEFAULT_SIGMA)
-                {
-                    let fix = sink_fw::Fix {
-                        agent: r.agent,
-                        seq: r.seq,
-                        mle,
-                        mmse,
-                        model,
-                        fitted: false,
-                    };
-                    lines.push((ms, fix.lines()[0], Some(Reference::Fixed)));
-                }
-                if let Some(line) = p0_only_fix(&mut h.p0_only, &r) {
-                    lines.push((ms, line, Some(Reference::P0Only)));
-                }
+                self.refs.add(ms, r, &mut lines);
             }
         }
         if let Some((node, seen)) = &mut self.fw_sink {
@@ -558,7 +574,11 @@ impl Testbed {
             for l in &all[*seen..] {
                 match SinkOutput::parse(&l.text) {
                     Ok(SinkOutput::Line(line)) => lines.push((l.ms(), line, None)),
-                    Ok(SinkOutput::Report(_)) => {}
+                    Ok(SinkOutput::Report(raw)) => {
+                        if let Ok(r) = raw.report() {
+                            self.refs.add(l.ms(), r, &mut lines);
+                        }
+                    }
                     Err(_) => continue,
                 }
                 self.log += &l.text;

@@ -469,3 +469,79 @@ fn odd_durations_end_on_time() {
         s.agent.path[1].position
     );
 }
+
+/// The same room10 run (default medium: shadowing and fading) with the sink firmware in simavr
+/// and with the host sink: the firmware writes exactly the lines the host sink computes (same
+/// reports, same fixed-point logic; the AVR kernel equals the portable one), and its status
+/// line counts every report with none missing.
+#[test]
+fn the_sink_firmware_writes_what_the_host_sink_computes() {
+    let mut s = Scenario::load(&scenario::resolve("room10")).unwrap();
+    s.agent.path.truncate(2);
+    for stop in &mut s.agent.path {
+        stop.dwell_s = 5.0;
+    }
+    let dir = firmware::default_dir();
+    firmware::ensure_built(&dir).unwrap();
+    let run = |sink| {
+        let cfg = RunConfig {
+            sink,
+            ..RunConfig::default()
+        };
+        let mut tb = Testbed::new(&s, &dir, &cfg).unwrap();
+        let mut obs = Vec::new();
+        while !tb.done() {
+            obs.extend(tb.step(1.0));
+        }
+        (obs, tb.sink_log().to_string())
+    };
+    let (fw, fw_log) = run(SinkSource::Firmware);
+    let (host, host_log) = run(SinkSource::Host);
+    // The sink's lines, and apart from them the host's references of the same reports.
+    let lines = |obs: &[testbed::Observed], refs: bool| -> Vec<SinkLine> {
+        obs.iter()
+            .filter(|o| !matches!(o.line, SinkLine::Status { .. }) && o.reference.is_some() == refs)
+            .map(|o| o.line)
+            .collect()
+    };
+    let reports = fw.iter().filter(|o| o.is_sink_mle()).count();
+    // (10 s of stops after the 8 s warm-up at 5 reports/s, and the reports of the warm-up once
+    // the anchors are up.)
+    assert!(reports >= 50, "{reports} reports located by the firmware");
+    let (a, b) = (lines(&fw, false), lines(&host, false));
+    assert_eq!(a.len(), b.len(), "firmware vs host: as many lines");
+    assert_eq!(a, b, "the firmware's lines");
+    assert_eq!(
+        lines(&fw, true),
+        lines(&host, true),
+        "the references of the same reports"
+    );
+    // The logs hold the same sink lines (the firmware's status lines aside).
+    let sink_lines = |log: &str| -> Vec<String> {
+        log.lines()
+            .filter(|l| !l.contains(" status "))
+            .map(str::to_string)
+            .collect()
+    };
+    assert_eq!(sink_lines(&fw_log), sink_lines(&host_log));
+    // The firmware's status line (every 10 s): every report it received, none missing.
+    let status = fw
+        .iter()
+        .filter_map(|o| match o.line {
+            SinkLine::Status {
+                frames,
+                reports,
+                drops,
+                checksum_errors,
+                foreign,
+                fixes,
+                ..
+            } => Some((frames, reports, drops, checksum_errors, foreign, fixes)),
+            _ => None,
+        })
+        .next_back()
+        .expect("a status line");
+    assert_eq!(status.0, status.1, "{status:?}");
+    assert_eq!((status.2, status.3, status.4), (0, 0, 0), "{status:?}");
+    assert_eq!(status.5, status.1, "{status:?}");
+}

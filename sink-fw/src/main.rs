@@ -1,16 +1,20 @@
-//! sink-fw: the hoploc sink node firmware for the Arduino Uno.
+//! sink-fw: the hoploc sink firmware for the Arduino Uno.
 //!
-//! For now the boot firmware: write `hoploc sink boot`, settle the node config (provisioning
-//! window, then EEPROM or the build-time config of `HOPLOC_*` variables, see
-//! `loc_proto::config::from_env`), bring the radio up through xbee-api (API mode 2 at 57600; `MY`,
-//! `ID`, `CH` from `uno_board::radio_config`, each read back), retrying with an LED error code
-//! while it does not answer, then listen. The node logic will
-//! live in a host-tested `lib.rs`; this file only wires it to `uno-board`. Build: `cargo fw` (all
-//! firmwares) or `cargo fw-run -p sink-fw`.
+//! Wiring only (the logic is `sink_fw::Sink`, host-tested): boot line, node config (provisioning
+//! window, then EEPROM or the build-time config of `HOPLOC_*` variables), radio bring-up on the
+//! sink channel, then the loop — each report the radio hands over goes to the sink, and out on
+//! the UART (the USB serial) go its `report` line and its fix lines (or why there is none), as
+//! loc-proto's sink lines; a `status` line every [`STATUS_PERIOD_MS`]. Build: `cargo fw` (all
+//! firmwares) or `cargo fw-run -p sink-fw`. Flash: 31 868 B text + 122 B data, within the
+//! 32 256 B the Uno's bootloader leaves, not yet within the SPEC's 16 KB.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]
 fn main() {}
+
+/// Time between two status lines, ms.
+#[cfg(target_arch = "avr")]
+const STATUS_PERIOD_MS: u32 = 10_000;
 
 #[cfg(target_arch = "avr")]
 uno_board::link_avr_libc!();
@@ -24,5 +28,120 @@ mod built_in {
 #[cfg(target_arch = "avr")]
 #[uno_board::entry]
 fn main() -> ! {
-    uno_board::boot_and_listen(&built_in::BUILT_IN)
+    use loc_proto::line::BootLine;
+    use loc_proto::Role;
+    use uno_board::{
+        bring_up_radio, load_config, radio_config, reset, write_line, Board, SysClock, WdtTimeout,
+    };
+    use xbee_api::driver::Radio;
+
+    let Some(board) = Board::take() else { reset() };
+    let Board {
+        mut serial,
+        mut led,
+        mut eeprom,
+        mut watchdog,
+        ..
+    } = board;
+    write_line(&mut serial, &BootLine::Boot { role: Role::Sink });
+    let config = load_config(&mut serial, &mut eeprom, &mut led, &built_in::BUILT_IN);
+    let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
+    bring_up_radio(&mut radio, &mut led, Role::Sink, &radio_config(&config));
+    watchdog.start(WdtTimeout::S1);
+    run(radio, led, watchdog, &config)
+}
+
+/// The node's loop, out of line (on the AVR, far accesses into `main`'s big frame cost code).
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+fn run(
+    mut radio: uno_board::NodeRadio,
+    mut led: uno_board::Led,
+    mut watchdog: uno_board::Watchdog,
+    config: &loc_proto::config::Config,
+) -> ! {
+    use loc_proto::msg::ReportView;
+    use sink_fw::{BadFrame, Sink};
+    use uno_board::node::{self, Event};
+    use uno_board::{now_ms, rx_pending, sleep_unless, AvrTerm};
+
+    let mut sink = Sink::<AvrTerm>::new(sink_fw::room(config.position));
+    let mut last_status = now_ms();
+    let mut uptime_s = 0u32;
+    // A packet's bytes (the radio's buffer is lent only while polling): the report is read in
+    // place from here and written as its `report` line. RX16 data always fits.
+    let mut raw = [0u8; xbee_api::MAX_FRAME_DATA];
+    loop {
+        watchdog.feed();
+        while let Some(got) = node::poll(&mut radio, |ev| match ev {
+            Event::Packet { data, .. } => {
+                let len = data.len().min(raw.len());
+                raw[..len].copy_from_slice(&data[..len]);
+                Some(len)
+            }
+            _ => None,
+        }) {
+            if let Some(len) = got {
+                match ReportView::parse(&raw[..len]) {
+                    Ok(report) => {
+                        led.toggle();
+                        on_report(&mut sink, &report, &mut radio);
+                    }
+                    Err(e) => sink.on_bad_frame(BadFrame::of(e)),
+                }
+            }
+        }
+        if now_ms().wrapping_sub(last_status) >= STATUS_PERIOD_MS {
+            last_status = last_status.wrapping_add(STATUS_PERIOD_MS);
+            uptime_s += STATUS_PERIOD_MS / 1000;
+            status(&mut radio, sink.counters(), uptime_s);
+        }
+        sleep_unless(rx_pending);
+    }
+}
+
+/// A report's lines: its `report` line (the bytes it came in), then two `fix` lines or a
+/// `nofix` line. Out of line, as [`run`].
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+fn on_report(
+    sink: &mut sink_fw::Sink<uno_board::AvrTerm>,
+    report: &loc_proto::msg::ReportView,
+    radio: &mut uno_board::NodeRadio,
+) {
+    use loc_proto::sink_line::Estimator;
+    loc_proto::sink_line::RawReport::write(report.bytes(), uart(radio));
+    match sink.on_report(report) {
+        Ok(fix) => {
+            for e in [Estimator::Mle, Estimator::Mmse] {
+                write(radio, &fix.line(e));
+            }
+        }
+        Err(e) => write(
+            radio,
+            &sink_fw::no_fix_line(report.agent(), report.seq(), e),
+        ),
+    }
+}
+
+/// The `status` line at `uptime_s` on the UART. Out of line: built in [`run`]'s big frame, the
+/// line's fields cost ≈ 16 B of flash each.
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+fn status(radio: &mut uno_board::NodeRadio, counters: &sink_fw::Counters, uptime_s: u32) {
+    write(radio, &counters.line(uptime_s));
+}
+
+/// `line` on the UART.
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+fn write(radio: &mut uno_board::NodeRadio, line: &loc_proto::sink_line::SinkLine) {
+    line.write(uart(radio));
+}
+
+/// The UART as a byte sink: one closure type, so one copy of the line writers' glue.
+#[cfg(target_arch = "avr")]
+fn uart(radio: &mut uno_board::NodeRadio) -> impl FnMut(u8) + '_ {
+    let serial = radio.serial_mut();
+    move |b| serial.write_byte(b)
 }

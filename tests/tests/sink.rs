@@ -1,0 +1,192 @@
+//! The sink firmware in simavr on a modelled XBee (API mode 2 at 57600, sink channel 3): the
+//! reports of agent 1 delivered as a medium would, and the lines it writes (SPEC §4): two `fix`
+//! lines per report (MLE, MMSE) equal to what the host computes with the same logic, `nofix`
+//! when too few anchors were heard, and a `status` line counting frames, drops by sequence
+//! gaps, corrupt and foreign frames.
+//!
+//! The firmware runs the build-time default config as the sink: its room is the anchors'
+//! bounding box (10 m × 10 m here). Before each report's fix lines it writes the report's bytes
+//! as a `report` line (what `hoploc replay` reads).
+
+use hoploc_tests::boot;
+use loc_core::fixed::Portable;
+use loc_proto::config::Config;
+use loc_proto::msg::{ChannelList, Position, Report};
+use loc_proto::sink_line::{RawReport, SinkLine, SinkOutput};
+use loc_proto::{xbee_channel, Role};
+use simavr::ms_to_cycles;
+use simavr::xbee::{Address, RxPacket, XBee, XBeeConfig};
+use sink_fw::Sink;
+
+const ANCHORS: [[i16; 2]; 4] = [[0, 0], [1000, 0], [1000, 1000], [0, 1000]];
+
+/// The RSSI byte (−dBm, rounded) at `d_cm` under P0 = −40 dBm, α = 3.
+fn byte(d_cm: f64) -> u8 {
+    (40.0 + 30.0 * (d_cm / 100.0).max(0.01).log10()).round() as u8
+}
+
+fn dist(a: [i16; 2], b: [f64; 2]) -> f64 {
+    ((a[0] as f64 - b[0]).powi(2) + (a[1] as f64 - b[1]).powi(2)).sqrt()
+}
+
+/// Agent 1's report of superframe `seq` from `at` (cm), anchors in `heard` only.
+fn report(seq: u16, at: [f64; 2], heard: &[usize]) -> Report {
+    let mut r = Report::new(1, seq, 4, ChannelList::new(&[1, 12]).unwrap());
+    for &i in heard {
+        r.positions[i] = Position {
+            x: ANCHORS[i][0],
+            y: ANCHORS[i][1],
+        };
+        for c in 0..2 {
+            r.rssi[c][i] = byte(dist(ANCHORS[i], at));
+            for &j in heard {
+                if i != j {
+                    let b = ANCHORS[j];
+                    r.relay[c][i][j] = byte(dist(ANCHORS[i], [b[0] as f64, b[1] as f64]));
+                }
+            }
+        }
+    }
+    r
+}
+
+fn packet(payload: &[u8]) -> RxPacket {
+    RxPacket {
+        channel: xbee_channel(Config::DEFAULT.sink_channel).unwrap(),
+        pan_id: Config::DEFAULT.pan_id,
+        source: Address::Short(Role::Agent.address(1)),
+        dest: Address::Short(Role::Sink.address(1)),
+        options: 0,
+        rssi_dbm: -50,
+        payload: payload.to_vec(),
+    }
+}
+
+fn encoded(r: &Report) -> Vec<u8> {
+    let mut buf = [0; 100];
+    let n = r.encode(&mut buf).unwrap();
+    buf[..n].to_vec()
+}
+
+#[test]
+fn the_sink_writes_a_fix_per_report_and_counts_what_it_could_not_use() {
+    let mut avr = boot(Role::Sink);
+    let mut radio = XBee::new(XBeeConfig::api(2));
+    // The 2 s provisioning window, then the radio bring-up.
+    radio.run_for_ms(&mut avr, 2_700.0);
+    assert_eq!(
+        radio.registers().get(*b"MY"),
+        Some(Role::Sink.address(1) as u32)
+    );
+    assert_eq!(
+        radio.registers().get(*b"CH"),
+        Some(xbee_channel(Config::DEFAULT.sink_channel).unwrap() as u32)
+    );
+    // Reports 7, 8, 10 (9 lost), one with two anchors only (11), a foreign packet and a
+    // broken report between them.
+    let reports = [
+        report(7, [300.0, 600.0], &[0, 1, 2, 3]),
+        report(8, [500.0, 500.0], &[0, 1, 2, 3]),
+        report(10, [850.0, 120.0], &[0, 1, 2, 3]),
+        report(11, [500.0, 500.0], &[0, 2]),
+    ];
+    let mut at = 3_000.0;
+    let mut delivered = Vec::new();
+    for (k, r) in reports.iter().enumerate() {
+        radio.deliver(packet(&encoded(r)), ms_to_cycles(at));
+        delivered.push(at);
+        at += 150.0;
+        if k == 1 {
+            radio.deliver(packet(b"not a hoploc message"), ms_to_cycles(at));
+            at += 150.0;
+            let mut broken = encoded(&reports[0]);
+            broken.truncate(30);
+            radio.deliver(packet(&broken), ms_to_cycles(at));
+            at += 150.0;
+        }
+    }
+    radio.run_for_ms(&mut avr, 10_000.0);
+    let outputs: Vec<(f64, SinkOutput)> = radio
+        .text_lines()
+        .iter()
+        .filter_map(|l| SinkOutput::parse(&l.text).ok().map(|s| (l.ms(), s)))
+        .collect();
+    // A report line with the report's very bytes before each report's fix lines.
+    let raws: Vec<RawReport> = outputs
+        .iter()
+        .filter_map(|(_, o)| match o {
+            SinkOutput::Report(r) => Some(*r),
+            _ => None,
+        })
+        .collect();
+    let want_raw: Vec<Vec<u8>> = reports.iter().map(encoded).collect();
+    assert_eq!(
+        raws.iter().map(|r| r.bytes().to_vec()).collect::<Vec<_>>(),
+        want_raw
+    );
+    for (k, (_, o)) in outputs.iter().enumerate() {
+        if let SinkOutput::Report(_) = o {
+            assert!(
+                matches!(
+                    outputs.get(k + 1),
+                    Some((
+                        _,
+                        SinkOutput::Line(SinkLine::Fix { .. } | SinkLine::NoFix { .. })
+                    ))
+                ),
+                "a report line is followed by its fix lines"
+            );
+        }
+    }
+    let lines: Vec<(f64, SinkLine)> = outputs
+        .iter()
+        .filter_map(|(t, o)| match o {
+            SinkOutput::Line(l) => Some((*t, *l)),
+            _ => None,
+        })
+        .collect();
+    // What the same logic computes on the host, line for line.
+    let mut host = Sink::<Portable>::new(sink_fw::room(Position { x: 0, y: 0 }));
+    let mut want = Vec::new();
+    for r in &reports {
+        match host.on_report(r) {
+            Ok(fix) => want.extend(fix.lines()),
+            Err(e) => want.push(sink_fw::no_fix_line(r.agent, r.seq, e)),
+        }
+    }
+    let fixes: Vec<&SinkLine> = lines
+        .iter()
+        .map(|(_, l)| l)
+        .filter(|l| !matches!(l, SinkLine::Status { .. }))
+        .collect();
+    assert_eq!(fixes, want.iter().collect::<Vec<_>>());
+    assert!(
+        matches!(want[6], SinkLine::NoFix { usable: 2, .. }),
+        "{:?}",
+        want[6]
+    );
+    // Each report's fix lines come out within 80 ms of its delivery: its report line (≈ 25 ms
+    // of UART at 57600) and the estimate (≈ 22 ms) come in between.
+    for (k, &t) in delivered.iter().take(3).enumerate() {
+        let first = lines[2 * k].0;
+        assert!(first > t && first < t + 80.0, "report {k}: {t} -> {first}");
+    }
+    // The status line 10 s after the sink started: 6 frames, 4 reports, 1 dropped (9), 1 corrupt, 1 foreign.
+    let status: Vec<&SinkLine> = lines
+        .iter()
+        .map(|(_, l)| l)
+        .filter(|l| matches!(l, SinkLine::Status { .. }))
+        .collect();
+    assert_eq!(
+        status,
+        [&SinkLine::Status {
+            uptime_s: 10,
+            frames: 6,
+            reports: 4,
+            drops: 1,
+            checksum_errors: 1,
+            foreign: 1,
+            fixes: 3,
+        }]
+    );
+}
