@@ -313,17 +313,8 @@ pub fn run(args: &Args) -> Result<(), String> {
         args.live_every
     );
     println!(
-        "{:>8} {:>4} {:>13} {:>13} {:>6} {:>13} {:>6} {:>5} {:>7}{}",
-        "time",
-        "stop",
-        "truth (m)",
-        "MLE (m)",
-        "err",
-        "MMSE (m)",
-        "err",
-        "α",
-        "P0",
-        "  fixed err  P0only err"
+        "{:>8} {:>4} {:>13} {:>13} {:>6} {:>13} {:>6} {:>5} {:>7}  fixed err  P0only err",
+        "time", "stop", "truth (m)", "MLE (m)", "err", "MMSE (m)", "err", "α", "P0",
     );
     let bar = ProgressBar::with_draw_target(
         Some((duration * 1000.0) as u64),
