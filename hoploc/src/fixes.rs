@@ -1,6 +1,6 @@
 //! The fixes of a testbed run against the ground truth: the per-position, per-estimator
 //! RMSE/bias table of `hoploc demo`, its CSV, and its plots (fixes against the truth; error
-//! over time). The estimators are the sink's two (from its lines) and, with the host sink, the
+//! over time). The estimators are the sink's two (from its lines) and the
 //! host's references ([`crate::testbed::Reference`]: fixed parameters, online P0 only).
 
 use std::path::{Path, PathBuf};

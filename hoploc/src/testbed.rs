@@ -72,8 +72,8 @@ pub struct Observed {
     /// Whether the whole superframe the report measured lies after the warm-up and within this
     /// stop (else the fix mixes two positions or the network's start: left out of statistics).
     pub settled: bool,
-    /// Not a sink line but one of the host's references, as a `fix` line (host sink only;
-    /// experiment 3's comparison); `None` for the sink's lines.
+    /// Not a sink line but one of the host's references, as a `fix` line (experiment 3's
+    /// comparison); `None` for the sink's lines.
     pub reference: Option<Reference>,
 }
 
