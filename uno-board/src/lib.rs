@@ -16,7 +16,7 @@
 //! * The node config at boot ([`load_config`]): the provisioning window on the UART, then the
 //!   config in EEPROM or the firmware's built-in one, or a config error the node does not run
 //!   with; [`radio_config`] turns it into the radio settings.
-//! * Radio bring-up at boot ([`bring_up_radio`], [`boot_and_listen`]): the xbee-api driver on
+//! * Radio bring-up at boot ([`bring_up_radio`]): the xbee-api driver on
 //!   [`Serial`], the `loc_proto::line::BootLine` lines, the LED error code and the retry.
 //! * [`libm`]: safe wrappers of avr-libc's `f32` `log10`/`exp`/`sqrt` (for the f32 benchmark in
 //!   `mcu-bench`; the node firmware uses integer arithmetic only).
