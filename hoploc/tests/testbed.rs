@@ -545,3 +545,66 @@ fn the_sink_firmware_writes_what_the_host_sink_computes() {
     assert_eq!((status.2, status.3, status.4), (0, 0, 0), "{status:?}");
     assert_eq!(status.5, status.1, "{status:?}");
 }
+
+/// Two agents side by side (SPEC §4: each reports in its own sub-slot) with the sink firmware,
+/// noise-free: both are located every superframe, each near its own position, and the sink
+/// counts no report missing.
+#[test]
+fn two_agents_report_side_by_side_to_the_sink_firmware() {
+    let mut s = quiet_room10();
+    s.agent.path.truncate(1);
+    s.agent.path[0].dwell_s = 6.0;
+    let dir = firmware::default_dir();
+    firmware::ensure_built(&dir).unwrap();
+    let cfg = RunConfig {
+        sink: SinkSource::Firmware,
+        ..RunConfig::default()
+    };
+    let mut tb = Testbed::new(&s, &dir, &cfg).unwrap();
+    // Agent 2 at (3, 6) m: agent 1's first stop (5, 5) moved by (−2, +1).
+    testbed::add_agent(tb.network_mut(), &s, &dir, 2, [-2.0, 1.0], SERIAL_BASE).unwrap();
+    let truth = |agent: u8| match agent {
+        1 => s.agent.path[0].position,
+        _ => [3.0, 6.0],
+    };
+    let sf = tb.superframe_s();
+    let mut obs = Vec::new();
+    while !tb.done() {
+        obs.extend(tb.step(1.0));
+    }
+    let step = 0.02 * s.area.width_m;
+    let superframes = (s.duration_s() - s.timing.warmup_s - 2.0 * sf) / sf;
+    for agent in [1u8, 2] {
+        let fixes: Vec<(i16, i16)> = obs
+            .iter()
+            .filter(|o| o.is_sink_mle() && o.time_s >= s.timing.warmup_s + sf)
+            .filter_map(|o| match o.line {
+                SinkLine::Fix { agent: a, x, y, .. } if a == agent => Some((x, y)),
+                _ => None,
+            })
+            .collect();
+        assert!(
+            fixes.len() as f64 >= superframes,
+            "agent {agent}: {} fixes in {superframes} superframes",
+            fixes.len()
+        );
+        let t = truth(agent);
+        for (x, y) in fixes {
+            let (ex, ey) = (x as f64 / 100.0 - t[0], y as f64 / 100.0 - t[1]);
+            assert!(
+                ex.abs() <= step + 1e-9 && ey.abs() <= step + 1e-9,
+                "agent {agent} at {t:?}: fix ({x}, {y}) cm"
+            );
+        }
+    }
+    let status = obs
+        .iter()
+        .filter_map(|o| match o.line {
+            SinkLine::Status { drops, reports, .. } => Some((drops, reports)),
+            _ => None,
+        })
+        .next_back()
+        .expect("a status line");
+    assert_eq!(status.0, 0, "reports missing: {status:?}");
+    assert!(status.1 > 0, "{status:?}");
+}
