@@ -428,6 +428,24 @@ pub fn run(args: &Args) -> Result<(), String> {
             "host sink: {} frames, {} reports, {} missing from the sequence, {} corrupt, {} foreign\n",
             c.frames, c.reports, c.drops, c.checksum_errors, c.foreign
         );
+    } else if let Some(SinkLine::Status {
+        uptime_s,
+        frames,
+        reports,
+        drops,
+        checksum_errors,
+        foreign,
+        fixes,
+    }) = obs
+        .iter()
+        .map(|o| o.line)
+        .rfind(|l| matches!(l, SinkLine::Status { .. }))
+    {
+        summary += &format!(
+            "sink firmware's last status line (at {uptime_s} s): {frames} frames, {reports} \
+             reports, {drops} missing from the sequence, {checksum_errors} corrupt, {foreign} \
+             foreign, {fixes} fixes\n"
+        );
     }
     summary += &format!(
         "emulation: {duration:.1} s simulated in {wall:.2} s: {:.1}× real time ({} threads)\n",

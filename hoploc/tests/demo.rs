@@ -132,6 +132,11 @@ fn a_scenario_run_prints_its_table_and_writes_plots() {
         }
     }
     assert!(stdout.contains("fixes/s"), "{stdout}");
+    // The sink firmware's own counters, from its last status line.
+    assert!(
+        stdout.contains("sink firmware's last status line") && stdout.contains("0 missing"),
+        "{stdout}"
+    );
     assert!(stdout.contains("× real time"), "{stdout}");
     for f in [
         "fixes.svg",
