@@ -344,6 +344,7 @@ fn uart_noise_is_counted_and_the_fixes_go_on() {
     let dir = firmware::default_dir();
     firmware::ensure_built(&dir).unwrap();
     let cfg = RunConfig {
+        sink: SinkSource::Firmware,
         uart_error_rate: 1e-3,
         ..RunConfig::default()
     };
@@ -353,9 +354,16 @@ fn uart_noise_is_counted_and_the_fixes_go_on() {
     while !tb.done() {
         obs.extend(tb.step(1.0));
     }
+    let nodes = tb.nodes().clone();
     let net = tb.network();
     let mut radio_errors = 0;
-    for id in 0..s.anchors.len() + 1 {
+    // Every firmware node — anchors, agent and the sink — alive and booted once.
+    for id in nodes
+        .anchors
+        .iter()
+        .copied()
+        .chain([nodes.agent, nodes.sink])
+    {
         assert!(net.state(id).is_alive(), "node {id}: {:?}", net.state(id));
         let boots = net
             .lines(id)
@@ -366,7 +374,21 @@ fn uart_noise_is_counted_and_the_fixes_go_on() {
         let st = net.core(id).stats();
         radio_errors += st.checksum_errors + st.bad_frames;
     }
-    let c = tb.host_counters().unwrap();
+    // The sink firmware's counters, from its last status line.
+    let (frames, reports, drops, corrupt) = obs
+        .iter()
+        .filter_map(|o| match o.line {
+            SinkLine::Status {
+                frames,
+                reports,
+                drops,
+                checksum_errors,
+                ..
+            } => Some((frames, reports, drops, checksum_errors)),
+            _ => None,
+        })
+        .next_back()
+        .expect("a status line");
     let fixes = obs
         .iter()
         .filter(|o| o.is_sink_mle() && o.time_s >= s.timing.warmup_s)
@@ -374,10 +396,14 @@ fn uart_noise_is_counted_and_the_fixes_go_on() {
     let superframes = (s.duration_s() - s.timing.warmup_s) / sf;
     eprintln!(
         "UART errors 1e-3: {fixes} fixes in {superframes} superframes, {radio_errors} frames \
-         the radios rejected, sink: {} missing, {} corrupt",
-        c.drops, c.checksum_errors
+         the radios rejected; sink firmware: {frames} frames, {reports} reports, {drops} \
+         missing, {corrupt} corrupt"
     );
     assert!(radio_errors > 0, "no error was counted");
+    assert!(
+        reports > 0 && frames >= reports,
+        "{frames} frames, {reports} reports"
+    );
     assert!(fixes as f64 >= 0.8 * superframes, "{fixes} fixes");
 }
 
