@@ -42,14 +42,11 @@ fn main() {
             };
             let mut tb = Testbed::new(&s, &dir, &cfg).expect("testbed");
             let t0 = Instant::now();
-            let mut fixes = 0usize;
-            while !tb.done() {
-                fixes += tb
-                    .step(1.0)
-                    .iter()
-                    .filter(|o| o.is_sink_mle() && o.time_s >= s.timing.warmup_s)
-                    .count();
-            }
+            let fixes = tb
+                .run_to_end()
+                .iter()
+                .filter(|o| o.is_sink_mle() && o.time_s >= s.timing.warmup_s)
+                .count();
             let wall = t0.elapsed().as_secs_f64();
             let sim = tb.time_s();
             println!(

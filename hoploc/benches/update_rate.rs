@@ -121,14 +121,11 @@ fn main() {
         };
         let mut tb = Testbed::new(&s, &dir, &cfg).expect("testbed");
         let t0 = Instant::now();
-        let mut fixes = 0usize;
-        while !tb.done() {
-            fixes += tb
-                .step(1.0)
-                .iter()
-                .filter(|o| o.is_sink_mle() && o.time_s >= s.timing.warmup_s)
-                .count();
-        }
+        let fixes = tb
+            .run_to_end()
+            .iter()
+            .filter(|o| o.is_sink_mle() && o.time_s >= s.timing.warmup_s)
+            .count();
         let row = Row {
             slot_ms: slot,
             latency_fits: latency <= room,

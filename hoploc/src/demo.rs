@@ -436,10 +436,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         checksum_errors,
         foreign,
         fixes,
-    }) = obs
-        .iter()
-        .map(|o| o.line)
-        .rfind(|l| matches!(l, SinkLine::Status { .. }))
+    }) = crate::testbed::last_status(&obs)
     {
         summary += &format!(
             "sink firmware's last status line (at {uptime_s} s): {frames} frames, {reports} \

@@ -77,6 +77,13 @@ pub struct Observed {
     pub reference: Option<Reference>,
 }
 
+/// The last `status` line among `obs` (the sink's counters at that time), if any.
+pub fn last_status(obs: &[Observed]) -> Option<SinkLine> {
+    obs.iter()
+        .map(|o| o.line)
+        .rfind(|l| matches!(l, SinkLine::Status { .. }))
+}
+
 impl Observed {
     /// Whether this is the sink's own MLE `fix` line (one per located report), not a host
     /// reference.
@@ -496,6 +503,12 @@ impl Testbed {
     /// The host sink's counters (`None` with the firmware sink).
     pub fn host_counters(&self) -> Option<&sink_fw::Counters> {
         self.host.as_ref().map(|h| h.sink.counters())
+    }
+
+    /// Runs the rest of the scenario ([`Testbed::step`] to its end); returns the sink lines
+    /// written meanwhile, in order.
+    pub fn run_to_end(&mut self) -> Vec<Observed> {
+        self.step(self.scenario.duration_s() - self.time_s())
     }
 
     /// Runs up to `seconds` more of simulated time (not past the scenario's end), moving the

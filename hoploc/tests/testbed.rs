@@ -38,10 +38,7 @@ fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step(
     let mut tb = Testbed::new(&s, &dir, &cfg).unwrap();
     let sf = tb.superframe_s();
     assert!((sf - 0.2).abs() < 1e-9, "room10's superframe: {sf} s");
-    let mut obs = Vec::new();
-    while !tb.done() {
-        obs.extend(tb.step(1.0));
-    }
+    let obs = tb.run_to_end();
     assert!((tb.time_s() - s.duration_s()).abs() < 1e-6);
     // After the warm-up: one report per superframe, each giving an MLE and an MMSE fix.
     let after: Vec<_> = obs
@@ -281,9 +278,7 @@ fn with_an_anchor_gone_the_fixes_go_on_from_three() {
     // Anchor 4 (node 3) off: the agent marks it not heard, the sink locates from three.
     tb.network_mut().kill(3);
     let killed = tb.time_s();
-    while !tb.done() {
-        obs.extend(tb.step(1.0));
-    }
+    obs.extend(tb.run_to_end());
     let mle = |o: &&hoploc::testbed::Observed| {
         o.reference.is_none()
             && matches!(
@@ -350,10 +345,7 @@ fn uart_noise_is_counted_and_the_fixes_go_on() {
     };
     let mut tb = Testbed::new(&s, &dir, &cfg).unwrap();
     let sf = tb.superframe_s();
-    let mut obs = Vec::new();
-    while !tb.done() {
-        obs.extend(tb.step(1.0));
-    }
+    let obs = tb.run_to_end();
     let nodes = tb.nodes().clone();
     let net = tb.network();
     let mut radio_errors = 0;
@@ -375,20 +367,16 @@ fn uart_noise_is_counted_and_the_fixes_go_on() {
         radio_errors += st.checksum_errors + st.bad_frames;
     }
     // The sink firmware's counters, from its last status line.
-    let (frames, reports, drops, corrupt) = obs
-        .iter()
-        .filter_map(|o| match o.line {
-            SinkLine::Status {
-                frames,
-                reports,
-                drops,
-                checksum_errors,
-                ..
-            } => Some((frames, reports, drops, checksum_errors)),
-            _ => None,
-        })
-        .next_back()
-        .expect("a status line");
+    let Some(SinkLine::Status {
+        frames,
+        reports,
+        drops,
+        checksum_errors: corrupt,
+        ..
+    }) = testbed::last_status(&obs)
+    else {
+        panic!("no status line")
+    };
     let fixes = obs
         .iter()
         .filter(|o| o.is_sink_mle() && o.time_s >= s.timing.warmup_s)
@@ -422,9 +410,7 @@ fn with_anchor_1_gone_anchor_2_takes_over_and_the_fixes_go_on() {
     let mut obs = tb.step(s.timing.warmup_s + 1.0);
     tb.network_mut().kill(0);
     let killed = tb.time_s();
-    while !tb.done() {
-        obs.extend(tb.step(1.0));
-    }
+    obs.extend(tb.run_to_end());
     assert!(
         tb.network().log().iter().all(|r| !r.collided),
         "a collision"
@@ -515,10 +501,7 @@ fn the_sink_firmware_writes_what_the_host_sink_computes() {
             ..RunConfig::default()
         };
         let mut tb = Testbed::new(&s, &dir, &cfg).unwrap();
-        let mut obs = Vec::new();
-        while !tb.done() {
-            obs.extend(tb.step(1.0));
-        }
+        let obs = tb.run_to_end();
         (obs, tb.sink_log().to_string())
     };
     let (fw, fw_log) = run(SinkSource::Firmware);
@@ -551,22 +534,19 @@ fn the_sink_firmware_writes_what_the_host_sink_computes() {
     };
     assert_eq!(sink_lines(&fw_log), sink_lines(&host_log));
     // The firmware's status line (every 10 s): every report it received, none missing.
-    let status = fw
-        .iter()
-        .filter_map(|o| match o.line {
-            SinkLine::Status {
-                frames,
-                reports,
-                drops,
-                checksum_errors,
-                foreign,
-                fixes,
-                ..
-            } => Some((frames, reports, drops, checksum_errors, foreign, fixes)),
-            _ => None,
-        })
-        .next_back()
-        .expect("a status line");
+    let Some(SinkLine::Status {
+        frames,
+        reports,
+        drops,
+        checksum_errors,
+        foreign,
+        fixes,
+        ..
+    }) = testbed::last_status(&fw)
+    else {
+        panic!("no status line")
+    };
+    let status = (frames, reports, drops, checksum_errors, foreign, fixes);
     assert_eq!(status.0, status.1, "{status:?}");
     assert_eq!((status.2, status.3, status.4), (0, 0, 0), "{status:?}");
     assert_eq!(status.5, status.1, "{status:?}");
@@ -594,10 +574,7 @@ fn two_agents_report_side_by_side_to_the_sink_firmware() {
         _ => [3.0, 6.0],
     };
     let sf = tb.superframe_s();
-    let mut obs = Vec::new();
-    while !tb.done() {
-        obs.extend(tb.step(1.0));
-    }
+    let obs = tb.run_to_end();
     let step = 0.02 * s.area.width_m;
     let superframes = (s.duration_s() - s.timing.warmup_s - 2.0 * sf) / sf;
     for agent in [1u8, 2] {
@@ -623,14 +600,10 @@ fn two_agents_report_side_by_side_to_the_sink_firmware() {
             );
         }
     }
-    let status = obs
-        .iter()
-        .filter_map(|o| match o.line {
-            SinkLine::Status { drops, reports, .. } => Some((drops, reports)),
-            _ => None,
-        })
-        .next_back()
-        .expect("a status line");
+    let Some(SinkLine::Status { drops, reports, .. }) = testbed::last_status(&obs) else {
+        panic!("no status line")
+    };
+    let status = (drops, reports);
     assert_eq!(status.0, 0, "reports missing: {status:?}");
     assert!(status.1 > 0, "{status:?}");
 }
