@@ -583,8 +583,9 @@ impl Testbed {
             }
         }
         if let Some((node, seen)) = &mut self.fw_sink {
-            let all = self.net.lines(*node);
-            for l in &all[*seen..] {
+            let new = self.net.lines_from(*node, *seen);
+            *seen += new.len();
+            for l in &new {
                 match SinkOutput::parse(&l.text) {
                     Ok(SinkOutput::Line(line)) => lines.push((l.ms(), line, None)),
                     Ok(SinkOutput::Report(raw)) => {
@@ -597,7 +598,6 @@ impl Testbed {
                 self.log += &l.text;
                 self.log += "\r\n";
             }
-            *seen = all.len();
         }
         for (ms, line, reference) in lines {
             let t = ms / 1000.0;

@@ -208,15 +208,21 @@ impl Node {
         }
     }
 
-    fn lines(&self) -> Vec<TextLine> {
-        let mut out = self.old_lines.clone();
-        if let Body::Firmware { radio, .. } = &self.body {
-            out.extend(radio.text_lines().iter().map(|l| TextLine {
+    /// The text lines from the `from`-th on (earlier power cycles' first).
+    fn lines_from(&self, from: usize) -> Vec<TextLine> {
+        let current: &[TextLine] = match &self.body {
+            Body::Firmware { radio, .. } => radio.text_lines(),
+            _ => &[],
+        };
+        let old = self.old_lines.get(from..).unwrap_or(&[]);
+        let skip = from.saturating_sub(self.old_lines.len());
+        old.iter()
+            .cloned()
+            .chain(current.iter().skip(skip).map(|l| TextLine {
                 cycle: l.cycle + self.offset,
                 text: l.text.clone(),
-            }));
-        }
-        out
+            }))
+            .collect()
     }
 }
 
@@ -402,7 +408,13 @@ impl Network {
 
     /// The text lines a node's firmware wrote, over all its lives, on the network's clock.
     pub fn lines(&self, id: NodeId) -> Vec<TextLine> {
-        self.nodes[id].lines()
+        self.nodes[id].lines_from(0)
+    }
+
+    /// [`Network::lines`] from the `from`-th line on (for a reader that has taken the first
+    /// `from` already: no copy of those).
+    pub fn lines_from(&self, id: NodeId, from: usize) -> Vec<TextLine> {
+        self.nodes[id].lines_from(from)
     }
 
     /// Every packet resolved so far, in order of end.
@@ -435,7 +447,7 @@ impl Network {
         self.nodes[id].lives += 1;
         let noise = self.noise(id, self.nodes[id].lives);
         let node = &mut self.nodes[id];
-        let lines = node.lines();
+        let lines = node.lines_from(0);
         match &mut node.body {
             Body::Firmware { avr, radio, elf } => {
                 let mut fresh = Avr::load(&*elf)?;

@@ -136,6 +136,15 @@ fn a_node_powered_off_and_on_boots_again_with_its_radio() {
     assert!(matches!(lines[5].1, BootLine::RadioUp { .. }));
     assert!(lines[5].0 > back_ms + 5.0, "{lines:?}");
     assert_eq!(net.cycle(), back + ms_to_cycles(RADIO_UP_MS));
+    // Reading on from any line gives the rest, across the two lives.
+    let all = net.lines(0);
+    for from in 0..=all.len() + 1 {
+        let rest = net.lines_from(0, from);
+        assert_eq!(rest.len(), all.len().saturating_sub(from), "from {from}");
+        for (a, b) in rest.iter().zip(all.iter().skip(from)) {
+            assert_eq!((a.cycle, &a.text), (b.cycle, &b.text), "from {from}");
+        }
+    }
     // The others went on meanwhile: one life each.
     assert_eq!(boot_lines(&net, 3).len(), 3);
 }
