@@ -1,9 +1,10 @@
-//! Experiment 3 (scenarios/exp3.toml) taken apart: how the RMSE of online P0/α estimation and
-//! of fixed parameters depends on the drift, the static per-link offsets (fading σ, wire
-//! antennas' ripple), the shadowing σ, and the fit mode. Each variant runs exp3 on the
-//! emulated testbed (anchors and agent as firmware in simavr, host sink); every report the
-//! host sink receives is then located on the host in f64 (`loc_core`, Extended refinement,
-//! the thesis search, least-squares fit within the thesis bounds, default AR(1)) with
+//! Experiment 3 (scenarios/exp3.toml and exp3-fading.toml) taken apart: how the RMSE of online
+//! P0/α estimation and of fixed parameters depends on the drift, the static per-link offsets
+//! (fading σ, wire antennas' ripple), the shadowing σ, and the fit mode. Each variant runs
+//! exp3 (`exp3`) or exp3-fading changed in one or two ways (the others) on the emulated
+//! testbed (anchors and agent as firmware in simavr, host sink); every report the host sink
+//! receives is then located on the host in f64 (`loc_core`, Extended refinement, the thesis
+//! search, least-squares fit within the thesis bounds, default AR(1)) with
 //! * `fixed`: P0 and α at the scenario's starting values (−40 dBm, 3), as MLE-fixed;
 //! * `P0only`: P0 fitted online from the relayed anchor-to-anchor RSSI, α fixed at 3;
 //! * `P0+α`: both fitted online (the sink's mode; `sink` is the sink's own fixed-point MLE);
@@ -44,7 +45,11 @@ fn isotropic(s: &mut Scenario) {
 
 const VARIANTS: &[Variant] = &[
     Variant {
-        name: "shipped",
+        name: "exp3",
+        change: |s| *s = Scenario::load(&scenario::resolve("exp3")).expect("exp3"),
+    },
+    Variant {
+        name: "exp3-fading",
         change: |_| {},
     },
     Variant {
@@ -93,6 +98,29 @@ const VARIANTS: &[Variant] = &[
         name: "static0-s1",
         change: |s| {
             s.medium.fading_sigma_db = 0.0;
+            s.medium.sigma_db = 1.0;
+            isotropic(s);
+        },
+    },
+    Variant {
+        name: "wire-s1",
+        change: |s| {
+            s.medium.fading_sigma_db = 0.0;
+            s.medium.sigma_db = 1.0;
+        },
+    },
+    Variant {
+        name: "fading05-s1",
+        change: |s| {
+            s.medium.fading_sigma_db = 0.5;
+            s.medium.sigma_db = 1.0;
+            isotropic(s);
+        },
+    },
+    Variant {
+        name: "fading1-s1",
+        change: |s| {
+            s.medium.fading_sigma_db = 1.0;
             s.medium.sigma_db = 1.0;
             isotropic(s);
         },
@@ -230,7 +258,8 @@ fn main() {
         .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect());
     let dir = firmware::default_dir();
     firmware::ensure_built(&dir).expect("firmware");
-    let base = Scenario::load(&scenario::resolve("exp3")).expect("exp3");
+    // The variants change exp3-fading (exp1's harsher medium), step by step towards exp3's.
+    let base = Scenario::load(&scenario::resolve("exp3-fading")).expect("exp3-fading");
     println!(
         "exp3_params: exp3 variants on the testbed (host sink), reports located on the host; \
          RMSE m over settled reports: stop 1 (2.0, 5.0) / stop 2 (3.5, 3.5) / both"
@@ -295,7 +324,7 @@ fn main() {
     }
     println!(
         "variants: drift dB/min, fad = static fading σ dB, σ = shadowing dB; static0 = no fading \
-         and isotropic antennas (no static per-link offset at all); others keep exp3's wire \
-         antennas (≈ 3 dB ripple)"
+         and isotropic antennas (no static per-link offset at all); others keep exp3-fading's \
+         wire antennas (≈ 3 dB ripple); exp3 = fading 0.5, isotropic, σ 1"
     );
 }

@@ -170,8 +170,8 @@ pub fn run_boot(firmware_dir: &Path, seconds: f64) -> Result<(), String> {
 /// `hoploc demo`'s options.
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {
-    /// A scenario: a name from scenarios/ (room10, exp1, exp1-chip, exp2, exp3) or a path to a
-    /// scenario file (format: scenarios/README.md).
+    /// A scenario: a name from scenarios/ (room10, exp1, exp1-chip, exp2, exp3, exp3-fading) or
+    /// a path to a scenario file (format: scenarios/README.md).
     #[arg(default_value = "room10")]
     pub scenario: String,
     /// Where the sink lines come from: `firmware` reads them off the sink firmware's UART in
