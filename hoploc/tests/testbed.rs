@@ -2,6 +2,7 @@
 //! by `cargo fw`, which ./test.sh runs first), the host sink behind a host radio.
 
 use hoploc::firmware;
+use hoploc::fixes::{self, Algo};
 use hoploc::scenario::{self, Scenario};
 use hoploc::testbed::{self, RunConfig, SinkSource, Testbed, SERIAL_BASE};
 use loc_proto::config::Config;
@@ -608,24 +609,12 @@ fn two_agents_report_side_by_side_to_the_sink_firmware() {
     assert!(status.1 > 0, "{status:?}");
 }
 
-/// RMSE (m) of `fixes` `(stop, x cm, y cm, truth m)` at `stop` (`None`: all).
-fn rmse(fixes: &[(usize, i16, i16, [f64; 2])], stop: Option<usize>) -> f64 {
-    let sq: Vec<f64> = fixes
-        .iter()
-        .filter(|f| stop.is_none_or(|s| f.0 == s))
-        .map(|&(_, x, y, t)| {
-            (f64::from(x) / 100.0 - t[0]).powi(2) + (f64::from(y) / 100.0 - t[1]).powi(2)
-        })
-        .collect();
-    assert!(!sq.is_empty(), "no fixes at stop {stop:?}");
-    (sq.iter().sum::<f64>() / sq.len() as f64).sqrt()
-}
-
 /// The thesis' experiment 3 as shipped (scenarios/exp3.toml: three anchors, channel 1, 25 ms
 /// slots, every node's TX power drooping 2 dB per minute) with the sink firmware: the sink's
 /// online P0/α estimation follows the droop and its MLE fixes stay under 1 m at both stops,
 /// while the same sink's MLE with P0 and α fixed at their starting values (the host's
 /// `MLE-fixed` reference of the same reports) drifts to several metres by the second stop.
+/// The figures are the demo's table (`hoploc::fixes`).
 #[test]
 fn experiment_3_online_parameters_follow_the_droop_while_fixed_ones_drift_off() {
     let s = Scenario::load(&scenario::resolve("exp3")).unwrap();
@@ -639,62 +628,42 @@ fn experiment_3_online_parameters_follow_the_droop_while_fixed_ones_drift_off() 
     let mut tb = Testbed::new(&s, &dir, &cfg).unwrap();
     let sf = tb.superframe_s();
     let obs = tb.run_to_end();
-    let anchor = tb.nodes().anchors[0];
-    let true_p0 = |t: f64| {
-        s.medium.p0_dbm
-            + tb.network()
-                .medium()
-                .drift_db(anchor, ms_to_cycles(t * 1e3))
+    let rows = fixes::rows(&obs);
+    let stats = fixes::table(&rows, s.agent.path.len());
+    let stat = |stop: Option<usize>, algo| {
+        *stats
+            .iter()
+            .find(|t| t.stop == stop && t.estimator == algo)
+            .unwrap()
     };
-    let mut online = Vec::new();
-    let mut fixed = Vec::new();
-    // (time, the sink's model level − the drooped true level at 7 m, the anchors' spacing), dB.
-    let mut level_error = Vec::new();
-    let level = |p0: f64, alpha: f64| p0 - 10.0 * alpha * 7f64.log10();
-    for o in obs.iter().filter(|o| o.settled) {
-        let SinkLine::Fix {
-            estimator: Estimator::Mle,
-            x,
-            y,
-            p0_x100,
-            alpha_x100,
-            ..
-        } = o.line
-        else {
-            continue;
-        };
-        match o.reference {
-            None => {
-                online.push((o.stop, x, y, o.truth));
-                let model = level(f64::from(p0_x100) / 100.0, f64::from(alpha_x100) / 100.0);
-                let truth = level(true_p0(o.time_s), s.medium.alpha);
-                level_error.push((o.time_s, model - truth));
-            }
-            Some(testbed::Reference::Fixed) => fixed.push((o.stop, x, y, o.truth)),
-            Some(_) => {}
-        }
-    }
     // A fix per superframe: every report located (two stops, the superframe at each move left
-    // out), none missing on the sink's own count.
+    // out), a reference per report, none missing on the sink's own count.
+    let (online, fixed) = (stat(None, Algo::Mle), stat(None, Algo::MleFixed));
     let want = (s.duration_s() - s.timing.warmup_s) / sf - 4.0;
     assert!(
-        online.len() as f64 >= want,
+        online.n as f64 >= want,
         "{} settled fixes, want {want}",
-        online.len()
+        online.n
     );
-    assert_eq!(online.len(), fixed.len(), "a reference per report");
+    assert_eq!(online.n, fixed.n, "a reference per report");
     let Some(SinkLine::Status { drops, .. }) = testbed::last_status(&obs) else {
         panic!("no status line")
     };
     assert_eq!(drops, 0, "reports missing");
     // The droop: −6 dB by the end. The sink's model (its AR(1)-smoothed P0/α fit) follows it:
-    // over the last 30 s its level at the anchors' spacing is within 1 dB of the drooped one on
-    // average, and within 2 dB for most reports. (P0 and α alone trade against each other:
-    // three nearly equidistant anchor pairs pin the level, not the slope.)
-    let tail: Vec<f64> = level_error
+    // over the last 30 s its level at 7 m (the anchors' spacing) is within 1 dB of the drooped
+    // one on average, and within 2 dB for most reports. (P0 and α alone trade against each
+    // other: three nearly equidistant anchor pairs pin the level, not the slope.)
+    let anchor = tb.nodes().anchors[0];
+    let medium = tb.network().medium();
+    let level = |p0: f64, alpha: f64| p0 - 10.0 * alpha * 7f64.log10();
+    let tail: Vec<f64> = rows
         .iter()
-        .filter(|e| e.0 >= s.duration_s() - 30.0)
-        .map(|e| e.1)
+        .filter(|r| r.estimator == Algo::Mle && r.time_s >= s.duration_s() - 30.0)
+        .map(|r| {
+            let p0 = s.medium.p0_dbm + medium.drift_db(anchor, ms_to_cycles(r.time_s * 1e3));
+            level(r.p0, r.alpha) - level(p0, s.medium.alpha)
+        })
         .collect();
     let mean = tail.iter().sum::<f64>() / tail.len() as f64;
     let close = tail.iter().filter(|e| e.abs() <= 2.0).count();
@@ -707,19 +676,25 @@ fn experiment_3_online_parameters_follow_the_droop_while_fixed_ones_drift_off() 
         "{close} of {} within 2 dB",
         tail.len()
     );
-    let (on, off) = (rmse(&online, None), rmse(&fixed, None));
+    // Online: under 1 m at both stops.
     for stop in 0..2 {
-        let (a, b) = (rmse(&online, Some(stop)), rmse(&fixed, Some(stop)));
+        let (a, b) = (
+            stat(Some(stop), Algo::Mle),
+            stat(Some(stop), Algo::MleFixed),
+        );
         assert!(
-            a < 1.0,
-            "stop {}: online RMSE {a:.2} m (fixed {b:.2} m)",
-            stop + 1
+            a.rmse < 1.0,
+            "stop {}: online RMSE {:.2} m (fixed {:.2} m)",
+            stop + 1,
+            a.rmse,
+            b.rmse
         );
     }
     // Fixed parameters: several metres once the droop has grown (stop 2, 1.5–3 min in), and
-    // worse than online overall.
-    let late = rmse(&fixed, Some(1));
+    // far worse than online overall.
+    let late = stat(Some(1), Algo::MleFixed).rmse;
     assert!(late > 3.0, "fixed parameters at stop 2: RMSE {late:.2} m");
+    let (on, off) = (online.rmse, fixed.rmse);
     assert!(off > 2.5 * on, "RMSE online {on:.2} m, fixed {off:.2} m");
     eprintln!(
         "exp3: RMSE online {on:.2} m, fixed {off:.2} m (stop 2: {late:.2} m); the model's level \
