@@ -90,6 +90,20 @@ pub struct Estimate {
     pub evaluations: u16,
 }
 
+impl Estimate {
+    /// A placeholder to be overwritten (the storage of [`mle_and_mmse_window_into`]'s
+    /// results): all zero, at the origin, a thesis MLE.
+    pub const NONE: Estimate = Estimate {
+        pos: PointMm { x: 0, y: 0 },
+        lattice: (0, 0),
+        min_cost: 0,
+        estimator: Estimator::Mle(Search::Thesis),
+        anchors: 0,
+        total_weight: 0,
+        evaluations: 0,
+    };
+}
+
 /// The coarse index `c ≤ 10` of the weighted mean `s/sw` (lattice units) along a side of `side`
 /// cm: `(c − ½)·5·side < s/sw ≤ (c + ½)·5·side`, found by steps (no division).
 #[inline(never)]
@@ -248,12 +262,13 @@ impl<K: TermKernel> Grid<K> {
         }
         let (xm, ym) = (50 * g.width, 50 * g.height);
         for t in &mut anchors[..n] {
-            // The farthest offsets: from the area's sides.
+            // The farthest offsets: from the area's sides (the shift the largest needs, all
+            // need).
+            let m = (t.dx0.unsigned_abs().max((t.dx0 + xm).unsigned_abs()))
+                .max(t.dy0.unsigned_abs().max((t.dy0 + ym).unsigned_abs()));
             let mut h = 0;
-            for v in [t.dx0, t.dx0 + xm, t.dy0, t.dy0 + ym] {
-                while v.unsigned_abs() >> h > 65534 {
-                    h += 1;
-                }
+            while m >> h > 65534 {
+                h += 1;
             }
             t.shift = h;
             // d² in units of 2^(2h): log2 d² drops by 2h.
@@ -366,21 +381,18 @@ impl<K: TermKernel> Grid<K> {
         best
     }
 
-    /// The thesis' fine window (± one coarse step, clipped) around the coarse winner `start`:
-    /// the thesis MLE (strict `<` from `start`) and the evaluations it spends. Alone it skips
+    /// The thesis' fine window (± one coarse step, clipped) around the coarse winner `best`:
+    /// the thesis MLE (strict `<` from it) into `best` (in place: a returned point is a stack
+    /// copy on AVR), and the evaluations it spends. Alone it skips
     /// the window's coarse points (they cannot beat `start`); with `POST` it evaluates every
     /// point up to the posterior's bound (or the MLE's, if larger) and adds it to `post`, and
     /// the MLE is the same (a coarse point is never strictly below `start`). (Two copies: the
     /// sink links only the one with `POST`.)
     #[inline(never)]
-    fn fine<const POST: bool>(
-        &mut self,
-        start: LatticeMin,
-        post: &mut Posterior,
-    ) -> (LatticeMin, usize) {
-        let (i0, j0) = (start.i.saturating_sub(RATIO), start.j.saturating_sub(RATIO));
-        let i1 = (start.i + RATIO).min(FINE_DIVS);
-        let rows = (start.j + RATIO).min(FINE_DIVS) - j0 + 1;
+    fn fine<const POST: bool>(&mut self, best: &mut LatticeMin, post: &mut Posterior) -> usize {
+        let (i0, j0) = (best.i.saturating_sub(RATIO), best.j.saturating_sub(RATIO));
+        let i1 = (best.i + RATIO).min(FINE_DIVS);
+        let rows = (best.j + RATIO).min(FINE_DIVS) - j0 + 1;
         self.window(i0, j0, 1, rows);
         // The window's coarse rows (j a multiple of RATIO).
         let (mut coarse, mut n_coarse) = (0u16, 0);
@@ -390,7 +402,7 @@ impl<K: TermKernel> Grid<K> {
             n_coarse += 1;
             r += RATIO;
         }
-        let (mut best, mut mle_evals) = (start, self.evals);
+        let mut mle_evals = self.evals;
         for i in i0..=i1 {
             let (mask, skipped) = if i % RATIO == 0 {
                 (coarse, n_coarse)
@@ -406,15 +418,15 @@ impl<K: TermKernel> Grid<K> {
                 self.column(i, best.cost, mask);
                 self.evals += rows - skipped;
             }
-            self.take(i, best.cost, &mut best);
+            self.take(i, best.cost, best);
         }
-        (best, mle_evals)
+        mle_evals
     }
 
     fn thesis(&mut self) -> LatticeMin {
-        let c = self.coarse();
-        self.fine::<false>(c, &mut Posterior::new(Weights::new(0, 0), 0))
-            .0
+        let mut best = self.coarse();
+        self.fine::<false>(&mut best, &mut Posterior::new(Weights::new(0, 0), 0));
+        best
     }
 
     fn multi_start(&mut self) -> LatticeMin {
@@ -705,9 +717,10 @@ impl Posterior {
             if v < self.cref {
                 // The sums so far, relative to the new reference: × 2^(−y(drop)), Q.32.
                 let f = self.wts.weight(self.cref - v).min((1 << 26) - 1) << 6;
-                for x in [&mut self.s, &mut self.sx, &mut self.sy] {
-                    *x = mul_hi(*x, f);
-                }
+                // (Three calls, not a loop over an array of references: no array on the stack.)
+                self.s = mul_hi(self.s, f);
+                self.sx = mul_hi(self.sx, f);
+                self.sy = mul_hi(self.sy, f);
                 self.cref = v;
             }
             let wt = self.wts.weight(v - self.cref) >> 6;
@@ -717,18 +730,16 @@ impl Posterior {
         }
     }
 
-    /// The posterior mean of a window whose first point is `(i0, j0)`, mm (`None` if no
-    /// weight).
+    /// The posterior mean of a window whose first point is `(i0, j0)`, mm, into `pos` (left
+    /// as it is if no weight; in place: a returned point is a stack copy on AVR).
     #[inline(never)]
-    fn mean(&self, area: AreaCm, i0: usize, j0: usize) -> Option<PointMm> {
+    fn mean(&self, area: AreaCm, i0: usize, j0: usize, pos: &mut PointMm) {
         if self.s == 0 {
-            return None;
+            return;
         }
         // The mean offset Σw·k/Σw in Q.12 (≤ 10 steps).
-        Some(PointMm {
-            x: to_mm(area.width, i0, div_shl(self.sx, self.s, 12)),
-            y: to_mm(area.height, j0, div_shl(self.sy, self.s, 12)),
-        })
+        pos.x = to_mm(area.width, i0, div_shl(self.sx, self.s, 12));
+        pos.y = to_mm(area.height, j0, div_shl(self.sy, self.s, 12));
     }
 }
 
@@ -834,21 +845,36 @@ pub fn mmse_window_with<K: TermKernel>(
 /// so every cost that could beat the MLE's best is exact too; the MLE's winner is then the
 /// first strictly smallest from the coarse winner on, as in the thesis search (the window's
 /// coarse points, which the thesis skips, never are). Costs ≈ the windowed MMSE's cycles, and
-/// one copy of the search code in flash (what `sink-fw` links).
-#[inline(never)]
+/// one copy of the search code in flash (what `sink-fw` links, as [`mle_and_mmse_window_into`]).
 pub fn mle_and_mmse_window_with<K: TermKernel>(
     obs: &Observations,
     model: PathLoss,
     area: AreaCm,
     sigma: u16,
 ) -> Result<[Estimate; 2], LocError> {
+    let mut out = [Estimate::NONE; 2];
+    mle_and_mmse_window_into::<K>(obs, model, area, sigma, &mut out)?;
+    Ok(out)
+}
+
+/// [`mle_and_mmse_window_with`] into `out` (untouched on an error): the caller's storage, no
+/// returned pair (on AVR a by-value result is a stack copy).
+#[inline(never)]
+pub fn mle_and_mmse_window_into<K: TermKernel>(
+    obs: &Observations,
+    model: PathLoss,
+    area: AreaCm,
+    sigma: u16,
+    out: &mut [Estimate; 2],
+) -> Result<(), LocError> {
     check(obs)?;
     let mut g = Grid::<K>::EMPTY;
     g.setup(obs, model, area);
-    let start = g.coarse();
-    let mut post = Posterior::new(Weights::new(g.k26, sigma), start.cost);
-    let (best, mle_evals) = g.fine::<true>(start, &mut post);
-    let mle = g.finish(
+    let mut best = g.coarse();
+    let mut post = Posterior::new(Weights::new(g.k26, sigma), best.cost);
+    let mle_evals = g.fine::<true>(&mut best, &mut post);
+    let [mle, mmse] = out;
+    *mle = g.finish(
         obs,
         area,
         None,
@@ -857,13 +883,11 @@ pub fn mle_and_mmse_window_with<K: TermKernel>(
         mle_evals,
     );
     // The same lattice point and cost; its own position, estimator and evaluations.
-    let mut mmse = mle;
-    if let Some(pos) = post.mean(area, g.i0, g.j0) {
-        mmse.pos = pos;
-    }
+    *mmse = *mle;
+    post.mean(area, g.i0, g.j0, &mut mmse.pos);
     mmse.estimator = Estimator::MmseWindow { sigma };
     mmse.evaluations = g.evals as u16;
-    Ok([mle, mmse])
+    Ok(())
 }
 
 /// `obs` located by `estimator`.

@@ -109,8 +109,8 @@ mod refine;
 mod tables;
 
 pub use grid::{
-    estimate, estimate_with, locate, mle, mle_and_mmse_window_with, mle_with, mmse, mmse_window,
-    mmse_window_with, mmse_with, sink_fix, Estimate, Estimator,
+    estimate, estimate_with, locate, mle, mle_and_mmse_window_into, mle_and_mmse_window_with,
+    mle_with, mmse, mmse_window, mmse_window_with, mmse_with, sink_fix, Estimate, Estimator,
 };
 pub use kernel::{
     log2_segment_base, log2_segment_table, offset_square, portable_column, portable_term,
