@@ -153,6 +153,8 @@ fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::C
     job.xstep = (x >> 8) as u16 % (6_000 << (x % 4));
     let dx_col = job.col as i32 * job.xstep as i32;
     let wild = (b >> 16).is_multiple_of(8);
+    // One row step for every anchor: within what the tightest (shift 0) can take.
+    job.ystep = (1 + next() % (2 * 65_534 / span.max(1))).min(65_535) as u16;
     for t in job.anchors[..n as usize].iter_mut() {
         let (c, d, e) = (next(), next(), next());
         let shift = if c.is_multiple_of(3) {
@@ -163,7 +165,7 @@ fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::C
         // Offsets within ±lim round below 2^16.
         let lim = 65_534u32 << shift;
         let dx = (e % (2 * lim + 1)) as i32 - lim as i32;
-        let step = 1 + c % (2 * lim / span.max(1)).min(65_535);
+        let step = job.ystep as u32;
         // Row 0 anywhere such that the last row is still within ±lim.
         let room = 2 * lim - step * span;
         *t = AnchorTerm {
@@ -174,7 +176,6 @@ fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::C
             } else {
                 -(lim as i32) + (d % (room + 1)) as i32
             },
-            step: step as u16,
             lclamp: 11_836_024 - ((c % 5) << 20) as i32,
             rho: (e as i32) >> (c % 8),
             w: 1 + (d % 4) as u8,

@@ -179,9 +179,6 @@ struct Grid<K> {
     j0: usize,
     rows: usize,
     evals: usize,
-    /// Fine steps in lattice units: `W`, `H` (cm).
-    width: i32,
-    height: i32,
     /// `|K|` in Q.26 (`K = 5·α·log10 2`); below `2^10` the cost is flat (`job.n = 0`).
     k26: u32,
     /// P0, Q.16 dB (sane).
@@ -198,8 +195,6 @@ impl<K: TermKernel> Grid<K> {
         j0: 0,
         rows: 0,
         evals: 0,
-        width: 0,
-        height: 0,
         k26: 0,
         p0: 0,
         job: ColumnJob::EMPTY,
@@ -228,8 +223,9 @@ impl<K: TermKernel> Grid<K> {
             div_shl(1 << 30, k26 >> 1, 25)
         };
         let g = self;
-        (g.width, g.height, g.k26, g.p0) = (area.width as i32, area.height as i32, k26, model.p0);
-        g.job.xstep = area.width;
+        (g.k26, g.p0) = (k26, model.p0);
+        // The fine steps in lattice units: `W`, `H` (cm).
+        (g.job.xstep, g.job.ystep) = (area.width, area.height);
         g.job.seg_base = log2_segment_base();
         let anchors = &mut g.job.anchors;
         let mut n = 0;
@@ -260,7 +256,7 @@ impl<K: TermKernel> Grid<K> {
             };
             n += 1;
         }
-        let (xm, ym) = (50 * g.width, 50 * g.height);
+        let (xm, ym) = (50 * area.width as i32, 50 * area.height as i32);
         for t in &mut anchors[..n] {
             // The farthest offsets: from the area's sides (the shift the largest needs, all
             // need).
@@ -275,9 +271,18 @@ impl<K: TermKernel> Grid<K> {
             let sh = (h as i32) << 21;
             t.rho += sh;
             t.lclamp = LOG2_CLAMP - sh;
-            t.step = area.height;
         }
         g.job.n = if flat { 0 } else { n as u8 };
+    }
+
+    /// The fine column step in lattice units: `W` (cm).
+    fn width(&self) -> i32 {
+        self.job.xstep as i32
+    }
+
+    /// The fine row step in lattice units: `H` (cm).
+    fn height(&self) -> i32 {
+        self.job.ystep as i32
     }
 
     fn flat(&self) -> bool {
@@ -304,15 +309,15 @@ impl<K: TermKernel> Grid<K> {
             sx -= t.dx0 << up;
             sy -= t.dy0 << up;
         }
-        (snap(sx, self.width, sw), snap(sy, self.height, sw))
+        (snap(sx, self.width(), sw), snap(sy, self.height(), sw))
     }
 
     /// Moves the window to first column `i0`, first row `j0`, `rows` rows `stride` fine rows
     /// apart.
     #[inline(never)]
     fn window(&mut self, i0: usize, j0: usize, stride: usize, rows: usize) {
-        let dx = self.width * (i0 as i32 - self.i0 as i32);
-        let dy = self.height * (j0 as i32 - self.j0 as i32);
+        let dx = self.width() * (i0 as i32 - self.i0 as i32);
+        let dy = self.height() * (j0 as i32 - self.j0 as i32);
         for t in &mut self.job.anchors {
             t.dx0 += dx;
             t.dy0 += dy;

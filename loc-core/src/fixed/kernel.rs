@@ -38,7 +38,8 @@ pub trait TermKernel {
 /// squared, so that each square fits 32 bits (`shift` is 0 within 13.1 m of the anchor).
 ///
 /// `repr(C)`: assembly kernels read it by offset (on AVR, where nothing is padded: `dx2` 0,
-/// `dx0` 4, `dy0` 8, `step` 12, `lclamp` 14, `rho` 18, `w` 22, `shift` 23; 24 bytes).
+/// `dx0` 4, `dy0` 8, `lclamp` 12, `rho` 16, `w` 20, `shift` 21; 22 bytes: eight of them are
+/// most of a search's stack).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct AnchorTerm {
@@ -46,10 +47,9 @@ pub struct AnchorTerm {
     pub dx2: u32,
     /// `dx` of the window's column 0, lattice units; column offset `c`'s is `dx0 + c·xstep`.
     pub dx0: i32,
-    /// `dy` of the window's row 0, lattice units; fine row offset `o`'s is `dy0 + o·step`.
+    /// `dy` of the window's row 0, lattice units; fine row offset `o`'s is `dy0 + o·ystep`
+    /// ([`ColumnJob::ystep`]).
     pub dy0: i32,
-    /// Fine row step, lattice units.
-    pub step: u16,
     /// `log2` of the 1 cm clamp, Q.20, less `2·shift`.
     pub lclamp: i32,
     /// The anchor's `ρ`, Q.20, plus `2·shift`.
@@ -67,7 +67,6 @@ impl AnchorTerm {
         dx2: 0,
         dx0: 0,
         dy0: 0,
-        step: 0,
         lclamp: 0,
         rho: 0,
         w: 0,
@@ -77,7 +76,7 @@ impl AnchorTerm {
 
 /// A column of a search window, for [`TermKernel::column`] (on AVR: `bound` at offset 0, `n`
 /// 4, `rows` 5, `min` 6, `min_row` 10, `skip` 11, `col` 13, `xstep` 14, `stride` 16, `end` 17,
-/// `seg_base` 18, the anchors from 20).
+/// `seg_base` 18, `ystep` 20, the anchors from 22).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct ColumnJob {
@@ -104,6 +103,8 @@ pub struct ColumnJob {
     pub end: u8,
     /// [`log2_segment_base`], for kernels that read the table directly.
     pub seg_base: *const u8,
+    /// Fine row step, lattice units (the same for every anchor: one copy, not one per anchor).
+    pub ystep: u16,
     /// The anchors, in evaluation order.
     pub anchors: [AnchorTerm; MAX_ANCHORS],
 }
@@ -123,6 +124,7 @@ impl ColumnJob {
         stride: 0,
         end: 0,
         seg_base: core::ptr::null(),
+        ystep: 0,
         anchors: [AnchorTerm::NONE; MAX_ANCHORS],
     };
 }
@@ -168,7 +170,7 @@ pub fn portable_column<K: TermKernel>(sums: &mut [u32], job: &mut ColumnJob) {
         }
         let mut s = 0u32;
         for a in &job.anchors[..n] {
-            let dy = a.dy0.wrapping_add(o as i32 * a.step as i32);
+            let dy = a.dy0.wrapping_add(o as i32 * job.ystep as i32);
             s = add_term::<K>(s, a.dx2, offset_square(dy, a.shift), a.rho, a.lclamp, a.w);
             if s >= job.bound {
                 s = job.bound;
