@@ -128,7 +128,7 @@ fn kernel_inputs(i: u32, r: &mut u32) -> (u32, bool, i32, i32) {
 /// the searches guarantee, except in one job in 8 (24-bit offsets anywhere: the kernels must
 /// still agree).
 fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::ColumnJob) -> usize {
-    use loc_core::fixed::AnchorTerm;
+    use loc_core::fixed::{AnchorTerm, I24};
     let mut next = || {
         *r ^= *r << 13;
         *r ^= *r >> 17;
@@ -170,12 +170,12 @@ fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::C
         let room = 2 * lim - step * span;
         *t = AnchorTerm {
             dx2: d,
-            dx0: if wild { e as i32 } else { dx - dx_col },
-            dy0: if wild {
+            dx0: I24::new(if wild { e as i32 } else { dx - dx_col }),
+            dy0: I24::new(if wild {
                 d as i32
             } else {
                 -(lim as i32) + (d % (room + 1)) as i32
-            },
+            }),
             lclamp: 11_836_024 - ((c % 5) << 20) as i32,
             rho: (e as i32) >> (c % 8),
             w: 1 + (d % 4) as u8,

@@ -20,7 +20,7 @@
 //! sink's one-pass MLE + MMSE, 32-bit arithmetic only on the sink's path, the shared helpers out
 //! of line.
 
-use super::kernel::{log2_segment_base, ColumnJob, Portable, TermKernel};
+use super::kernel::{log2_segment_base, ColumnJob, Portable, TermKernel, I24};
 use super::math::exp2_neg_q26;
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
@@ -228,6 +228,7 @@ impl<K: TermKernel> Grid<K> {
         (g.job.xstep, g.job.ystep) = (area.width, area.height);
         g.job.seg_base = log2_segment_base();
         let anchors = &mut g.job.anchors;
+        let (xm, ym) = (50 * area.width as i32, 50 * area.height as i32);
         let mut n = 0;
         for o in obs.as_slice() {
             let d = o.z.wrapping_sub(model.p0);
@@ -246,8 +247,16 @@ impl<K: TermKernel> Grid<K> {
             }
             // Field by field: a whole-struct store goes through a copy on AVR.
             let t = &mut anchors[b];
-            t.dx0 = -50 * o.pos.x as i32;
-            t.dy0 = -50 * o.pos.y as i32;
+            let (dx0, dy0) = (-50 * o.pos.x as i32, -50 * o.pos.y as i32);
+            (t.dx0, t.dy0) = (I24::new(dx0), I24::new(dy0));
+            // The shift: the fewest bits that bring the farthest offsets (from the area's
+            // sides) below 2^16.
+            let m = (dx0.unsigned_abs().max((dx0 + xm).unsigned_abs()))
+                .max(dy0.unsigned_abs().max((dy0 + ym).unsigned_abs()));
+            t.shift = 0;
+            while m >> t.shift > 65534 {
+                t.shift += 1;
+            }
             t.rho = rho;
             t.w = if (1..=3).contains(&o.weight) {
                 o.weight
@@ -256,19 +265,9 @@ impl<K: TermKernel> Grid<K> {
             };
             n += 1;
         }
-        let (xm, ym) = (50 * area.width as i32, 50 * area.height as i32);
         for t in &mut anchors[..n] {
-            // The farthest offsets: from the area's sides (the shift the largest needs, all
-            // need).
-            let m = (t.dx0.unsigned_abs().max((t.dx0 + xm).unsigned_abs()))
-                .max(t.dy0.unsigned_abs().max((t.dy0 + ym).unsigned_abs()));
-            let mut h = 0;
-            while m >> h > 65534 {
-                h += 1;
-            }
-            t.shift = h;
-            // d² in units of 2^(2h): log2 d² drops by 2h.
-            let sh = (h as i32) << 21;
+            // d² in units of 2^(2h): log2 d² drops by 2h (after the sort, which is by ρ).
+            let sh = (t.shift as i32) << 21;
             t.rho += sh;
             t.lclamp = LOG2_CLAMP - sh;
         }
@@ -306,8 +305,8 @@ impl<K: TermKernel> Grid<K> {
             }
             let up = 5 - down;
             sw += 1 << up;
-            sx -= t.dx0 << up;
-            sy -= t.dy0 << up;
+            sx -= t.dx0.get() << up;
+            sy -= t.dy0.get() << up;
         }
         (snap(sx, self.width(), sw), snap(sy, self.height(), sw))
     }
@@ -319,8 +318,9 @@ impl<K: TermKernel> Grid<K> {
         let dx = self.width() * (i0 as i32 - self.i0 as i32);
         let dy = self.height() * (j0 as i32 - self.j0 as i32);
         for t in &mut self.job.anchors {
-            t.dx0 += dx;
-            t.dy0 += dy;
+            // (|·| < 2^23 anywhere in the area: 24 bits hold them.)
+            t.dx0.add(dx);
+            t.dy0.add(dy);
         }
         (self.i0, self.j0, self.rows) = (i0, j0, rows);
         self.job.stride = stride as u8;

@@ -114,7 +114,7 @@ pub use grid::{
 };
 pub use kernel::{
     log2_segment_base, log2_segment_table, offset_square, portable_column, portable_term,
-    AnchorTerm, ColumnJob, Portable, TermKernel, SQ_SAT, U_SAT,
+    AnchorTerm, ColumnJob, Portable, TermKernel, I24, SQ_SAT, U_SAT,
 };
 pub use params::{
     distance_x, fit, fit_grid, fit_least_squares, Ar1, Bounds, CalStats, OnlineParams, ParamFit,
