@@ -392,8 +392,9 @@ impl<K: TermKernel> Grid<K> {
     /// the window's coarse points (they cannot beat `start`); with `POST` it evaluates every
     /// point up to the posterior's bound (or the MLE's, if larger) and adds it to `post`, and
     /// the MLE is the same (a coarse point is never strictly below `start`). (Two copies: the
-    /// sink links only the one with `POST`.)
-    #[inline(never)]
+    /// sink links only the one with `POST`, inlined into [`mle_and_mmse_window_into`]: a frame
+    /// fewer on the sink's deepest stack path.)
+    #[inline(always)]
     fn fine<const POST: bool>(&mut self, best: &mut LatticeMin, post: &mut Posterior) -> usize {
         let (i0, j0) = (best.i.saturating_sub(RATIO), best.j.saturating_sub(RATIO));
         let i1 = (best.i + RATIO).min(FINE_DIVS);
@@ -430,8 +431,14 @@ impl<K: TermKernel> Grid<K> {
 
     fn thesis(&mut self) -> LatticeMin {
         let mut best = self.coarse();
-        self.fine::<false>(&mut best, &mut Posterior::new(Weights::new(0, 0), 0));
+        self.fine_mle(&mut best);
         best
+    }
+
+    /// [`Grid::fine`] without the posterior, out of line (the MLE searches' copy).
+    #[inline(never)]
+    fn fine_mle(&mut self, best: &mut LatticeMin) {
+        self.fine::<false>(best, &mut Posterior::new(Weights::new(0, 0), 0));
     }
 
     fn multi_start(&mut self) -> LatticeMin {
