@@ -18,7 +18,9 @@
 //!
 //! Size first (the sink links this, SPEC §8): one window routine for the thesis' window and the
 //! sink's one-pass MLE + MMSE, 32-bit arithmetic only on the sink's path, the shared helpers out
-//! of line.
+//! of line. Stack too (the sink locates at its deepest): the grid set up in place, results
+//! written into the caller's storage (a by-value struct is a copy on AVR), the sink's window
+//! loop inlined into its one caller (a frame fewer).
 
 use super::kernel::{log2_segment_base, ColumnJob, Portable, TermKernel, I24};
 use super::math::exp2_neg_q26;
@@ -170,7 +172,7 @@ impl LatticeMin {
 
 /// One estimate's search: the position-independent part of the cost (in the kernel's job: per
 /// anchor `ρ`, weight, shift, offsets from the current window's origin), one column of sums, the
-/// evaluations spent (≈ 0.3 KB of RAM). `repr(C)`, the scalars and the job's header first: AVR
+/// evaluations spent (240 bytes on AVR, most of the sink's search stack). `repr(C)`, the scalars and the job's header first: AVR
 /// reaches 63 bytes from a pointer in one instruction, farther fields cost pointer arithmetic.
 #[repr(C)]
 struct Grid<K> {
@@ -206,7 +208,7 @@ impl<K: TermKernel> Grid<K> {
     /// clamped to ±2^30), the anchors strongest (largest `ρ`) first, and each anchor's shift: the fewest
     /// bits that bring its offsets anywhere in the area below 2^16.
     /// (Callers bind [`Grid::EMPTY`] and set it up in place: a grid returned by value is
-    /// copied on AVR, and two 0.3 KB grids on the stack are too many.)
+    /// copied on AVR, and two 240-byte grids on the stack are too many.)
     #[inline(never)]
     fn setup(&mut self, obs: &Observations, model: PathLoss, area: AreaCm) {
         // |α| ≤ 32 (ALPHA_LIMIT, 2^29 in Q.24): Q.27 fits a u32; K < 48.2 in Q.26 too. (P0
