@@ -128,7 +128,7 @@ fn kernel_inputs(i: u32, r: &mut u32) -> (u32, bool, i32, i32) {
 /// the searches guarantee, except in one job in 8 (24-bit offsets anywhere: the kernels must
 /// still agree).
 fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::ColumnJob) -> usize {
-    use loc_core::fixed::AnchorTerm;
+    use loc_core::fixed::{AnchorTerm, I24};
     let mut next = || {
         *r ^= *r << 13;
         *r ^= *r >> 17;
@@ -153,6 +153,8 @@ fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::C
     job.xstep = (x >> 8) as u16 % (6_000 << (x % 4));
     let dx_col = job.col as i32 * job.xstep as i32;
     let wild = (b >> 16).is_multiple_of(8);
+    // One row step for every anchor: within what the tightest (shift 0) can take.
+    job.ystep = (1 + next() % (2 * 65_534 / span.max(1))).min(65_535) as u16;
     for t in job.anchors[..n as usize].iter_mut() {
         let (c, d, e) = (next(), next(), next());
         let shift = if c.is_multiple_of(3) {
@@ -163,18 +165,17 @@ fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::C
         // Offsets within ±lim round below 2^16.
         let lim = 65_534u32 << shift;
         let dx = (e % (2 * lim + 1)) as i32 - lim as i32;
-        let step = 1 + c % (2 * lim / span.max(1)).min(65_535);
+        let step = job.ystep as u32;
         // Row 0 anywhere such that the last row is still within ±lim.
         let room = 2 * lim - step * span;
         *t = AnchorTerm {
             dx2: d,
-            dx0: if wild { e as i32 } else { dx - dx_col },
-            dy0: if wild {
+            dx0: I24::new(if wild { e as i32 } else { dx - dx_col }),
+            dy0: I24::new(if wild {
                 d as i32
             } else {
                 -(lim as i32) + (d % (room + 1)) as i32
-            },
-            step: step as u16,
+            }),
             lclamp: 11_836_024 - ((c % 5) << 20) as i32,
             rho: (e as i32) >> (c % 8),
             w: 1 + (d % 4) as u8,

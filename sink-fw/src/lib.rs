@@ -23,7 +23,7 @@
 
 use core::marker::PhantomData;
 use loc_core::fixed::{
-    extended, fit_least_squares, mle_and_mmse_window_with, observations, AreaCm, Bounds, CalStats,
+    extended, fit_least_squares, mle_and_mmse_window_into, observations, AreaCm, Bounds, CalStats,
     Estimate, FitMethod, LocError, Measurements, Obs, Observations, OnlineParams, ParamMode,
     PathLoss, PointCm, Refinement, TermKernel,
 };
@@ -406,12 +406,14 @@ impl<K: TermKernel> Sink<K> {
         };
         let model = self.params.current();
         let sigma = self.params.sigma().unwrap_or(DEFAULT_SIGMA);
+        // Into storage of our own: a returned pair would be one more copy on the stack.
+        let mut est = [Estimate::NONE; 2];
         let result =
-            mle_and_mmse_window_with::<K>(obs, model, area, sigma).map(|[mle, mmse]| Fix {
+            mle_and_mmse_window_into::<K>(obs, model, area, sigma, &mut est).map(|()| Fix {
                 agent,
                 seq,
-                mle,
-                mmse,
+                mle: est[0],
+                mmse: est[1],
                 model,
                 fitted,
             });

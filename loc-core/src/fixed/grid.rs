@@ -18,9 +18,11 @@
 //!
 //! Size first (the sink links this, SPEC §8): one window routine for the thesis' window and the
 //! sink's one-pass MLE + MMSE, 32-bit arithmetic only on the sink's path, the shared helpers out
-//! of line.
+//! of line. Stack too (the sink locates at its deepest): the grid set up in place, results
+//! written into the caller's storage (a by-value struct is a copy on AVR), the sink's window
+//! loop inlined into its one caller (a frame fewer).
 
-use super::kernel::{log2_segment_base, ColumnJob, Portable, TermKernel};
+use super::kernel::{log2_segment_base, ColumnJob, Portable, TermKernel, I24};
 use super::math::exp2_neg_q26;
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
@@ -90,6 +92,20 @@ pub struct Estimate {
     pub evaluations: u16,
 }
 
+impl Estimate {
+    /// A placeholder to be overwritten (the storage of [`mle_and_mmse_window_into`]'s
+    /// results): all zero, at the origin, a thesis MLE.
+    pub const NONE: Estimate = Estimate {
+        pos: PointMm { x: 0, y: 0 },
+        lattice: (0, 0),
+        min_cost: 0,
+        estimator: Estimator::Mle(Search::Thesis),
+        anchors: 0,
+        total_weight: 0,
+        evaluations: 0,
+    };
+}
+
 /// The coarse index `c ≤ 10` of the weighted mean `s/sw` (lattice units) along a side of `side`
 /// cm: `(c − ½)·5·side < s/sw ≤ (c + ½)·5·side`, found by steps (no division).
 #[inline(never)]
@@ -156,7 +172,7 @@ impl LatticeMin {
 
 /// One estimate's search: the position-independent part of the cost (in the kernel's job: per
 /// anchor `ρ`, weight, shift, offsets from the current window's origin), one column of sums, the
-/// evaluations spent (≈ 0.3 KB of RAM). `repr(C)`, the scalars and the job's header first: AVR
+/// evaluations spent (240 bytes on AVR, most of the sink's search stack). `repr(C)`, the scalars and the job's header first: AVR
 /// reaches 63 bytes from a pointer in one instruction, farther fields cost pointer arithmetic.
 #[repr(C)]
 struct Grid<K> {
@@ -165,9 +181,6 @@ struct Grid<K> {
     j0: usize,
     rows: usize,
     evals: usize,
-    /// Fine steps in lattice units: `W`, `H` (cm).
-    width: i32,
-    height: i32,
     /// `|K|` in Q.26 (`K = 5·α·log10 2`); below `2^10` the cost is flat (`job.n = 0`).
     k26: u32,
     /// P0, Q.16 dB (sane).
@@ -184,8 +197,6 @@ impl<K: TermKernel> Grid<K> {
         j0: 0,
         rows: 0,
         evals: 0,
-        width: 0,
-        height: 0,
         k26: 0,
         p0: 0,
         job: ColumnJob::EMPTY,
@@ -197,7 +208,7 @@ impl<K: TermKernel> Grid<K> {
     /// clamped to ±2^30), the anchors strongest (largest `ρ`) first, and each anchor's shift: the fewest
     /// bits that bring its offsets anywhere in the area below 2^16.
     /// (Callers bind [`Grid::EMPTY`] and set it up in place: a grid returned by value is
-    /// copied on AVR, and two 0.3 KB grids on the stack are too many.)
+    /// copied on AVR, and two 240-byte grids on the stack are too many.)
     #[inline(never)]
     fn setup(&mut self, obs: &Observations, model: PathLoss, area: AreaCm) {
         // |α| ≤ 32 (ALPHA_LIMIT, 2^29 in Q.24): Q.27 fits a u32; K < 48.2 in Q.26 too. (P0
@@ -214,10 +225,12 @@ impl<K: TermKernel> Grid<K> {
             div_shl(1 << 30, k26 >> 1, 25)
         };
         let g = self;
-        (g.width, g.height, g.k26, g.p0) = (area.width as i32, area.height as i32, k26, model.p0);
-        g.job.xstep = area.width;
+        (g.k26, g.p0) = (k26, model.p0);
+        // The fine steps in lattice units: `W`, `H` (cm).
+        (g.job.xstep, g.job.ystep) = (area.width, area.height);
         g.job.seg_base = log2_segment_base();
         let anchors = &mut g.job.anchors;
+        let (xm, ym) = (50 * area.width as i32, 50 * area.height as i32);
         let mut n = 0;
         for o in obs.as_slice() {
             let d = o.z.wrapping_sub(model.p0);
@@ -236,8 +249,16 @@ impl<K: TermKernel> Grid<K> {
             }
             // Field by field: a whole-struct store goes through a copy on AVR.
             let t = &mut anchors[b];
-            t.dx0 = -50 * o.pos.x as i32;
-            t.dy0 = -50 * o.pos.y as i32;
+            let (dx0, dy0) = (-50 * o.pos.x as i32, -50 * o.pos.y as i32);
+            (t.dx0, t.dy0) = (I24::new(dx0), I24::new(dy0));
+            // The shift: the fewest bits that bring the farthest offsets (from the area's
+            // sides) below 2^16.
+            let m = (dx0.unsigned_abs().max((dx0 + xm).unsigned_abs()))
+                .max(dy0.unsigned_abs().max((dy0 + ym).unsigned_abs()));
+            t.shift = 0;
+            while m >> t.shift > 65534 {
+                t.shift += 1;
+            }
             t.rho = rho;
             t.w = if (1..=3).contains(&o.weight) {
                 o.weight
@@ -246,23 +267,23 @@ impl<K: TermKernel> Grid<K> {
             };
             n += 1;
         }
-        let (xm, ym) = (50 * g.width, 50 * g.height);
         for t in &mut anchors[..n] {
-            // The farthest offsets: from the area's sides.
-            let mut h = 0;
-            for v in [t.dx0, t.dx0 + xm, t.dy0, t.dy0 + ym] {
-                while v.unsigned_abs() >> h > 65534 {
-                    h += 1;
-                }
-            }
-            t.shift = h;
-            // d² in units of 2^(2h): log2 d² drops by 2h.
-            let sh = (h as i32) << 21;
+            // d² in units of 2^(2h): log2 d² drops by 2h (after the sort, which is by ρ).
+            let sh = (t.shift as i32) << 21;
             t.rho += sh;
             t.lclamp = LOG2_CLAMP - sh;
-            t.step = area.height;
         }
         g.job.n = if flat { 0 } else { n as u8 };
+    }
+
+    /// The fine column step in lattice units: `W` (cm).
+    fn width(&self) -> i32 {
+        self.job.xstep as i32
+    }
+
+    /// The fine row step in lattice units: `H` (cm).
+    fn height(&self) -> i32 {
+        self.job.ystep as i32
     }
 
     fn flat(&self) -> bool {
@@ -286,21 +307,22 @@ impl<K: TermKernel> Grid<K> {
             }
             let up = 5 - down;
             sw += 1 << up;
-            sx -= t.dx0 << up;
-            sy -= t.dy0 << up;
+            sx -= t.dx0.get() << up;
+            sy -= t.dy0.get() << up;
         }
-        (snap(sx, self.width, sw), snap(sy, self.height, sw))
+        (snap(sx, self.width(), sw), snap(sy, self.height(), sw))
     }
 
     /// Moves the window to first column `i0`, first row `j0`, `rows` rows `stride` fine rows
     /// apart.
     #[inline(never)]
     fn window(&mut self, i0: usize, j0: usize, stride: usize, rows: usize) {
-        let dx = self.width * (i0 as i32 - self.i0 as i32);
-        let dy = self.height * (j0 as i32 - self.j0 as i32);
+        let dx = self.width() * (i0 as i32 - self.i0 as i32);
+        let dy = self.height() * (j0 as i32 - self.j0 as i32);
         for t in &mut self.job.anchors {
-            t.dx0 += dx;
-            t.dy0 += dy;
+            // (|·| < 2^23 anywhere in the area: 24 bits hold them.)
+            t.dx0.add(dx);
+            t.dy0.add(dy);
         }
         (self.i0, self.j0, self.rows) = (i0, j0, rows);
         self.job.stride = stride as u8;
@@ -366,21 +388,19 @@ impl<K: TermKernel> Grid<K> {
         best
     }
 
-    /// The thesis' fine window (± one coarse step, clipped) around the coarse winner `start`:
-    /// the thesis MLE (strict `<` from `start`) and the evaluations it spends. Alone it skips
+    /// The thesis' fine window (± one coarse step, clipped) around the coarse winner `best`:
+    /// the thesis MLE (strict `<` from it) into `best` (in place: a returned point is a stack
+    /// copy on AVR), and the evaluations it spends. Alone it skips
     /// the window's coarse points (they cannot beat `start`); with `POST` it evaluates every
     /// point up to the posterior's bound (or the MLE's, if larger) and adds it to `post`, and
     /// the MLE is the same (a coarse point is never strictly below `start`). (Two copies: the
-    /// sink links only the one with `POST`.)
-    #[inline(never)]
-    fn fine<const POST: bool>(
-        &mut self,
-        start: LatticeMin,
-        post: &mut Posterior,
-    ) -> (LatticeMin, usize) {
-        let (i0, j0) = (start.i.saturating_sub(RATIO), start.j.saturating_sub(RATIO));
-        let i1 = (start.i + RATIO).min(FINE_DIVS);
-        let rows = (start.j + RATIO).min(FINE_DIVS) - j0 + 1;
+    /// sink links only the one with `POST`, inlined into [`mle_and_mmse_window_into`]: a frame
+    /// fewer on the sink's deepest stack path.)
+    #[inline(always)]
+    fn fine<const POST: bool>(&mut self, best: &mut LatticeMin, post: &mut Posterior) -> usize {
+        let (i0, j0) = (best.i.saturating_sub(RATIO), best.j.saturating_sub(RATIO));
+        let i1 = (best.i + RATIO).min(FINE_DIVS);
+        let rows = (best.j + RATIO).min(FINE_DIVS) - j0 + 1;
         self.window(i0, j0, 1, rows);
         // The window's coarse rows (j a multiple of RATIO).
         let (mut coarse, mut n_coarse) = (0u16, 0);
@@ -390,7 +410,7 @@ impl<K: TermKernel> Grid<K> {
             n_coarse += 1;
             r += RATIO;
         }
-        let (mut best, mut mle_evals) = (start, self.evals);
+        let mut mle_evals = self.evals;
         for i in i0..=i1 {
             let (mask, skipped) = if i % RATIO == 0 {
                 (coarse, n_coarse)
@@ -406,15 +426,21 @@ impl<K: TermKernel> Grid<K> {
                 self.column(i, best.cost, mask);
                 self.evals += rows - skipped;
             }
-            self.take(i, best.cost, &mut best);
+            self.take(i, best.cost, best);
         }
-        (best, mle_evals)
+        mle_evals
     }
 
     fn thesis(&mut self) -> LatticeMin {
-        let c = self.coarse();
-        self.fine::<false>(c, &mut Posterior::new(Weights::new(0, 0), 0))
-            .0
+        let mut best = self.coarse();
+        self.fine_mle(&mut best);
+        best
+    }
+
+    /// [`Grid::fine`] without the posterior, out of line (the MLE searches' copy).
+    #[inline(never)]
+    fn fine_mle(&mut self, best: &mut LatticeMin) {
+        self.fine::<false>(best, &mut Posterior::new(Weights::new(0, 0), 0));
     }
 
     fn multi_start(&mut self) -> LatticeMin {
@@ -705,9 +731,10 @@ impl Posterior {
             if v < self.cref {
                 // The sums so far, relative to the new reference: × 2^(−y(drop)), Q.32.
                 let f = self.wts.weight(self.cref - v).min((1 << 26) - 1) << 6;
-                for x in [&mut self.s, &mut self.sx, &mut self.sy] {
-                    *x = mul_hi(*x, f);
-                }
+                // (Three calls, not a loop over an array of references: no array on the stack.)
+                self.s = mul_hi(self.s, f);
+                self.sx = mul_hi(self.sx, f);
+                self.sy = mul_hi(self.sy, f);
                 self.cref = v;
             }
             let wt = self.wts.weight(v - self.cref) >> 6;
@@ -717,18 +744,16 @@ impl Posterior {
         }
     }
 
-    /// The posterior mean of a window whose first point is `(i0, j0)`, mm (`None` if no
-    /// weight).
+    /// The posterior mean of a window whose first point is `(i0, j0)`, mm, into `pos` (left
+    /// as it is if no weight; in place: a returned point is a stack copy on AVR).
     #[inline(never)]
-    fn mean(&self, area: AreaCm, i0: usize, j0: usize) -> Option<PointMm> {
+    fn mean(&self, area: AreaCm, i0: usize, j0: usize, pos: &mut PointMm) {
         if self.s == 0 {
-            return None;
+            return;
         }
         // The mean offset Σw·k/Σw in Q.12 (≤ 10 steps).
-        Some(PointMm {
-            x: to_mm(area.width, i0, div_shl(self.sx, self.s, 12)),
-            y: to_mm(area.height, j0, div_shl(self.sy, self.s, 12)),
-        })
+        pos.x = to_mm(area.width, i0, div_shl(self.sx, self.s, 12));
+        pos.y = to_mm(area.height, j0, div_shl(self.sy, self.s, 12));
     }
 }
 
@@ -834,21 +859,36 @@ pub fn mmse_window_with<K: TermKernel>(
 /// so every cost that could beat the MLE's best is exact too; the MLE's winner is then the
 /// first strictly smallest from the coarse winner on, as in the thesis search (the window's
 /// coarse points, which the thesis skips, never are). Costs ≈ the windowed MMSE's cycles, and
-/// one copy of the search code in flash (what `sink-fw` links).
-#[inline(never)]
+/// one copy of the search code in flash (what `sink-fw` links, as [`mle_and_mmse_window_into`]).
 pub fn mle_and_mmse_window_with<K: TermKernel>(
     obs: &Observations,
     model: PathLoss,
     area: AreaCm,
     sigma: u16,
 ) -> Result<[Estimate; 2], LocError> {
+    let mut out = [Estimate::NONE; 2];
+    mle_and_mmse_window_into::<K>(obs, model, area, sigma, &mut out)?;
+    Ok(out)
+}
+
+/// [`mle_and_mmse_window_with`] into `out` (untouched on an error): the caller's storage, no
+/// returned pair (on AVR a by-value result is a stack copy).
+#[inline(never)]
+pub fn mle_and_mmse_window_into<K: TermKernel>(
+    obs: &Observations,
+    model: PathLoss,
+    area: AreaCm,
+    sigma: u16,
+    out: &mut [Estimate; 2],
+) -> Result<(), LocError> {
     check(obs)?;
     let mut g = Grid::<K>::EMPTY;
     g.setup(obs, model, area);
-    let start = g.coarse();
-    let mut post = Posterior::new(Weights::new(g.k26, sigma), start.cost);
-    let (best, mle_evals) = g.fine::<true>(start, &mut post);
-    let mle = g.finish(
+    let mut best = g.coarse();
+    let mut post = Posterior::new(Weights::new(g.k26, sigma), best.cost);
+    let mle_evals = g.fine::<true>(&mut best, &mut post);
+    let [mle, mmse] = out;
+    *mle = g.finish(
         obs,
         area,
         None,
@@ -857,13 +897,11 @@ pub fn mle_and_mmse_window_with<K: TermKernel>(
         mle_evals,
     );
     // The same lattice point and cost; its own position, estimator and evaluations.
-    let mut mmse = mle;
-    if let Some(pos) = post.mean(area, g.i0, g.j0) {
-        mmse.pos = pos;
-    }
+    *mmse = *mle;
+    post.mean(area, g.i0, g.j0, &mut mmse.pos);
     mmse.estimator = Estimator::MmseWindow { sigma };
     mmse.evaluations = g.evals as u16;
-    Ok([mle, mmse])
+    Ok(())
 }
 
 /// `obs` located by `estimator`.

@@ -33,23 +33,55 @@ pub trait TermKernel {
     }
 }
 
+/// A 24-bit two's-complement integer, 3 bytes little endian: an [`AnchorTerm`]'s offsets (the
+/// kernels use 24 bits of them; a fourth byte per offset would be 16 bytes of a search's stack).
+#[repr(transparent)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct I24(pub [u8; 3]);
+
+impl I24 {
+    /// 0.
+    pub const ZERO: I24 = I24([0; 3]);
+
+    /// The low 24 bits of `v`.
+    #[inline(always)]
+    pub const fn new(v: i32) -> I24 {
+        let b = v.to_le_bytes();
+        I24([b[0], b[1], b[2]])
+    }
+
+    /// The value, sign-extended.
+    #[inline(always)]
+    pub const fn get(self) -> i32 {
+        let [a, b, c] = self.0;
+        ((c as i8 as i32) << 16) | ((b as i32) << 8) | a as i32
+    }
+
+    /// `self + v`, wrapping at 24 bits (no sign extension needed).
+    #[inline(always)]
+    pub fn add(&mut self, v: i32) {
+        let [a, b, c] = self.0;
+        *self = I24::new(u32::from_le_bytes([a, b, c, 0]).wrapping_add(v as u32) as i32);
+    }
+}
+
 /// One anchor of a [`ColumnJob`]. Its offsets `dx`, `dy` from the lattice point (24-bit
 /// values: `|·| < 2^23` lattice units) are rounded to multiples of `2^shift` before they are
 /// squared, so that each square fits 32 bits (`shift` is 0 within 13.1 m of the anchor).
 ///
 /// `repr(C)`: assembly kernels read it by offset (on AVR, where nothing is padded: `dx2` 0,
-/// `dx0` 4, `dy0` 8, `step` 12, `lclamp` 14, `rho` 18, `w` 22, `shift` 23; 24 bytes).
+/// `dx0` 4, `dy0` 7, `lclamp` 10, `rho` 14, `w` 18, `shift` 19; 20 bytes: eight of them are
+/// most of a search's stack).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct AnchorTerm {
     /// `dx²` of the column (shifted): scratch, the kernel computes it.
     pub dx2: u32,
     /// `dx` of the window's column 0, lattice units; column offset `c`'s is `dx0 + c·xstep`.
-    pub dx0: i32,
-    /// `dy` of the window's row 0, lattice units; fine row offset `o`'s is `dy0 + o·step`.
-    pub dy0: i32,
-    /// Fine row step, lattice units.
-    pub step: u16,
+    pub dx0: I24,
+    /// `dy` of the window's row 0, lattice units; fine row offset `o`'s is `dy0 + o·ystep`
+    /// ([`ColumnJob::ystep`]).
+    pub dy0: I24,
     /// `log2` of the 1 cm clamp, Q.20, less `2·shift`.
     pub lclamp: i32,
     /// The anchor's `ρ`, Q.20, plus `2·shift`.
@@ -65,9 +97,8 @@ impl AnchorTerm {
     /// from flash, initialises it).
     pub const NONE: AnchorTerm = AnchorTerm {
         dx2: 0,
-        dx0: 0,
-        dy0: 0,
-        step: 0,
+        dx0: I24::ZERO,
+        dy0: I24::ZERO,
         lclamp: 0,
         rho: 0,
         w: 0,
@@ -77,7 +108,7 @@ impl AnchorTerm {
 
 /// A column of a search window, for [`TermKernel::column`] (on AVR: `bound` at offset 0, `n`
 /// 4, `rows` 5, `min` 6, `min_row` 10, `skip` 11, `col` 13, `xstep` 14, `stride` 16, `end` 17,
-/// `seg_base` 18, the anchors from 20).
+/// `seg_base` 18, `ystep` 20, the anchors from 22).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct ColumnJob {
@@ -104,6 +135,8 @@ pub struct ColumnJob {
     pub end: u8,
     /// [`log2_segment_base`], for kernels that read the table directly.
     pub seg_base: *const u8,
+    /// Fine row step, lattice units (the same for every anchor: one copy, not one per anchor).
+    pub ystep: u16,
     /// The anchors, in evaluation order.
     pub anchors: [AnchorTerm; MAX_ANCHORS],
 }
@@ -123,6 +156,7 @@ impl ColumnJob {
         stride: 0,
         end: 0,
         seg_base: core::ptr::null(),
+        ystep: 0,
         anchors: [AnchorTerm::NONE; MAX_ANCHORS],
     };
 }
@@ -152,7 +186,7 @@ pub fn portable_column<K: TermKernel>(sums: &mut [u32], job: &mut ColumnJob) {
     let n = (job.n as usize).min(MAX_ANCHORS);
     let dx = job.col as i32 * job.xstep as i32;
     for a in &mut job.anchors[..n] {
-        a.dx2 = offset_square(a.dx0.wrapping_add(dx), a.shift);
+        a.dx2 = offset_square(a.dx0.get().wrapping_add(dx), a.shift);
     }
     (job.min, job.min_row) = (u32::MAX, 0);
     let mut skip = job.skip;
@@ -168,7 +202,7 @@ pub fn portable_column<K: TermKernel>(sums: &mut [u32], job: &mut ColumnJob) {
         }
         let mut s = 0u32;
         for a in &job.anchors[..n] {
-            let dy = a.dy0.wrapping_add(o as i32 * a.step as i32);
+            let dy = a.dy0.get().wrapping_add(o as i32 * job.ystep as i32);
             s = add_term::<K>(s, a.dx2, offset_square(dy, a.shift), a.rho, a.lclamp, a.w);
             if s >= job.bound {
                 s = job.bound;

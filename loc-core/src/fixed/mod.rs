@@ -82,10 +82,10 @@
 //! loop), ≈ 151 k in all (9.5 ms, 26× fewer than the same algorithm in f32): within the 160 k
 //! budget. The windowed MMSE (the sink's, [`mmse_window`]) is ≈ 323 k (≈ 352 k for the whole
 //! step): its weights need every window cost up to 21 bits of weight below the best, so the
-//! early exits hardly ever fire. The sink's search ([`mle_and_mmse_window_with`] with the
-//! assembly column and the two tables) is ≈ 9.6 KB of flash in `est-sink` (`cargo fw-sink`,
-//! the sink's whole report path, 27.9 KB), not yet the ≈ 4 KB it needs within the sink's 16 KB.
-//! Stack peak of `est-fixed` ≈ 1.2 KB.
+//! early exits hardly ever fire. The sink's search ([`mle_and_mmse_window_into`] with the
+//! assembly column and the two tables) is ≈ 9.4 KB of flash in `sink-fw`, not yet the ≈ 4 KB
+//! it needs within the sink's 16 KB; its stack, ≈ 0.4 KB below `Sink::locate`, is most of the
+//! way from the sink's report handler to its deepest point. Stack peak of `est-fixed` ≈ 1.1 KB.
 //!
 //! ```ignore
 //! // The lean sink step (what a firmware calls; `sink_fix` does the same from a `Measurements`):
@@ -109,12 +109,12 @@ mod refine;
 mod tables;
 
 pub use grid::{
-    estimate, estimate_with, locate, mle, mle_and_mmse_window_with, mle_with, mmse, mmse_window,
-    mmse_window_with, mmse_with, sink_fix, Estimate, Estimator,
+    estimate, estimate_with, locate, mle, mle_and_mmse_window_into, mle_and_mmse_window_with,
+    mle_with, mmse, mmse_window, mmse_window_with, mmse_with, sink_fix, Estimate, Estimator,
 };
 pub use kernel::{
     log2_segment_base, log2_segment_table, offset_square, portable_column, portable_term,
-    AnchorTerm, ColumnJob, Portable, TermKernel, SQ_SAT, U_SAT,
+    AnchorTerm, ColumnJob, Portable, TermKernel, I24, SQ_SAT, U_SAT,
 };
 pub use params::{
     distance_x, fit, fit_grid, fit_least_squares, Ar1, Bounds, CalStats, OnlineParams, ParamFit,

@@ -27,13 +27,12 @@ use loc_core::fixed::{log2_segment_base, AnchorTerm, ColumnJob, TermKernel};
 const _: () = {
     assert!(offset_of!(AnchorTerm, dx2) == 0);
     assert!(offset_of!(AnchorTerm, dx0) == 4);
-    assert!(offset_of!(AnchorTerm, dy0) == 8);
-    assert!(offset_of!(AnchorTerm, step) == 12);
-    assert!(offset_of!(AnchorTerm, lclamp) == 14);
-    assert!(offset_of!(AnchorTerm, rho) == 18);
-    assert!(offset_of!(AnchorTerm, w) == 22);
-    assert!(offset_of!(AnchorTerm, shift) == 23);
-    assert!(size_of::<AnchorTerm>() == 24);
+    assert!(offset_of!(AnchorTerm, dy0) == 7);
+    assert!(offset_of!(AnchorTerm, lclamp) == 10);
+    assert!(offset_of!(AnchorTerm, rho) == 14);
+    assert!(offset_of!(AnchorTerm, w) == 18);
+    assert!(offset_of!(AnchorTerm, shift) == 19);
+    assert!(size_of::<AnchorTerm>() == 20);
     assert!(offset_of!(ColumnJob, bound) == 0);
     assert!(offset_of!(ColumnJob, n) == 4);
     assert!(offset_of!(ColumnJob, rows) == 5);
@@ -45,7 +44,8 @@ const _: () = {
     assert!(offset_of!(ColumnJob, stride) == 16);
     assert!(offset_of!(ColumnJob, end) == 17);
     assert!(offset_of!(ColumnJob, seg_base) == 18);
-    assert!(offset_of!(ColumnJob, anchors) == 20);
+    assert!(offset_of!(ColumnJob, ystep) == 20);
+    assert!(offset_of!(ColumnJob, anchors) == 22);
 };
 
 /// The AVR kernel for `loc_core::fixed::{mle_with, mmse_with, estimate_with}`.
@@ -179,10 +179,10 @@ macro_rules! term_body {
             "adc r16, r2\n",
             // ---- l = max(log, clamp) (signed) ----
             "20:\n",
-            "ldd r6, Z+14\n",
-            "ldd r7, Z+15\n",
-            "ldd r8, Z+16\n",
-            "ldd r9, Z+17\n",
+            "ldd r6, Z+10\n",
+            "ldd r7, Z+11\n",
+            "ldd r8, Z+12\n",
+            "ldd r9, Z+13\n",
             "cp r3, r6\n",
             "cpc r4, r7\n",
             "cpc r5, r8\n",
@@ -194,10 +194,10 @@ macro_rules! term_body {
             "mov r16, r9\n",
             // ---- u = |ρ + l| ----
             "21:\n",
-            "ldd r6, Z+18\n",
-            "ldd r7, Z+19\n",
-            "ldd r8, Z+20\n",
-            "ldd r9, Z+21\n",
+            "ldd r6, Z+14\n",
+            "ldd r7, Z+15\n",
+            "ldd r8, Z+16\n",
+            "ldd r9, Z+17\n",
             "add r3, r6\n",
             "adc r4, r7\n",
             "adc r5, r8\n",
@@ -304,7 +304,7 @@ macro_rules! offset_abs_square {
             "inc r3\n",
             "9:\n",
             // A shift: the subroutine at 45 (4 cycles when there is none).
-            "ldd r5, Z+23\n",
+            "ldd r5, Z+19\n",
             "cpse r5, r2\n",
             "rcall 45f\n",
             "mul r16, r16\n",
@@ -335,7 +335,7 @@ pub fn term(lo: u32, carry: bool, rho: i32, lclamp: i32) -> u32 {
     let base = log2_segment_base();
     let y = (&base as *const *const u8).cast::<u8>().wrapping_sub(18);
     let [mut n0, mut n1, mut n2, mut n3] = lo.to_le_bytes();
-    // SAFETY: the assembly reads `t` (24 bytes, at the offsets asserted above) through Z, the
+    // SAFETY: the assembly reads `t` (20 bytes, at the offsets asserted above) through Z, the
     // table base through Y (`base`, at Y+18) and 6 bytes of the log2 table (64 × 6 bytes in
     // flash, index < 64 by construction) with `lpm`; it writes only the registers declared
     // here, r0, r1 (left at 0 as the ABI requires), the flags and Y (saved on the stack and
@@ -423,7 +423,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "ldd r22, Z+13",
             "ldd r24, Z+14",
             "ldd r25, Z+15",
-            "adiw r30, 20",
+            "adiw r30, 22",
             "8:",
             "mul r22, r24",
             "movw r16, r0",
@@ -436,7 +436,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "std Z+1, r13",
             "std Z+2, r14",
             "std Z+3, r15",
-            "adiw r30, 24",
+            "adiw r30, 20",
             "dec r23",
             "brne 8b",
             "clr r22",
@@ -463,18 +463,18 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "ldd r20, Z+2",
             "ldd r21, Z+3",
             "ldd r23, Z+4",
-            "adiw r30, 20",
+            "adiw r30, 22",
             // ---- anchor at Z: dy = dy0 + r22·step (24 bits) ----
             "5:",
-            "ldd r16, Z+12",
+            "ldd r16, Y+20",
             "mul r22, r16",
             "movw r16, r0",
-            "ldd r3, Z+13",
+            "ldd r3, Y+21",
             "mul r22, r3",
             "add r17, r0",
             "clr r3",
             "adc r3, r1",
-            offset_abs_square!(8, 9, 10),
+            offset_abs_square!(7, 8, 9),
             // ---- d² = dx² + dy² in T:r15:r12 ----
             "ldd r16, Z+0",
             "add r12, r16",
@@ -490,7 +490,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "7:",
             term_body!(),
             // ---- room −= w·term; at or below 0 the row has reached the bound ----
-            "ldd r17, Z+22",
+            "ldd r17, Z+18",
             "31:",
             "sub r18, r12",
             "sbc r19, r13",
@@ -500,7 +500,7 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "breq 35f",
             "dec r17",
             "brne 31b",
-            "adiw r30, 24",
+            "adiw r30, 20",
             "dec r23",
             "breq 3f",
             "rjmp 5b",
