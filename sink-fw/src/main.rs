@@ -114,34 +114,35 @@ fn on_report(
     match sink.on_report(report) {
         Ok(fix) => {
             for e in [Estimator::Mle, Estimator::Mmse] {
-                write(radio, &fix.line(e));
+                fix_line(radio, &fix, e);
             }
         }
-        Err(e) => write(
-            radio,
-            &sink_fw::no_fix_line(report.agent(), report.seq(), e),
-        ),
+        Err(e) => sink_fw::no_fix_line(report.agent(), report.seq(), e).write(uart(radio)),
     }
 }
 
-/// The `status` line at `uptime_s` on the UART. Out of line: built in [`run`]'s big frame, the
-/// line's fields cost ≈ 16 B of flash each.
+/// The `fix` line of `estimator` on the UART: built and written in one place, so only its
+/// fields' writes remain (no line in memory).
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+fn fix_line(
+    radio: &mut uno_board::NodeRadio,
+    fix: &sink_fw::Fix,
+    estimator: loc_proto::sink_line::Estimator,
+) {
+    fix.line(estimator).write(uart(radio));
+}
+
+/// The `status` line at `uptime_s` on the UART. Out of line, as [`run`].
 #[cfg(target_arch = "avr")]
 #[inline(never)]
 fn status(radio: &mut uno_board::NodeRadio, counters: &sink_fw::Counters, uptime_s: u32) {
-    write(radio, &counters.line(uptime_s));
+    counters.line(uptime_s).write(uart(radio));
 }
 
-/// `line` on the UART.
-#[cfg(target_arch = "avr")]
-#[inline(never)]
-fn write(radio: &mut uno_board::NodeRadio, line: &loc_proto::sink_line::SinkLine) {
-    line.write(uart(radio));
-}
-
-/// The UART as a byte sink: one closure type, so one copy of the line writers' glue.
+/// The UART as a byte sink: the boot lines' one ([`uno_board::uart_out`]), so one copy of the
+/// line writer.
 #[cfg(target_arch = "avr")]
 fn uart(radio: &mut uno_board::NodeRadio) -> impl FnMut(u8) + '_ {
-    let serial = radio.serial_mut();
-    move |b| serial.write_byte(b)
+    uno_board::uart_out(radio.serial_mut())
 }
