@@ -226,18 +226,15 @@ impl SinkLine {
                 foreign,
                 fixes,
             } => {
+                // One call each (a loop over an array of them copies it twice on AVR).
                 o = start(out, STATUS);
-                for n in [
-                    uptime_s,
-                    frames,
-                    reports,
-                    drops,
-                    checksum_errors,
-                    foreign,
-                    fixes,
-                ] {
-                    o.num(n);
-                }
+                o.num(uptime_s);
+                o.num(frames);
+                o.num(reports);
+                o.num(drops);
+                o.num(checksum_errors);
+                o.num(foreign);
+                o.num(fixes);
             }
         }
         o.end(true);
