@@ -163,7 +163,8 @@ impl<W: FnMut(u8)> Out<W> {
         }
     }
 
-    /// The 4-bit `n` as an upper-case hex digit.
+    /// The 4-bit `n` as an upper-case hex digit. Out of line: four callers.
+    #[inline(never)]
     fn hex_digit(&mut self, n: u8) {
         self.byte(if n < 10 { b'0' + n } else { b'A' + n - 10 });
     }

@@ -113,9 +113,8 @@ fn on_report(
     loc_proto::sink_line::RawReport::write(report.bytes(), uart(radio));
     match sink.on_report(report) {
         Ok(fix) => {
-            for e in [Estimator::Mle, Estimator::Mmse] {
-                fix_line(radio, &fix, e);
-            }
+            fix_line(radio, &fix, Estimator::Mle);
+            fix_line(radio, &fix, Estimator::Mmse);
         }
         Err(e) => sink_fw::no_fix_line(report.agent(), report.seq(), e).write(uart(radio)),
     }
