@@ -168,12 +168,12 @@ pub fn crc8(bytes: impl IntoIterator<Item = u8>) -> u8 {
     c
 }
 
-/// `hoploc sink` and the `kind` word: how every sink line starts.
-fn start<W: FnMut(u8)>(out: W, kind: u8) -> Out<W> {
-    let mut o = Out::new(out);
+/// `hoploc sink` and the `kind` word: how every sink line starts. Out of line, on the line
+/// in place (returned, it is copied through memory on AVR).
+#[inline(never)]
+fn start<W: FnMut(u8)>(o: &mut Out<W>, kind: u8) {
     o.head(WORD_SINK);
     o.word(kind);
-    o
 }
 
 impl SinkLine {
@@ -184,7 +184,7 @@ impl SinkLine {
     /// line it writes (the sink firmware) keeps only that kind's calls, and no line in memory.
     #[inline(always)]
     pub fn write(&self, out: impl FnMut(u8)) {
-        let mut o;
+        let mut o = Out::new(out);
         match *self {
             SinkLine::Fix {
                 agent,
@@ -197,7 +197,7 @@ impl SinkLine {
                 anchors,
                 flags,
             } => {
-                o = start(out, FIX);
+                start(&mut o, FIX);
                 o.num(agent.into());
                 o.num(seq.into());
                 o.word(match estimator {
@@ -212,7 +212,7 @@ impl SinkLine {
                 o.num(flags.into());
             }
             SinkLine::NoFix { agent, seq, usable } => {
-                o = start(out, NOFIX);
+                start(&mut o, NOFIX);
                 o.num(agent.into());
                 o.num(seq.into());
                 o.num(usable.into());
@@ -227,7 +227,7 @@ impl SinkLine {
                 fixes,
             } => {
                 // One call each (a loop over an array of them copies it twice on AVR).
-                o = start(out, STATUS);
+                start(&mut o, STATUS);
                 o.num(uptime_s);
                 o.num(frames);
                 o.num(reports);
@@ -351,7 +351,8 @@ impl RawReport {
     /// writes the bytes it received). At most [`MAX_REPORT_LINE`] bytes for a message the radio
     /// carries.
     pub fn write(msg: &[u8], out: impl FnMut(u8)) {
-        let mut o = start(out, REPORT);
+        let mut o = Out::new(out);
+        start(&mut o, REPORT);
         o.hex(msg);
         o.end(true);
     }
