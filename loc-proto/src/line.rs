@@ -139,28 +139,16 @@ impl<W: FnMut(u8)> Out<W> {
         self.decimal(n.unsigned_abs().into());
     }
 
-    /// `n` in decimal, digit by digit from the highest power of ten, each digit counted by
-    /// subtraction: on AVR no digit buffer and one division per digit.
+    /// `n` in decimal: the digits before the last by recursion (at most ten levels deep), then
+    /// the last. One 32-bit division per digit: the remainder `n − 10·q` is below 10, so its low
+    /// 8 bits (one hardware multiply on AVR) are all of it.
     #[inline(never)]
     fn decimal(&mut self, n: u32) {
-        let mut n = n;
-        let mut p: u32 = 1_000_000_000;
-        let mut started = false;
-        loop {
-            let mut d = b'0';
-            while n >= p {
-                n -= p;
-                d += 1;
-            }
-            started |= d != b'0' || p == 1;
-            if started {
-                self.byte(d);
-            }
-            if p == 1 {
-                return;
-            }
-            p /= 10;
+        let q = n / 10;
+        if q != 0 {
+            self.decimal(q);
         }
+        self.byte(b'0' + (n as u8).wrapping_sub((q as u8).wrapping_mul(10)));
     }
 
     /// The 4-bit `n` as an upper-case hex digit. Out of line: four callers.
@@ -525,7 +513,7 @@ mod tests {
             let mut v = Vec::new();
             Out::new(|b| v.push(b)).num(n);
             assert_eq!(String::from_utf8(v).unwrap(), std::format!(" {n}"));
-            for n in [n as i16, (n as i16).wrapping_neg()] {
+            for n in [n as i16, (n as i16).wrapping_neg(), i16::MIN, i16::MAX, -1] {
                 let mut v = Vec::new();
                 Out::new(|b| v.push(b)).signed(n);
                 assert_eq!(String::from_utf8(v).unwrap(), std::format!(" {n}"));
