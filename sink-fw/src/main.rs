@@ -14,7 +14,7 @@ fn main() {}
 
 /// Time between two status lines, ms.
 #[cfg(target_arch = "avr")]
-const STATUS_PERIOD_MS: u32 = 10_000;
+const STATUS_PERIOD_MS: u16 = 10_000;
 
 #[cfg(target_arch = "avr")]
 uno_board::link_avr_libc!();
@@ -66,7 +66,9 @@ fn run(
     use uno_board::{now_ms, rx_pending, sleep_unless, AvrTerm};
 
     let mut sink = Sink::<AvrTerm>::new(sink_fw::room(config.position));
-    let mut last_status = now_ms();
+    // The clock's low 16 bits: the loop looks at least once a second (the watchdog's 1 s sees
+    // to that), far within their 65 s, and 16-bit arithmetic is half the AVR code.
+    let mut last_status = now_ms() as u16;
     let mut uptime_s = 0u32;
     // A packet's bytes (the radio's buffer is lent only while polling): the report is read in
     // place from here and written as its `report` line. RX16 data always fits.
@@ -91,9 +93,9 @@ fn run(
                 }
             }
         }
-        if now_ms().wrapping_sub(last_status) >= STATUS_PERIOD_MS {
+        if (now_ms() as u16).wrapping_sub(last_status) >= STATUS_PERIOD_MS {
             last_status = last_status.wrapping_add(STATUS_PERIOD_MS);
-            uptime_s += STATUS_PERIOD_MS / 1000;
+            uptime_s += u32::from(STATUS_PERIOD_MS / 1000);
             status(&mut radio, sink.counters(), uptime_s);
         }
         sleep_unless(rx_pending);
