@@ -390,8 +390,10 @@ pub struct Radio<S, C> {
     rx_since_check: bool,
     /// Frame ids of transmit requests still waiting for their TX status (0: free slot).
     pending_tx: [u8; TRACKED],
-    /// When bytes were last seen, for [`IDLE_MS`].
-    last_rx_ms: u32,
+    /// When bytes were last seen, for [`IDLE_MS`]: the clock's low 16 bits (16-bit arithmetic
+    /// is half the AVR code; a poll gap of a multiple of 65.5 s mid-frame would only delay the
+    /// idle report by at most [`IDLE_MS`]).
+    last_rx_ms: u16,
     serial: S,
     clock: C,
     decoder: Decoder,
@@ -670,11 +672,11 @@ where
                     self.rx_since_check = true;
                 }
                 Err(nb::Error::WouldBlock) => {
-                    let now = self.clock.now_ms();
+                    let now = self.clock.now_ms() as u16;
                     if core::mem::take(&mut self.rx_since_check) {
                         self.last_rx_ms = now;
                     } else if self.decoder.in_frame()
-                        && now.wrapping_sub(self.last_rx_ms) >= IDLE_MS
+                        && now.wrapping_sub(self.last_rx_ms) >= IDLE_MS as u16
                     {
                         // The rest of the frame is not coming: let the decoder report it and,
                         // in AP=1, re-read a frame that started inside it.
