@@ -555,8 +555,10 @@ where
                 Ok(()) => return Ok(()),
                 Err(nb::Error::Other(e)) => return Err(self.fail(Error::Serial(e.kind()))),
                 Err(nb::Error::WouldBlock) => {
-                    let now = self.clock.now_ms();
-                    if now.wrapping_sub(*start.get_or_insert(now)) >= WRITE_TIMEOUT_MS {
+                    // The clock's low 16 bits: this loop looks at it without a gap, and 16-bit
+                    // arithmetic is half the AVR code.
+                    let now = self.clock.now_ms() as u16;
+                    if now.wrapping_sub(*start.get_or_insert(now)) >= WRITE_TIMEOUT_MS as u16 {
                         return Err(self.fail(Error::WriteTimeout));
                     }
                 }
