@@ -109,8 +109,7 @@ impl<W: FnMut(u8)> Out<W> {
             self.byte(b' ');
         }
         let mut seen = 0;
-        for i in 0..WORDS.len() {
-            let b = WORDS.load_at(i);
+        for b in WORDS.iter() {
             if b == b' ' {
                 seen += 1;
                 if seen > k {
