@@ -328,7 +328,8 @@ pub struct BringUpConfig {
     /// Silence before and after `+++`. Must exceed the radio's `GT` (default 1000 ms).
     /// (16 bits: bring-up's waits are timed in 16-bit arithmetic, half the AVR code.)
     pub guard_ms: u16,
-    /// How long to wait for each answer (API AT response, or `OK` in command mode).
+    /// How long to wait for each answer (API AT response, or `OK` in command mode). The answer
+    /// to `+++` is awaited `guard_ms + timeout_ms` (at most 65 535 ms).
     pub timeout_ms: u16,
 }
 
