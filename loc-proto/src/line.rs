@@ -291,7 +291,7 @@ impl BootLine {
 
     /// Writes the line, `\r\n` included, one byte at a time (at most [`MAX_BOOT_LINE`] bytes).
     ///
-    /// Word by word through the one line writer ([`Out`]). Always inlined: a firmware writes
+    /// Word by word through the one line writer (`Out`). Always inlined: a firmware writes
     /// each line where it builds it, so only that kind's few calls remain (no line in memory).
     #[inline(always)]
     pub fn write(&self, out: impl FnMut(u8)) {
