@@ -28,8 +28,10 @@ use core::fmt;
 use crate::Role;
 
 avr_progmem::progmem! {
-    /// Every word of the lines, space separated; [`Word`] numbers them.
-    static progmem WORDS: [u8; 90] = *b"hoploc anchor agent sink boot radio ok api error try config eeprom built-in id provisioned";
+    /// Every word of the boot lines and the sink's lines ([`crate::sink_line`]), space
+    /// separated; [`Word`] and `sink_line`'s word numbers index it. One table, one writer
+    /// ([`Out`]) for every line a node writes.
+    static progmem WORDS: [u8; 123] = *b"hoploc anchor agent sink boot radio ok api error try config eeprom built-in id provisioned fix nofix status mle mmse report";
 }
 
 /// Indices into [`WORDS`].
@@ -51,10 +53,133 @@ enum Word {
     Provisioned = 14,
 }
 
-// `BootLine::write` takes `built-in` as the word after `eeprom`, and every word after the role
-// fits a token's 4 bits below `NUM`.
+/// [`WORDS`] index of `sink` (1 + [`Role::Sink`]), the sink lines' second word.
+pub(crate) const WORD_SINK: u8 = 1 + Role::Sink as u8;
+/// [`WORDS`] index of `fix`, the first of the sink lines' own words (`fix nofix status mle mmse
+/// report`, in that order).
+pub(crate) const WORD_FIX: u8 = 15;
+
+// `BootLine::write` takes `built-in` as the word after `eeprom`.
 const _: () = assert!(Word::BuiltIn as u8 == Word::Eeprom as u8 + 1);
-const _: () = assert!((Word::Provisioned as u8) < NUM);
+const _: () = assert!(Word::Provisioned as u8 + 1 == WORD_FIX);
+
+/// A line on its way out: each byte goes to `out` and into the running CRC-8 that sink lines
+/// end with ([`crate::sink_line::crc8`]). Every line a node writes, boot or sink, goes through
+/// these few out-of-line methods: on AVR one copy of each per writer type (a firmware writes
+/// every line with one, so one copy), called with a value or two. Generic, not `dyn`: the
+/// writer's call folds in, and no vtable sits in SRAM.
+pub(crate) struct Out<W> {
+    out: W,
+    crc: u8,
+}
+
+impl<W: FnMut(u8)> Out<W> {
+    /// A line to `out`, nothing written yet.
+    pub(crate) fn new(out: W) -> Out<W> {
+        Out { out, crc: 0 }
+    }
+
+    /// Writes `b`. (crc8 from state `crc` over `b` is crc8 of `crc ^ b` from 0.)
+    #[inline(never)]
+    pub(crate) fn byte(&mut self, b: u8) {
+        let mut c = self.crc ^ b;
+        for _ in 0..8 {
+            c = if c & 0x80 != 0 {
+                (c << 1) ^ 0x07
+            } else {
+                c << 1
+            };
+        }
+        self.crc = c;
+        (self.out)(b);
+    }
+
+    /// `hoploc`, a space and word `second` (the role, or `sink`): how every line starts.
+    #[inline(never)]
+    pub(crate) fn head(&mut self, second: u8) {
+        self.word(Word::Hoploc as u8);
+        self.word(second);
+    }
+
+    /// A space (none before word 0, `hoploc`, which starts every line) and word `k` of
+    /// [`WORDS`].
+    #[inline(never)]
+    pub(crate) fn word(&mut self, k: u8) {
+        if k != 0 {
+            self.byte(b' ');
+        }
+        let mut seen = 0;
+        for b in WORDS.iter() {
+            if b == b' ' {
+                seen += 1;
+                if seen > k {
+                    return;
+                }
+            } else if seen == k {
+                self.byte(b);
+            }
+        }
+    }
+
+    /// A space and `n` in decimal.
+    #[inline(never)]
+    pub(crate) fn num(&mut self, n: u32) {
+        self.byte(b' ');
+        self.decimal(n);
+    }
+
+    /// A space and `n` in decimal, `-` first if negative.
+    #[inline(never)]
+    pub(crate) fn signed(&mut self, n: i16) {
+        self.byte(b' ');
+        if n < 0 {
+            self.byte(b'-');
+        }
+        self.decimal(n.unsigned_abs().into());
+    }
+
+    /// `n` in decimal: the digits before the last by recursion (at most ten levels deep), then
+    /// the last. One 32-bit division per digit: the remainder `n − 10·q` is below 10, so its low
+    /// 8 bits (one hardware multiply on AVR) are all of it.
+    #[inline(never)]
+    fn decimal(&mut self, n: u32) {
+        let q = n / 10;
+        if q != 0 {
+            self.decimal(q);
+        }
+        self.byte(b'0' + (n as u8).wrapping_sub((q as u8).wrapping_mul(10)));
+    }
+
+    /// The 4-bit `n` as an upper-case hex digit. Out of line: four callers.
+    #[inline(never)]
+    fn hex_digit(&mut self, n: u8) {
+        self.byte(if n < 10 { b'0' + n } else { b'A' + n - 10 });
+    }
+
+    /// A space and `bytes` as one word of upper-case hex digits.
+    pub(crate) fn hex(&mut self, bytes: &[u8]) {
+        self.byte(b' ');
+        for &b in bytes {
+            self.hex_digit(b >> 4);
+            self.hex_digit(b & 15);
+        }
+    }
+
+    /// The line's end: ` *XX` (the CRC-8 of every byte so far, in hex) if `checked`, then
+    /// `\r\n`.
+    #[inline(never)]
+    pub(crate) fn end(&mut self, checked: bool) {
+        if checked {
+            let c = self.crc;
+            self.byte(b' ');
+            self.byte(b'*');
+            self.hex_digit(c >> 4);
+            self.hex_digit(c & 15);
+        }
+        self.byte(b'\r');
+        self.byte(b'\n');
+    }
+}
 
 /// How the radio was found at boot.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -151,62 +276,6 @@ impl fmt::Display for LineError {
 
 impl core::error::Error for LineError {}
 
-/// Writes word `k` of [`WORDS`].
-fn put_word(k: u8, out: &mut dyn FnMut(u8)) {
-    let mut seen = 0;
-    for i in 0..WORDS.len() {
-        let b = WORDS.load_at(i);
-        if b == b' ' {
-            seen += 1;
-            if seen > k {
-                return;
-            }
-        } else if seen == k {
-            out(b);
-        }
-    }
-}
-
-/// Writes `n` in decimal, digit by digit from the highest power of ten, each digit counted by
-/// subtraction: on AVR no digit buffer and one division per digit, in its own function (the
-/// boot lines and the sink's lines share it).
-#[inline(never)]
-pub(crate) fn put_decimal(n: u32, out: &mut dyn FnMut(u8)) {
-    let mut n = n;
-    let mut p: u32 = 1_000_000_000;
-    let mut started = false;
-    loop {
-        let mut d = b'0';
-        while n >= p {
-            n -= p;
-            d += 1;
-        }
-        started |= d != b'0' || p == 1;
-        if started {
-            out(d);
-        }
-        if p == 1 {
-            return;
-        }
-        p /= 10;
-    }
-}
-
-/// A line's tokens after `hoploc <role>`, 4 bits each, the first in the low bits: a [`Word`]
-/// (4…14), [`NUM`] (the next number), and 0 for the end.
-const fn tokens(t: &[u8]) -> u32 {
-    let mut p = 0;
-    let mut i = t.len();
-    while i > 0 {
-        i -= 1;
-        p = p << 4 | t[i] as u32;
-    }
-    p
-}
-
-/// The token of a number: the first one of the line, then the second.
-const NUM: u8 = 15;
-
 impl BootLine {
     /// The role of the node that wrote the line.
     pub const fn role(&self) -> Role {
@@ -221,62 +290,46 @@ impl BootLine {
     }
 
     /// Writes the line, `\r\n` included, one byte at a time (at most [`MAX_BOOT_LINE`] bytes).
-    pub fn write(&self, mut out: impl FnMut(u8)) {
-        self.write_dyn(&mut out);
-    }
-
-    /// [`BootLine::write`] through one code path: the line as packed [`tokens`] and up to two
-    /// numbers, written by one loop, so on AVR each line kind costs a few constants.
-    #[inline(never)]
-    fn write_dyn(&self, out: &mut dyn FnMut(u8)) {
+    ///
+    /// Word by word through the one line writer (`Out`). Always inlined: a firmware writes
+    /// each line where it builds it, so only that kind's few calls remain (no line in memory).
+    #[inline(always)]
+    pub fn write(&self, out: impl FnMut(u8)) {
         use Word::*;
-        const fn w(w: Word) -> u8 {
-            w as u8
-        }
-        let (mut t, first, second): (u32, u32, u16) = match *self {
-            BootLine::Boot { .. } => (const { tokens(&[w(Boot)]) }, 0, 0),
-            BootLine::RadioUp { found, .. } => match found {
-                RadioFound::Api => (const { tokens(&[w(Radio), w(Ok), w(Api)]) }, 0, 0),
-                RadioFound::Configured { baud } => {
-                    (const { tokens(&[w(Radio), w(Ok), NUM]) }, baud, 0)
+        let mut o = Out::new(out);
+        o.head(1 + self.role() as u8);
+        match *self {
+            BootLine::Boot { .. } => o.word(Boot as u8),
+            BootLine::RadioUp { found, .. } => {
+                o.word(Radio as u8);
+                o.word(Ok as u8);
+                match found {
+                    RadioFound::Api => o.word(Api as u8),
+                    RadioFound::Configured { baud } => o.num(baud),
                 }
-            },
-            BootLine::RadioError { code, attempt, .. } => (
-                const { tokens(&[w(Radio), w(Error), NUM, w(Try), NUM]) },
-                code.into(),
-                attempt,
-            ),
-            BootLine::Provisioned { .. } => (const { tokens(&[w(Provisioned)]) }, 0, 0),
-            // `built-in` follows `eeprom` in WORDS: one more in the token's 4 bits.
-            BootLine::Config { source, id, .. } => (
-                const { tokens(&[w(Config), w(Eeprom), w(Id), NUM]) }
-                    + (((source == ConfigSource::BuiltIn) as u32) << 4),
-                id.into(),
-                0,
-            ),
-            BootLine::ConfigError { code, .. } => (
-                const { tokens(&[w(Config), w(Error), NUM]) },
-                code.into(),
-                0,
-            ),
-        };
-        put_word(w(Hoploc), out);
-        out(b' ');
-        put_word(1 + self.role() as u8, out);
-        let mut number = first;
-        while t != 0 {
-            out(b' ');
-            let k = (t & 0xF) as u8;
-            if k == NUM {
-                put_decimal(number, out);
-                number = second.into();
-            } else {
-                put_word(k, out);
             }
-            t >>= 4;
+            BootLine::RadioError { code, attempt, .. } => {
+                o.word(Radio as u8);
+                o.word(Error as u8);
+                o.num(code.into());
+                o.word(Try as u8);
+                o.num(attempt.into());
+            }
+            BootLine::Provisioned { .. } => o.word(Provisioned as u8),
+            BootLine::Config { source, id, .. } => {
+                o.word(Config as u8);
+                // `built-in` follows `eeprom` in WORDS.
+                o.word(Eeprom as u8 + (source == ConfigSource::BuiltIn) as u8);
+                o.word(Id as u8);
+                o.num(id.into());
+            }
+            BootLine::ConfigError { code, .. } => {
+                o.word(Config as u8);
+                o.word(Error as u8);
+                o.num(code.into());
+            }
         }
-        out(b'\r');
-        out(b'\n');
+        o.end(false);
     }
 
     /// Reads a line (with or without its `\r\n`). Never panics; any other text is
@@ -457,8 +510,13 @@ mod tests {
         .chain([1_000_000_000, 4_000_000_001, u32::MAX - 1, u32::MAX])
         {
             let mut v = Vec::new();
-            put_decimal(n, &mut |b| v.push(b));
-            assert_eq!(String::from_utf8(v).unwrap(), n.to_string());
+            Out::new(|b| v.push(b)).num(n);
+            assert_eq!(String::from_utf8(v).unwrap(), std::format!(" {n}"));
+            for n in [n as i16, (n as i16).wrapping_neg(), i16::MIN, i16::MAX, -1] {
+                let mut v = Vec::new();
+                Out::new(|b| v.push(b)).signed(n);
+                assert_eq!(String::from_utf8(v).unwrap(), std::format!(" {n}"));
+            }
         }
     }
 

@@ -29,27 +29,17 @@
 
 use core::fmt;
 
-use crate::line::put_decimal;
+use crate::line::{Out, WORD_FIX, WORD_SINK};
 use crate::msg::MAX_PAYLOAD;
 
-avr_progmem::progmem! {
-    /// Every word of the lines, space separated; [`Word`] numbers them.
-    static progmem WORDS: [u8; 44] = *b"hoploc sink fix nofix status mle mmse report";
-}
-
-/// Indices into [`WORDS`].
-#[derive(Clone, Copy)]
-#[repr(u8)]
-enum Word {
-    Hoploc = 0,
-    Sink = 1,
-    Fix = 2,
-    NoFix = 3,
-    Status = 4,
-    Mle = 5,
-    Mmse = 6,
-    Report = 7,
-}
+/// The sink lines' kind and estimator words, numbered as in the one word table of every line
+/// (`crate::line`): `fix nofix status mle mmse report` from [`WORD_FIX`] on.
+const FIX: u8 = WORD_FIX;
+const NOFIX: u8 = WORD_FIX + 1;
+const STATUS: u8 = WORD_FIX + 2;
+const MLE: u8 = WORD_FIX + 3;
+const MMSE: u8 = WORD_FIX + 4;
+const REPORT: u8 = WORD_FIX + 5;
 
 /// Flag: P0 and α were fitted from this report.
 pub const FLAG_FITTED: u8 = 1;
@@ -161,22 +151,6 @@ impl fmt::Display for SinkLineError {
 
 impl core::error::Error for SinkLineError {}
 
-/// Writes word `k` of [`WORDS`].
-fn put_word(k: Word, out: &mut impl FnMut(u8)) {
-    let mut seen = 0;
-    for i in 0..WORDS.len() {
-        let b = WORDS.load_at(i);
-        if b == b' ' {
-            seen += 1;
-            if seen > k as u8 {
-                return;
-            }
-        } else if seen == k as u8 {
-            out(b);
-        }
-    }
-}
-
 /// CRC-8 (polynomial 0x07, initial 0, no reflection, no final XOR; `crc8(b"123456789")` is
 /// 0xF4), bit by bit: no table in flash.
 pub fn crc8(bytes: impl IntoIterator<Item = u8>) -> u8 {
@@ -194,88 +168,23 @@ pub fn crc8(bytes: impl IntoIterator<Item = u8>) -> u8 {
     c
 }
 
-fn hex(n: u8) -> u8 {
-    if n < 10 {
-        b'0' + n
-    } else {
-        b'A' + n - 10
-    }
-}
-
-/// `hoploc sink`, the `kind` word, the fields (`shape` and `values` as [`SinkLine::fields`]
-/// gives them, each after a space), `hex` as one word of hex digits if not empty, ` *`, the
-/// CRC-8 of what came before it in hex, `\r\n`: one copy in flash for every line kind and every
-/// writer.
+/// `hoploc sink` and the `kind` word: how every sink line starts. Out of line, on the line
+/// in place (returned, it is copied through memory on AVR).
 #[inline(never)]
-fn write_fields(
-    kind: Word,
-    shape: &[u8],
-    values: &[u32],
-    hex_word: &[u8],
-    out: &mut dyn FnMut(u8),
-) {
-    let mut cs = 0u8;
-    let mut o = |b: u8| {
-        // One byte of the running CRC: crc8 from state `cs` is crc8 of `cs ^ b` from 0.
-        cs = crc8([cs ^ b]);
-        out(b)
-    };
-    put_word(Word::Hoploc, &mut o);
-    o(b' ');
-    put_word(Word::Sink, &mut o);
-    o(b' ');
-    put_word(kind, &mut o);
-    for (&t, &v) in shape.iter().zip(values) {
-        o(b' ');
-        match t {
-            b'e' => put_word(
-                if v == Word::Mle as u32 {
-                    Word::Mle
-                } else {
-                    Word::Mmse
-                },
-                &mut o,
-            ),
-            b'i' if (v as i32) < 0 => {
-                o(b'-');
-                put_decimal((v as i32).unsigned_abs(), &mut o)
-            }
-            _ => put_decimal(v, &mut o),
-        }
-    }
-    if !hex_word.is_empty() {
-        o(b' ');
-        for &b in hex_word {
-            o(hex(b >> 4));
-            o(hex(b & 15));
-        }
-    }
-    out(b' ');
-    out(b'*');
-    out(hex(cs >> 4));
-    out(hex(cs & 15));
-    out(b'\r');
-    out(b'\n');
+fn start<W: FnMut(u8)>(o: &mut Out<W>, kind: u8) {
+    o.head(WORD_SINK);
+    o.word(kind);
 }
 
 impl SinkLine {
     /// Writes the line, checksum and `\r\n` included, one byte at a time (at most
     /// [`MAX_SINK_LINE`] bytes).
-    pub fn write(&self, mut out: impl FnMut(u8)) {
-        self.write_dyn(&mut out);
-    }
-
-    /// [`SinkLine::write`], one copy for every writer.
-    #[inline(never)]
-    fn write_dyn(&self, out: &mut dyn FnMut(u8)) {
-        let (kind, shape, values) = self.fields();
-        write_fields(kind, shape, &values, &[], out);
-    }
-
-    /// The line's kind word, its fields' shape (`n` a number, `i` a signed number, `e` a word,
-    /// one byte each) and their values (`i` as `i32`, `e` a [`Word`]), for [`write_fields`].
-    fn fields(&self) -> (Word, &'static [u8], [u32; 9]) {
-        let i = |v: i16| v as i32 as u32;
+    ///
+    /// Field by field through the one line writer. Always inlined: a caller that builds the
+    /// line it writes (the sink firmware) keeps only that kind's calls, and no line in memory.
+    #[inline(always)]
+    pub fn write(&self, out: impl FnMut(u8)) {
+        let mut o = Out::new(out);
         match *self {
             SinkLine::Fix {
                 agent,
@@ -288,26 +197,25 @@ impl SinkLine {
                 anchors,
                 flags,
             } => {
-                let e = match estimator {
-                    Estimator::Mle => Word::Mle,
-                    Estimator::Mmse => Word::Mmse,
-                };
-                let v = [
-                    agent.into(),
-                    seq.into(),
-                    e as u32,
-                    i(x),
-                    i(y),
-                    alpha_x100.into(),
-                    i(p0_x100),
-                    anchors.into(),
-                    flags.into(),
-                ];
-                (Word::Fix, b"nneiininn", v)
+                start(&mut o, FIX);
+                o.num(agent.into());
+                o.num(seq.into());
+                o.word(match estimator {
+                    Estimator::Mle => MLE,
+                    Estimator::Mmse => MMSE,
+                });
+                o.signed(x);
+                o.signed(y);
+                o.num(alpha_x100.into());
+                o.signed(p0_x100);
+                o.num(anchors.into());
+                o.num(flags.into());
             }
             SinkLine::NoFix { agent, seq, usable } => {
-                let v = [agent.into(), seq.into(), usable.into(), 0, 0, 0, 0, 0, 0];
-                (Word::NoFix, b"nnn", v)
+                start(&mut o, NOFIX);
+                o.num(agent.into());
+                o.num(seq.into());
+                o.num(usable.into());
             }
             SinkLine::Status {
                 uptime_s,
@@ -318,20 +226,18 @@ impl SinkLine {
                 foreign,
                 fixes,
             } => {
-                let v = [
-                    uptime_s,
-                    frames,
-                    reports,
-                    drops,
-                    checksum_errors,
-                    foreign,
-                    fixes,
-                    0,
-                    0,
-                ];
-                (Word::Status, b"nnnnnnn", v)
+                // One call each (a loop over an array of them copies it twice on AVR).
+                start(&mut o, STATUS);
+                o.num(uptime_s);
+                o.num(frames);
+                o.num(reports);
+                o.num(drops);
+                o.num(checksum_errors);
+                o.num(foreign);
+                o.num(fixes);
             }
         }
+        o.end(true);
     }
 
     /// Reads a line (with or without its `\r\n`). Never panics; any line not starting with
@@ -444,8 +350,11 @@ impl RawReport {
     /// Writes the `report` line of message `msg` (the sink does not build a [`RawReport`]: it
     /// writes the bytes it received). At most [`MAX_REPORT_LINE`] bytes for a message the radio
     /// carries.
-    pub fn write(msg: &[u8], mut out: impl FnMut(u8)) {
-        write_fields(Word::Report, &[], &[], msg, &mut out);
+    pub fn write(msg: &[u8], out: impl FnMut(u8)) {
+        let mut o = Out::new(out);
+        start(&mut o, REPORT);
+        o.hex(msg);
+        o.end(true);
     }
 
     /// Reads a `report` line (with or without its `\r\n`); never panics.

@@ -223,8 +223,8 @@ impl Fix {
         [self.line(Estimator::Mle), self.line(Estimator::Mmse)]
     }
 
-    /// The `fix` line of `estimator` (one copy in flash for both).
-    #[inline(never)]
+    /// The `fix` line of `estimator` (inlined: the firmware writes it where it builds it).
+    #[inline]
     pub fn line(&self, estimator: Estimator) -> SinkLine {
         let e = match estimator {
             Estimator::Mle => &self.mle,

@@ -5,7 +5,7 @@
 //! sink channel, then the loop — each report the radio hands over goes to the sink, and out on
 //! the UART (the USB serial) go its `report` line and its fix lines (or why there is none), as
 //! loc-proto's sink lines; a `status` line every [`STATUS_PERIOD_MS`]. Build: `cargo fw` (all
-//! firmwares) or `cargo fw-run -p sink-fw`. Flash: 31 868 B text + 122 B data, within the
+//! firmwares) or `cargo fw-run -p sink-fw`. Flash: 29 976 B text + 88 B data, within the
 //! 32 256 B the Uno's bootloader leaves, not yet within the SPEC's 16 KB.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
@@ -14,7 +14,7 @@ fn main() {}
 
 /// Time between two status lines, ms.
 #[cfg(target_arch = "avr")]
-const STATUS_PERIOD_MS: u32 = 10_000;
+const STATUS_PERIOD_MS: u16 = 10_000;
 
 #[cfg(target_arch = "avr")]
 uno_board::link_avr_libc!();
@@ -66,7 +66,9 @@ fn run(
     use uno_board::{now_ms, rx_pending, sleep_unless, AvrTerm};
 
     let mut sink = Sink::<AvrTerm>::new(sink_fw::room(config.position));
-    let mut last_status = now_ms();
+    // The clock's low 16 bits: the loop looks at least once a second (the watchdog's 1 s sees
+    // to that), far within their 65 s, and 16-bit arithmetic is half the AVR code.
+    let mut last_status = now_ms() as u16;
     let mut uptime_s = 0u32;
     // A packet's bytes (the radio's buffer is lent only while polling): the report is read in
     // place from here and written as its `report` line. RX16 data always fits.
@@ -91,9 +93,9 @@ fn run(
                 }
             }
         }
-        if now_ms().wrapping_sub(last_status) >= STATUS_PERIOD_MS {
+        if (now_ms() as u16).wrapping_sub(last_status) >= STATUS_PERIOD_MS {
             last_status = last_status.wrapping_add(STATUS_PERIOD_MS);
-            uptime_s += STATUS_PERIOD_MS / 1000;
+            uptime_s += u32::from(STATUS_PERIOD_MS / 1000);
             status(&mut radio, sink.counters(), uptime_s);
         }
         sleep_unless(rx_pending);
@@ -113,35 +115,35 @@ fn on_report(
     loc_proto::sink_line::RawReport::write(report.bytes(), uart(radio));
     match sink.on_report(report) {
         Ok(fix) => {
-            for e in [Estimator::Mle, Estimator::Mmse] {
-                write(radio, &fix.line(e));
-            }
+            fix_line(radio, &fix, Estimator::Mle);
+            fix_line(radio, &fix, Estimator::Mmse);
         }
-        Err(e) => write(
-            radio,
-            &sink_fw::no_fix_line(report.agent(), report.seq(), e),
-        ),
+        Err(e) => sink_fw::no_fix_line(report.agent(), report.seq(), e).write(uart(radio)),
     }
 }
 
-/// The `status` line at `uptime_s` on the UART. Out of line: built in [`run`]'s big frame, the
-/// line's fields cost ≈ 16 B of flash each.
+/// The `fix` line of `estimator` on the UART: built and written in one place, so only its
+/// fields' writes remain (no line in memory).
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+fn fix_line(
+    radio: &mut uno_board::NodeRadio,
+    fix: &sink_fw::Fix,
+    estimator: loc_proto::sink_line::Estimator,
+) {
+    fix.line(estimator).write(uart(radio));
+}
+
+/// The `status` line at `uptime_s` on the UART. Out of line, as [`run`].
 #[cfg(target_arch = "avr")]
 #[inline(never)]
 fn status(radio: &mut uno_board::NodeRadio, counters: &sink_fw::Counters, uptime_s: u32) {
-    write(radio, &counters.line(uptime_s));
+    counters.line(uptime_s).write(uart(radio));
 }
 
-/// `line` on the UART.
-#[cfg(target_arch = "avr")]
-#[inline(never)]
-fn write(radio: &mut uno_board::NodeRadio, line: &loc_proto::sink_line::SinkLine) {
-    line.write(uart(radio));
-}
-
-/// The UART as a byte sink: one closure type, so one copy of the line writers' glue.
+/// The UART as a byte sink: the boot lines' one ([`uno_board::uart_out`]), so one copy of the
+/// line writer.
 #[cfg(target_arch = "avr")]
 fn uart(radio: &mut uno_board::NodeRadio) -> impl FnMut(u8) + '_ {
-    let serial = radio.serial_mut();
-    move |b| serial.write_byte(b)
+    uno_board::uart_out(radio.serial_mut())
 }

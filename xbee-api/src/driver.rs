@@ -326,9 +326,11 @@ pub struct BringUpConfig {
     /// (0x0C…0x17), which answers it with an error.
     pub channel: Option<u8>,
     /// Silence before and after `+++`. Must exceed the radio's `GT` (default 1000 ms).
-    pub guard_ms: u32,
-    /// How long to wait for each answer (API AT response, or `OK` in command mode).
-    pub timeout_ms: u32,
+    /// (16 bits: bring-up's waits are timed in 16-bit arithmetic, half the AVR code.)
+    pub guard_ms: u16,
+    /// How long to wait for each answer (API AT response, or `OK` in command mode). The answer
+    /// to `+++` is awaited `guard_ms + timeout_ms` (at most 65 535 ms).
+    pub timeout_ms: u16,
 }
 
 impl BringUpConfig {
@@ -389,8 +391,10 @@ pub struct Radio<S, C> {
     rx_since_check: bool,
     /// Frame ids of transmit requests still waiting for their TX status (0: free slot).
     pending_tx: [u8; TRACKED],
-    /// When bytes were last seen, for [`IDLE_MS`].
-    last_rx_ms: u32,
+    /// When bytes were last seen, for [`IDLE_MS`]: the clock's low 16 bits (16-bit arithmetic
+    /// is half the AVR code; a poll gap of a multiple of 65.5 s mid-frame would only delay the
+    /// idle report by at most [`IDLE_MS`]).
+    last_rx_ms: u16,
     serial: S,
     clock: C,
     decoder: Decoder,
@@ -552,8 +556,10 @@ where
                 Ok(()) => return Ok(()),
                 Err(nb::Error::Other(e)) => return Err(self.fail(Error::Serial(e.kind()))),
                 Err(nb::Error::WouldBlock) => {
-                    let now = self.clock.now_ms();
-                    if now.wrapping_sub(*start.get_or_insert(now)) >= WRITE_TIMEOUT_MS {
+                    // The clock's low 16 bits: this loop looks at it without a gap, and 16-bit
+                    // arithmetic is half the AVR code.
+                    let now = self.clock.now_ms() as u16;
+                    if now.wrapping_sub(*start.get_or_insert(now)) >= WRITE_TIMEOUT_MS as u16 {
                         return Err(self.fail(Error::WriteTimeout));
                     }
                 }
@@ -669,11 +675,11 @@ where
                     self.rx_since_check = true;
                 }
                 Err(nb::Error::WouldBlock) => {
-                    let now = self.clock.now_ms();
+                    let now = self.clock.now_ms() as u16;
                     if core::mem::take(&mut self.rx_since_check) {
                         self.last_rx_ms = now;
                     } else if self.decoder.in_frame()
-                        && now.wrapping_sub(self.last_rx_ms) >= IDLE_MS
+                        && now.wrapping_sub(self.last_rx_ms) >= IDLE_MS as u16
                     {
                         // The rest of the frame is not coming: let the decoder report it and,
                         // in AP=1, re-read a frame that started inside it.
@@ -871,25 +877,27 @@ where
     }
 
     /// Reads and discards input for `ms`; true if any came (or the UART reported errors).
-    fn quiet(&mut self, ms: u32) -> bool {
+    fn quiet(&mut self, ms: u16) -> bool {
         !matches!(self.listen(ms, false), Reply::Silent)
     }
 
     /// Command mode: reads up to `ms` for a line `OK\r` (anything before it on the line is
     /// ignored) or `ERROR\r`.
-    fn expect_ok(&mut self, ms: u32) -> Reply {
+    fn expect_ok(&mut self, ms: u16) -> Reply {
         self.listen(ms, true)
     }
 
     /// Reads for `ms`; if `lines`, returns as soon as `OK\r` or `ERROR\r` came.
     #[inline(never)]
-    fn listen(&mut self, ms: u32, lines: bool) -> Reply {
-        let start = self.clock.now_ms();
+    fn listen(&mut self, ms: u16, lines: bool) -> Reply {
+        // The clock's low 16 bits: bring-up waits are below 65.5 s (and 16-bit arithmetic is
+        // half the code of 32-bit on AVR).
+        let start = self.clock.now_ms() as u16;
         // How much of `ERROR\r` and of `OK\r` the last bytes read match. Neither has a proper
         // prefix that is also a suffix, so on a mismatch the match restarts from the byte itself.
         let (mut error, mut ok) = (0, 0);
         let mut heard = false;
-        while self.elapsed(start) < ms {
+        while (self.clock.now_ms() as u16).wrapping_sub(start) < ms {
             match self.serial.read() {
                 Ok(b) => {
                     heard = true;
@@ -912,10 +920,10 @@ where
     }
 
     /// Queries `AP` in API mode: the radio's mode if it answered.
-    fn query_ap(&mut self, timeout_ms: u32) -> Option<u32> {
+    fn query_ap(&mut self, timeout_ms: u16) -> Option<u32> {
         // Twice: a radio still starting up may miss the first.
         for _ in 0..2 {
-            if let Ok(ap) = self.at_dyn(*b"AP", &[], timeout_ms, None, None) {
+            if let Ok(ap) = self.at_dyn(*b"AP", &[], timeout_ms.into(), None, None) {
                 return ap;
             }
         }
@@ -1023,10 +1031,11 @@ where
         command: [u8; 2],
         value: u16,
         wide: bool,
-        timeout_ms: u32,
+        timeout_ms: u16,
     ) -> Result<(), Failed> {
         let bytes = value.to_be_bytes();
         let param = if wide { &bytes[..] } else { &bytes[1..] };
+        let timeout_ms = timeout_ms.into();
         self.at_dyn(command, param, timeout_ms, None, None)?;
         if self.query(command, 0xFFFF, timeout_ms, None)? != u32::from(value) {
             return Err(self.fail(Error::Unexpected { command }));
@@ -1045,7 +1054,7 @@ where
             for &b in b"+++" {
                 self.write_byte(b)?;
             }
-            match self.expect_ok(cfg.guard_ms + cfg.timeout_ms) {
+            match self.expect_ok(cfg.guard_ms.saturating_add(cfg.timeout_ms)) {
                 Reply::Ok => {}
                 Reply::Silent => continue,
                 Reply::Garbage | Reply::Error => {

@@ -688,7 +688,8 @@ fn bring_up_of_a_radio_that_never_answers_fails_in_bounded_time() {
     let cfg = fast();
     assert_eq!(radio.bring_up(&cfg), Err(Error::NoResponse));
     let m = m.borrow();
-    let bound = 2 * cfg.timeout_ms + 5 * (2 * cfg.guard_ms + cfg.timeout_ms) + 20;
+    let (t, g) = (u32::from(cfg.timeout_ms), u32::from(cfg.guard_ms));
+    let bound = 2 * t + 5 * (2 * g + t) + 20;
     assert!(m.now <= bound, "took {} ms, bound {bound}", m.now);
     assert_eq!(m.host_bauds, [&[57600][..], &BAUD_RATES[..]].concat());
     assert_eq!(m.wire.iter().filter(|&&b| b == b'+').count(), 15);

@@ -12,9 +12,16 @@ use crate::DEFAULT_BAUD;
 pub type NodeRadio = Radio<Serial, SysClock>;
 
 /// Writes a boot line on the UART at 57600 (the USB serial reads it; a radio in API mode ignores
-/// it, a line never holds 0x7E).
+/// it, a line never holds 0x7E). Always inlined, as [`BootLine::write`]: each caller keeps its line's few calls.
+#[inline(always)]
 pub fn write_line(serial: &mut Serial, line: &BootLine) {
-    line.write(|b| serial.write_byte(b));
+    line.write(uart_out(serial));
+}
+
+/// `serial` as a byte sink for loc-proto's line writers. Every line a firmware writes goes
+/// through this one closure type, so the writers are monomorphised once.
+pub fn uart_out(serial: &mut Serial) -> impl FnMut(u8) + '_ {
+    move |b| serial.write_byte(b)
 }
 
 /// Brings `radio` up (API mode 2 at 57600, `MY`/`ID`/`CH` from `config`), trying until it
