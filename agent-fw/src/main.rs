@@ -51,7 +51,8 @@ fn main() -> ! {
     let latency = beacon_latency_us(config.anchors);
     let agent = Agent::new(config.id, sched, channels, latency, now_us());
     watchdog.start(WdtTimeout::S1);
-    run(agent, radio, led, watchdog, &config)
+    // The radio by reference (by value it is copied into a second stack slot).
+    run(agent, &mut radio, led, watchdog, &config)
 }
 
 /// The node's loop, out of line: on the AVR every access beyond 63 bytes into a stack frame
@@ -61,7 +62,7 @@ fn main() -> ! {
 #[inline(never)]
 fn run(
     mut agent: agent_fw::Agent,
-    mut radio: uno_board::NodeRadio,
+    radio: &mut uno_board::NodeRadio,
     mut led: uno_board::Led,
     mut watchdog: uno_board::Watchdog,
     config: &loc_proto::config::Config,
@@ -92,14 +93,14 @@ fn run(
     loop {
         watchdog.feed();
         while let Some(action) = agent.poll(now_us()) {
-            act(&mut radio, &agent, action);
+            act(radio, &agent, action);
             if let Action::SendReport { .. } = action {
                 led.toggle();
             }
         }
         // What arrived: a beacon goes to the agent inside the poll (it borrows the frame); a TX
         // status comes out, and the action it gives is done after.
-        while let Some(status) = node::poll(&mut radio, |ev| match ev {
+        while let Some(status) = node::poll(radio, |ev| match ev {
             Event::Packet {
                 rssi, data, at_us, ..
             } => {
@@ -122,7 +123,7 @@ fn run(
             Event::Other => None,
         }) {
             if let Some(action) = status.and_then(|ok| agent.on_tx_status(ok)) {
-                act(&mut radio, &agent, action);
+                act(radio, &agent, action);
             }
         }
         node::idle(agent.wait_us(now_us()));

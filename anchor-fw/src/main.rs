@@ -53,7 +53,8 @@ fn main() -> ! {
         now_us(),
     );
     watchdog.start(WdtTimeout::S1);
-    run(anchor, radio, led, watchdog, &config)
+    // The radio by reference (by value it is copied into a second stack slot).
+    run(anchor, &mut radio, led, watchdog, &config)
 }
 
 /// The node's loop, out of line: `main`'s frame holds the bring-up's state, and on the AVR
@@ -62,7 +63,7 @@ fn main() -> ! {
 #[inline(never)]
 fn run(
     mut anchor: anchor_fw::Anchor,
-    mut radio: uno_board::NodeRadio,
+    radio: &mut uno_board::NodeRadio,
     mut led: uno_board::Led,
     mut watchdog: uno_board::Watchdog,
     config: &loc_proto::config::Config,
@@ -78,20 +79,20 @@ fn run(
             match action {
                 Action::SetChannel(c) => {
                     if let Some(&n) = channels.as_slice().get(c as usize) {
-                        let _ = node::tune(&mut radio, n);
+                        let _ = node::tune(radio, n);
                     }
                 }
                 Action::SendBeacon { seq, channel } => {
                     let beacon = anchor.beacon(seq, channel, &channels, config.position);
                     let mut buf = [0u8; Beacon::MAX_LEN];
                     if let Ok(n) = beacon.encode(&mut buf) {
-                        let _ = node::send(&mut radio, loc_proto::BROADCAST, &buf[..n]);
+                        let _ = node::send(radio, loc_proto::BROADCAST, &buf[..n]);
                     }
                     led.toggle();
                 }
             }
         }
-        while let Some(heard) = node::poll(&mut radio, |ev| match ev {
+        while let Some(heard) = node::poll(radio, |ev| match ev {
             Event::Packet {
                 rssi, data, at_us, ..
             } => {

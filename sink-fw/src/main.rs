@@ -48,14 +48,15 @@ fn main() -> ! {
     let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
     bring_up_radio(&mut radio, &mut led, Role::Sink, &radio_config(&config));
     watchdog.start(WdtTimeout::S1);
-    run(radio, led, watchdog, &config)
+    // The radio by reference: passed by value, it was copied into a second 178-byte stack slot.
+    run(&mut radio, led, watchdog, &config)
 }
 
 /// The node's loop, out of line (on the AVR, far accesses into `main`'s big frame cost code).
 #[cfg(target_arch = "avr")]
 #[inline(never)]
 fn run(
-    mut radio: uno_board::NodeRadio,
+    radio: &mut uno_board::NodeRadio,
     mut led: uno_board::Led,
     mut watchdog: uno_board::Watchdog,
     config: &loc_proto::config::Config,
@@ -75,7 +76,7 @@ fn run(
     let mut raw = [0u8; xbee_api::MAX_FRAME_DATA];
     loop {
         watchdog.feed();
-        while let Some(got) = node::poll(&mut radio, |ev| match ev {
+        while let Some(got) = node::poll(radio, |ev| match ev {
             Event::Packet { data, .. } => {
                 let len = data.len().min(raw.len());
                 raw[..len].copy_from_slice(&data[..len]);
@@ -87,7 +88,7 @@ fn run(
                 match ReportView::parse(&raw[..len]) {
                     Ok(report) => {
                         led.toggle();
-                        on_report(&mut sink, &report, &mut radio);
+                        on_report(&mut sink, &report, radio);
                     }
                     Err(e) => sink.on_bad_frame(BadFrame::of(e)),
                 }
@@ -96,7 +97,7 @@ fn run(
         if (now_ms() as u16).wrapping_sub(last_status) >= STATUS_PERIOD_MS {
             last_status = last_status.wrapping_add(STATUS_PERIOD_MS);
             uptime_s += u32::from(STATUS_PERIOD_MS / 1000);
-            status(&mut radio, sink.counters(), uptime_s);
+            status(radio, sink.counters(), uptime_s);
         }
         sleep_unless(rx_pending);
     }
