@@ -84,6 +84,9 @@ fn run(
             }
             _ => None,
         }) {
+            // Fed per packet too: reports arriving faster than the sink handles them (≈ 70 ms
+            // each) keep this loop busy for longer than the watchdog's 1 s.
+            watchdog.feed();
             if let Some(len) = got {
                 match ReportView::parse(&raw[..len]) {
                     Ok(report) => {

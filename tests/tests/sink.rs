@@ -11,8 +11,9 @@
 use hoploc_tests::boot;
 use loc_core::fixed::Portable;
 use loc_proto::config::Config;
+use loc_proto::line::BootLine;
 use loc_proto::msg::{ChannelList, Position, Report};
-use loc_proto::sink_line::{RawReport, SinkLine, SinkOutput};
+use loc_proto::sink_line::{Estimator, RawReport, SinkLine, SinkOutput};
 use loc_proto::{xbee_channel, Role};
 use simavr::ms_to_cycles;
 use simavr::xbee::{Address, RxPacket, XBee, XBeeConfig};
@@ -189,4 +190,98 @@ fn the_sink_writes_a_fix_per_report_and_counts_what_it_could_not_use() {
             fixes: 3,
         }]
     );
+}
+
+/// Reports arriving faster than the sink can handle them (≈ 70 ms each: its lines over the
+/// UART and the estimate) for 3 s: the sink neither resets (its watchdog has 1 s) nor stalls;
+/// it locates what it can, counts the rest as missing, and the next report after the burst
+/// gets its fix at once.
+#[test]
+fn a_burst_of_reports_faster_than_the_sink_neither_resets_nor_stalls_it() {
+    let mut avr = boot(Role::Sink);
+    let mut radio = XBee::new(XBeeConfig::api(2));
+    radio.run_for_ms(&mut avr, 2_700.0);
+    let (burst, period_ms) = (60u16, 50.0);
+    for seq in 0..burst {
+        let r = report(seq, [300.0 + f64::from(seq), 600.0], &[0, 1, 2, 3]);
+        radio.deliver(
+            packet(&encoded(&r)),
+            ms_to_cycles(3_000.0 + period_ms * f64::from(seq)),
+        );
+    }
+    let after = 3_000.0 + period_ms * f64::from(burst) + 1_000.0;
+    radio.deliver(
+        packet(&encoded(&report(burst, [500.0, 500.0], &[0, 1, 2, 3]))),
+        ms_to_cycles(after),
+    );
+    radio.run_for_ms(&mut avr, 10_000.0);
+    let texts: Vec<(f64, String)> = radio
+        .text_lines()
+        .iter()
+        .map(|l| (l.ms(), l.text.clone()))
+        .collect();
+    // Once up: one config line (after a reset the boot line can drown in the radio's bytes,
+    // the config line cannot).
+    let starts = texts
+        .iter()
+        .filter(|(_, t)| matches!(BootLine::parse(t), Ok(BootLine::Config { .. })))
+        .count();
+    assert_eq!(starts, 1, "the sink restarted");
+    let lines: Vec<(f64, SinkLine)> = texts
+        .iter()
+        .filter_map(|(t, l)| match SinkOutput::parse(l) {
+            Ok(SinkOutput::Line(s)) => Some((*t, s)),
+            _ => None,
+        })
+        .collect();
+    let located: Vec<u16> = lines
+        .iter()
+        .filter_map(|(_, l)| match l {
+            SinkLine::Fix {
+                seq,
+                estimator: Estimator::Mle,
+                ..
+            } => Some(*seq),
+            _ => None,
+        })
+        .collect();
+    // It keeps locating through the burst (one report per ≈ 70 ms of the 3 s), in order.
+    assert!(
+        located.len() >= 30,
+        "{} reports located: {located:?}",
+        located.len()
+    );
+    assert!(located.windows(2).all(|w| w[0] < w[1]), "{located:?}");
+    // The report after the burst: its fix within 80 ms.
+    let last = lines
+        .iter()
+        .find(|(_, l)| matches!(l, SinkLine::Fix { seq, .. } if *seq == burst))
+        .unwrap_or_else(|| panic!("no fix for the report after the burst: {located:?}"));
+    assert!(
+        last.0 > after && last.0 < after + 80.0,
+        "{} ms after {after}",
+        last.0
+    );
+    // The status line counts every report it decoded and the ones it missed.
+    let Some(&(
+        _,
+        SinkLine::Status {
+            reports,
+            drops,
+            fixes,
+            ..
+        },
+    )) = lines
+        .iter()
+        .rfind(|(_, l)| matches!(l, SinkLine::Status { .. }))
+    else {
+        panic!("no status line")
+    };
+    assert_eq!(fixes, reports, "every decoded report located");
+    assert_eq!(reports as usize, located.len());
+    assert!(
+        drops > 0 && reports + drops <= u32::from(burst) + 1,
+        "{reports} reports, {drops} missing"
+    );
+    eprintln!("burst of {burst} reports {period_ms} ms apart: {reports} located, {drops} missing by sequence");
 }
