@@ -274,42 +274,40 @@ impl CalStats {
 }
 
 /// `num·2^42/den` rounded as the reference computed it, clamped to ±[`ALPHA_LIMIT`], for
-/// `den ≥ 1`: `|num|` is shifted left up to bit 61 (at most 42 places), `den` right by the rest of
-/// the 42, then one division with a quotient below 2^29. Bit by bit (once per fit; shifting by
-/// bytes first saved cycles and cost 290 B of AVR flash).
-#[inline(never)]
+/// `den ≥ 1` ([`div_scaled`]).
 fn div_alpha(num: i64, den: u64) -> i32 {
-    const Q: u32 = ALPHA_LIMIT.trailing_zeros();
+    div_scaled(num, den, 42 | (ALPHA_LIMIT.trailing_zeros() as u16) << 8)
+}
+
+/// `num/n` rounded (`n ∈ [1, 256]`), saturated at `±2^26` (beyond every P0 bound).
+fn div_n(num: i64, n: u16) -> i32 {
+    div_scaled(num, n as u64, 26 << 8)
+}
+
+/// `num·2^s/den` with `sq = s | q << 8`, rounded as the reference computed it, saturated at
+/// `±2^q`, for `|num| < 2^62` and `24 ≤ q ≤ 30` (`±2^q` also when `den` shifts to 0): `|num|` is
+/// shifted left up to bit 61 (at most `s` places, bit by bit: once per fit), `den` right by the
+/// rest of the `s`, then one 64-bit division. [`div_alpha`] and [`div_n`] share this copy (0.1 KB
+/// less AVR flash than two). `s` and `q` come in one `u16`: as a fourth argument `q` goes on the
+/// AVR stack, and LLVM's code storing it there (through Z and r26) clobbered the divisor `n` in
+/// `p0_for` (the bench's est-fixed fitted P0 −20 dB, α 4.84). Keep arguments within r8–r25.
+#[inline(never)]
+fn div_scaled(num: i64, den: u64, sq: u16) -> i32 {
+    let [s, q] = sq.to_le_bytes();
     let mut u = num.unsigned_abs();
-    // `r`: the right shift left for the divisor, 42 minus the left shift of `u`.
-    let mut r = 42u8;
+    let mut r = s;
     while r >= 1 && u >> 61 == 0 {
         u <<= 1;
         r -= 1;
     }
     let d = den >> r;
-    // u < 2^62 (|num| < 2^62 here) and d/2 < 2^62: no overflow. The quotient is needed below
-    // 2^29 only.
+    // u < 2^62 and d/2 < 2^63: no overflow.
     let u = u + d / 2;
-    let v = if d == 0 || u >> Q >= d {
-        ALPHA_LIMIT
-    } else {
-        (u / d) as i32
-    };
-    if num < 0 {
-        -v
-    } else {
-        v
-    }
-}
-
-/// `num/n` rounded (`n ∈ [1, 256]`), saturated at `±2^26` (beyond every P0 bound). One 64-bit
-/// division (a 32-bit one for small `|num|` saved cycles and cost AVR flash).
-#[inline(never)]
-fn div_n(num: i64, n: u16) -> i32 {
-    const SAT: u64 = 1 << 26;
-    let u = num.unsigned_abs() + (n / 2) as u64;
-    let v = (u / n as u64).min(SAT) as i32;
+    // The saturation as a bound on the quotient: `u >> q ≥ d` iff `u/d ≥ 2^q` (a variable shift
+    // is a loop of 1-bit shifts on AVR: ≈ 0.5 k cycles for `u >> q`, 0.2 k for `1u32 << q`; the
+    // byte shift by 24 is a move).
+    let sat = ((1u8 << (q - 24)) as u32) << 24;
+    let v = u.checked_div(d).map_or(sat, |v| v.min(sat as u64) as u32) as i32;
     if num < 0 {
         -v
     } else {
