@@ -2,9 +2,9 @@
 
 use crate::{Inputs, Pipeline, Report, N_ANCHORS, N_CHANNELS, SIGMA_DB};
 use loc_core::fixed::{
-    estimate_with, fit_least_squares, mle_with, mmse_window_with, observations_of, AreaCm, Bounds,
-    CalStats, ChannelBytes, Estimator, FitMethod, Observations, OnlineParams, ParamMode, PathLoss,
-    PointCm, Refinement, Search,
+    estimate_with, fit_least_squares_with, mle_with, mmse_window_with, observations_of, AreaCm,
+    Bounds, CalStats, ChannelBytes, Estimator, FitMethod, Observations, OnlineParams, ParamMode,
+    PathLoss, PointCm, Refinement, Search,
 };
 
 /// The cost kernel: the AVR assembly one on the MCU (what the sink runs), the portable one on
@@ -13,6 +13,13 @@ use loc_core::fixed::{
 type Kernel = uno_board::AvrTerm;
 #[cfg(not(target_arch = "avr"))]
 type Kernel = loc_core::fixed::Portable;
+
+/// The least-squares solve, likewise: the sink's AVR assembly on the MCU, the portable twin on
+/// the host (the same results: `fit-check`).
+#[cfg(target_arch = "avr")]
+type Fit = uno_board::AvrFit;
+#[cfg(not(target_arch = "avr"))]
+type Fit = loc_core::fixed::PortableFit;
 
 /// The MMSE variant the fixed path runs: the windowed posterior mean
 /// ([`loc_core::fixed::mmse_window`]: the thesis' coarse stage, then the posterior mean over its
@@ -110,7 +117,7 @@ impl Pipeline for Fixed {
 
     fn fit(&mut self, stats: &CalStats) {
         let p = &mut self.params;
-        if let Ok(f) = fit_least_squares(stats, p.mode, p.current(), &p.bounds) {
+        if let Ok(f) = fit_least_squares_with::<Fit>(stats, p.mode, p.current(), &p.bounds) {
             p.feed(&f);
         }
     }

@@ -23,11 +23,18 @@
 
 use core::marker::PhantomData;
 use loc_core::fixed::{
-    extended, fit_least_squares, mle_and_mmse_window_into, observations, AreaCm, Bounds, CalStats,
-    Estimate, FitMethod, LocError, Measurements, Obs, Observations, OnlineParams, ParamMode,
-    PathLoss, PointCm, Refinement, TermKernel,
+    extended, fit_least_squares_with, mle_and_mmse_window_into, observations, AreaCm, Bounds,
+    CalStats, Estimate, FitMethod, LocError, Measurements, Obs, Observations, OnlineParams,
+    ParamMode, PathLoss, PointCm, Refinement, TermKernel,
 };
 use loc_proto::msg::{Position, Report, ReportView};
+
+/// The least-squares solve: AVR assembly on the MCU (2.5 KB less flash), the portable twin on
+/// the host; the same results (`fit-check`).
+#[cfg(target_arch = "avr")]
+type Fit = uno_board::AvrFit;
+#[cfg(not(target_arch = "avr"))]
+type Fit = loc_core::fixed::PortableFit;
 use loc_proto::sink_line::{Estimator, SinkLine, FLAG_FITTED};
 use loc_proto::Error;
 
@@ -392,7 +399,7 @@ impl<K: TermKernel> Sink<K> {
         // The least-squares fit directly (through `OnlineParams::update` the thesis' grid fit
         // would be linked in too), with the mode and bounds `Sink::new` gave `params` as
         // constants: the optimiser then drops the other modes' code from the fit.
-        let fitted = match fit_least_squares(
+        let fitted = match fit_least_squares_with::<Fit>(
             stats,
             ParamMode::P0AndAlpha,
             self.params.current(),

@@ -88,7 +88,9 @@ fn sorted(a: i32, b: i32, limit: i32) -> (i32, i32) {
 
 /// Sufficient statistics of calibration samples, as exact integer sums (`z = −b` for the RSSI
 /// byte `b`, so the byte sums are kept; the x sums apart for negative and positive x).
+/// `repr(C)`: a [`FitKernel`] in assembly reads the sums at the offsets asserted below.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[repr(C)]
 pub struct CalStats {
     n: u16,
     /// Σb (= −Σz), at most 255 · [`MAX_SAMPLES`].
@@ -102,6 +104,18 @@ pub struct CalStats {
     /// Σ|x|·b over the samples with x ≥ 0, then with x < 0, Q.18.
     sxb: [u64; 2],
 }
+
+// The layout a [`FitKernel`] in assembly reads (the same on the host: no padding).
+const _: () = {
+    use core::mem::offset_of;
+    assert!(offset_of!(CalStats, n) == 0);
+    assert!(offset_of!(CalStats, sb) == 2);
+    assert!(offset_of!(CalStats, sbb) == 4);
+    assert!(offset_of!(CalStats, sx) == 8);
+    assert!(offset_of!(CalStats, sxx) == 16);
+    assert!(offset_of!(CalStats, sxb) == 24);
+    assert!(core::mem::size_of::<CalStats>() == 40);
+};
 
 impl CalStats {
     /// No samples.
@@ -384,7 +398,130 @@ pub fn fit_least_squares(
     prior: PathLoss,
     bounds: &Bounds,
 ) -> Result<ParamFit, LocError> {
-    fit_with(stats, mode, prior, bounds, None)
+    fit_least_squares_with::<PortableFit>(stats, mode, prior, bounds)
+}
+
+/// [`fit_least_squares`] with the solve done by `K` (the sink uses its AVR assembly one).
+#[inline(always)]
+pub fn fit_least_squares_with<K: FitKernel>(
+    stats: &CalStats,
+    mode: ParamMode,
+    prior: PathLoss,
+    bounds: &Bounds,
+) -> Result<ParamFit, LocError> {
+    let mut job = FitJob::new(stats, mode, prior, bounds).ok_or(LocError::NoCalibrationData)?;
+    K::fit(&mut job);
+    Ok(ParamFit {
+        model: PathLoss {
+            p0: job.p0,
+            alpha: job.alpha,
+        },
+        sse: job.sse,
+        n: stats.n,
+        fitted: job.fitted,
+    })
+}
+
+/// The least-squares solve of [`fit_least_squares`] for one [`FitJob`]: [`PortableFit`] here,
+/// `uno_board::AvrFit` (one routine in AVR assembly, 2.5 KB less flash than LLVM's 64-bit code)
+/// on the sink. Both leave exactly the same results in the job.
+pub trait FitKernel {
+    /// Reads the job's inputs, writes `p0`, `alpha`, `sse` and `fitted` (see [`FitJob`]).
+    fn fit(job: &mut FitJob);
+}
+
+/// The Rust [`FitKernel`] (the definition the assembly one is checked against).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PortableFit;
+
+impl FitKernel for PortableFit {
+    fn fit(job: &mut FitJob) {
+        portable_fit(job)
+    }
+}
+
+/// What a [`FitKernel`] solves: `repr(C)`, read by the AVR kernel at fixed offsets (on AVR:
+/// `stats` 0, `a_lo` 2, `a_hi` 6, `p_lo` 10, `p_hi` 14, `p0` 18, `alpha` 22, `sse` 26,
+/// `fitted` 34, `scratch` 35).
+#[derive(Clone, Copy, Debug)]
+#[repr(C)]
+pub struct FitJob<'a> {
+    /// The samples (non-empty unless `fitted` is 0).
+    pub stats: &'a CalStats,
+    /// α bounds (sorted, within the limits), Q.24.
+    pub a_lo: i32,
+    /// Largest α, Q.24.
+    pub a_hi: i32,
+    /// P0 bounds (sorted, within the limits), Q.16.
+    pub p_lo: i32,
+    /// Largest P0, Q.16.
+    pub p_hi: i32,
+    /// In: the prior's P0 (used as is when `fitted` is 0). Out: the fitted P0.
+    pub p0: i32,
+    /// In: the α to use when α is not fitted (for mode 2 the prior's, clamped to the bounds).
+    /// Out: the fitted α.
+    pub alpha: i32,
+    /// Out: the residual sum at (`p0`, `alpha`), Q.16 dB².
+    pub sse: u64,
+    /// In: 0 fixed, 1 P0 only, 2 P0 and α. Out: parameters fitted (0, 1 or 2).
+    pub fitted: u8,
+    /// The assembly kernel's working storage (best candidate, two 64-bit temporaries).
+    pub scratch: [u8; 24],
+}
+
+impl<'a> FitJob<'a> {
+    /// The job for [`fit_least_squares`]' arguments (prior made sane, bounds sorted and
+    /// clamped); `None` when there is something to fit but no samples.
+    pub fn new(
+        stats: &'a CalStats,
+        mode: ParamMode,
+        prior: PathLoss,
+        bounds: &Bounds,
+    ) -> Option<FitJob<'a>> {
+        let prior = prior.sane();
+        let (a, p) = (bounds.alpha(), bounds.p0());
+        let (fitted, alpha) = match mode {
+            ParamMode::Fixed => (0, prior.alpha),
+            ParamMode::P0Only => (1, prior.alpha),
+            // α is the user's fixed value in P0Only mode: not subject to the bounds.
+            ParamMode::P0AndAlpha => (2, clamp_i32(prior.alpha, a.0, a.1)),
+        };
+        if fitted != 0 && stats.is_empty() {
+            return None;
+        }
+        Some(FitJob {
+            stats,
+            a_lo: a.0,
+            a_hi: a.1,
+            p_lo: p.0,
+            p_hi: p.1,
+            p0: prior.p0,
+            alpha,
+            sse: 0,
+            fitted,
+            scratch: [0; 24],
+        })
+    }
+}
+
+/// [`PortableFit`]: nothing fitted (0), P0 alone (1, or 2 with α not identifiable), or both by
+/// [`box_least_squares`]; then the residual sum of the result.
+pub fn portable_fit(job: &mut FitJob) {
+    let s = job.stats;
+    let (a, p) = ((job.a_lo, job.a_hi), (job.p_lo, job.p_hi));
+    if job.fitted == 2 {
+        let dxx = s.dxx();
+        if s.alpha_identifiable(dxx) {
+            let m = box_least_squares(s, dxx, a, p);
+            (job.p0, job.alpha) = (m.p0, m.alpha);
+        } else {
+            job.fitted = 1;
+        }
+    }
+    if job.fitted == 1 {
+        job.p0 = clamp_i32(s.p0_for(job.alpha), p.0, p.1);
+    }
+    job.sse = s.sse_at(job.p0, job.alpha);
 }
 
 /// [`fit`] with [`FitMethod::Grid`]: the thesis' grid (α step 0.1, P0 step 0.5 dB), the

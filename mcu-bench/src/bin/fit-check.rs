@@ -1,0 +1,253 @@
+//! fit-check: `uno_board::AvrFit` (the sink's least-squares P0/α solve in AVR assembly) against
+//! `loc_core::fixed::PortableFit` on the MCU itself: pseudo-random calibration sums (rooms,
+//! near-equal distances, Σx² = 0, extreme x and bytes, 256 samples), modes, priors and bounds
+//! (the thesis', narrow ones that put the optimum outside, reversed, beyond the limits,
+//! everything). Prints
+//! the first mismatches (`bad mode n p0 alpha sse_hi sse_lo fitted`, the twin's then the
+//! assembly's), then `fit <jobs> <mismatches> <fitted 0> <fitted 1> <fitted 2> <on an edge>`
+//! and `end`. `tests/tests/fit_check.rs` runs it in simavr. Build: `cargo fw-bench`.
+#![cfg_attr(target_arch = "avr", no_std, no_main)]
+
+#[cfg(not(target_arch = "avr"))]
+fn main() {}
+
+#[cfg(target_arch = "avr")]
+uno_board::link_avr_libc!();
+
+#[cfg(target_arch = "avr")]
+#[uno_board::entry]
+fn main() -> ! {
+    avr::run()
+}
+
+#[cfg(target_arch = "avr")]
+mod avr {
+    use core::hint::black_box;
+    use loc_core::fixed::{
+        Bounds, CalStats, FitJob, FitKernel, ParamMode, PathLoss, PointCm, PortableFit, ALPHA, DB,
+    };
+    use uno_board::{AvrFit, Board, Serial};
+
+    /// Jobs checked: 2 500 sums, four jobs each.
+    const SUMS: u32 = 2_500;
+
+    /// xorshift32.
+    struct Rng(u32);
+
+    impl Rng {
+        fn next(&mut self) -> u32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 17;
+            self.0 ^= self.0 << 5;
+            self.0
+        }
+
+        fn below(&mut self, n: u32) -> u32 {
+            self.next() % n
+        }
+
+        /// A value in `[lo, hi]`.
+        fn range(&mut self, lo: i32, hi: i32) -> i32 {
+            lo.wrapping_add(self.below(hi.wrapping_sub(lo) as u32 + 1) as i32)
+        }
+
+        fn pick<T: Copy>(&mut self, v: &[T]) -> T {
+            v[self.below(v.len() as u32) as usize]
+        }
+    }
+
+    fn write_u32(serial: &mut Serial, v: u32) {
+        let mut buf = [0u8; 10];
+        let (mut n, mut k) = (v, buf.len());
+        loop {
+            k -= 1;
+            buf[k] = b'0' + (n % 10) as u8;
+            n /= 10;
+            if n == 0 {
+                break;
+            }
+        }
+        serial.write_bytes(&buf[k..]);
+    }
+
+    /// Random sums: a room's anchor pairs, or pushes at random (sometimes extreme, sometimes
+    /// nearly equal, sometimes zero) x.
+    fn stats(r: &mut Rng) -> CalStats {
+        let mut s = CalStats::new();
+        let mut bytes = [None; 16];
+        let style = r.below(8);
+        let pushes = match r.below(6) {
+            0 => r.range(1, 2),
+            1 => r.range(20, 60),
+            _ => r.range(1, 12),
+        };
+        let x0 = r.range(-30 << 18, 20 << 18);
+        for _ in 0..pushes {
+            let len = r.range(1, 16) as usize;
+            let base = r.range(30, 90) as u8;
+            for b in bytes[..len].iter_mut() {
+                *b = match r.below(8) {
+                    0 => None,
+                    1 => Some(r.pick(&[0, 255, 1, 254])),
+                    2 => Some(r.next() as u8),
+                    _ => Some(base.wrapping_add(r.below(9) as u8)),
+                };
+            }
+            let b = &bytes[..len];
+            match style {
+                // Anchors in a room.
+                0..=2 => {
+                    let p = |r: &mut Rng| {
+                        PointCm::new(r.range(0, 2000) as i16, r.range(0, 2000) as i16)
+                    };
+                    let (a, c) = (p(r), p(r));
+                    s.push_pair(a, c, b);
+                }
+                // Nearly equal distances: α barely identifiable.
+                3 => {
+                    s.push_at(x0.wrapping_add(r.range(-40, 40)), b);
+                }
+                // All at x = 0 (Σx² = 0) or one x.
+                4 => {
+                    s.push_at(if x0 & 1 == 0 { 0 } else { x0 }, b);
+                }
+                // The extremes.
+                5 => {
+                    let x = r.pick(&[-(32 << 18), 32 << 18, i32::MIN, i32::MAX, 0, 1, -1]);
+                    s.push_at(x, &[Some(r.pick(&[0, 255])); 16][..len]);
+                }
+                _ => {
+                    let p = |r: &mut Rng| PointCm::new(r.next() as i16, r.next() as i16);
+                    let (a, c) = (p(r), p(r));
+                    if r.below(2) == 0 {
+                        s.push_pair(a, c, b);
+                    } else {
+                        s.push_at(r.range(-(33 << 18), 33 << 18), b);
+                    }
+                }
+            }
+        }
+        s
+    }
+
+    /// Mostly plausible, sometimes anything, sometimes an edge.
+    fn around(r: &mut Rng, lo: i32, hi: i32, limit: i32) -> i32 {
+        match r.below(8) {
+            0 => r.next() as i32,
+            1 => r.pick(&[i32::MIN, i32::MAX, 0, -1, 1, -limit, limit]),
+            2 => r.range(-limit - 2, limit + 2),
+            _ => r.range(lo, hi),
+        }
+    }
+
+    fn model(r: &mut Rng) -> PathLoss {
+        PathLoss {
+            p0: around(r, -90 * DB, -10 * DB, 512 * DB),
+            alpha: around(r, ALPHA, 6 * ALPHA, 32 * ALPHA),
+        }
+    }
+
+    fn bounds(r: &mut Rng) -> Bounds {
+        match r.below(5) {
+            0 => Bounds::THESIS,
+            // Everything (clamped to the limits): the optimum is inside.
+            4 => Bounds {
+                alpha_min: i32::MIN,
+                alpha_max: i32::MAX,
+                p0_min: i32::MIN,
+                p0_max: i32::MAX,
+            },
+            1 => {
+                let (a, p) = (model(r), model(r));
+                Bounds {
+                    alpha_min: a.alpha,
+                    alpha_max: p.alpha,
+                    p0_min: a.p0,
+                    p0_max: p.p0,
+                }
+            }
+            // Narrow: the optimum is often outside.
+            _ => {
+                let a = r.range(0, 8 * ALPHA);
+                let p = r.range(-100 * DB, 0);
+                Bounds {
+                    alpha_min: a,
+                    alpha_max: a + r.range(0, 2 * ALPHA),
+                    p0_min: p,
+                    p0_max: p + r.range(0, 10 * DB),
+                }
+            }
+        }
+    }
+
+    pub fn run() -> ! {
+        let Some(board) = Board::take() else {
+            uno_board::reset()
+        };
+        avr_device::interrupt::disable();
+        let mut serial = board.serial;
+        let mut r = Rng(0x2545_F491);
+        let (mut jobs, mut bad) = (0u32, 0u32);
+        let mut counts = [0u32; 4];
+        for _ in 0..black_box(SUMS) {
+            let s = stats(&mut r);
+            for _ in 0..4 {
+                let mode = match r.below(8) {
+                    0 => ParamMode::Fixed,
+                    1 => ParamMode::P0Only,
+                    _ => ParamMode::P0AndAlpha,
+                };
+                let (prior, b) = (model(&mut r), bounds(&mut r));
+                let Some(mut want) = FitJob::new(&s, mode, prior, &b) else {
+                    continue;
+                };
+                let mut got = want;
+                // Different garbage in the outputs: a field left unwritten cannot match.
+                got.sse = !want.sse;
+                PortableFit::fit(black_box(&mut want));
+                AvrFit::fit(black_box(&mut got));
+                jobs += 1;
+                let w = (want.p0, want.alpha, want.sse, want.fitted);
+                if w != (got.p0, got.alpha, got.sse, got.fitted) {
+                    bad += 1;
+                    if bad <= 5 {
+                        serial.write_bytes(b"bad");
+                        for j in [&want, &got] {
+                            for v in [
+                                j.p0 as u32,
+                                j.alpha as u32,
+                                (j.sse >> 32) as u32,
+                                j.sse as u32,
+                                j.fitted as u32,
+                            ] {
+                                serial.write_byte(b' ');
+                                write_u32(&mut serial, v);
+                            }
+                        }
+                        serial.write_byte(b'\n');
+                    }
+                }
+                counts[want.fitted as usize & 3] += 1;
+                if want.fitted == 2
+                    && (want.alpha == want.a_lo
+                        || want.alpha == want.a_hi
+                        || want.p0 == want.p_lo
+                        || want.p0 == want.p_hi)
+                {
+                    counts[3] += 1;
+                }
+            }
+        }
+        serial.write_bytes(b"fit ");
+        for v in [jobs, bad, counts[0], counts[1], counts[2], counts[3]] {
+            write_u32(&mut serial, v);
+            serial.write_byte(b' ');
+        }
+        serial.write_bytes(b"\nend\n");
+        serial.flush_blocking();
+        loop {
+            avr_device::interrupt::disable();
+            avr_device::asm::sleep();
+        }
+    }
+}
