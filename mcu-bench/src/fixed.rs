@@ -118,7 +118,7 @@ impl Pipeline for Fixed {
     fn fit(&mut self, stats: &CalStats) {
         let p = &mut self.params;
         if let Ok(f) = fit_least_squares_with::<Fit>(stats, p.mode, p.current(), &p.bounds) {
-            p.feed(&f);
+            p.feed_with::<Fit>(&f);
         }
     }
 

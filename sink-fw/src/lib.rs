@@ -406,7 +406,7 @@ impl<K: TermKernel> Sink<K> {
             &Bounds::THESIS,
         ) {
             Ok(f) => {
-                self.params.feed(&f);
+                self.params.feed_with::<Fit>(&f);
                 true
             }
             Err(_) => false,

@@ -4,7 +4,7 @@
 
 use mcu_bench::harness;
 
-/// 10 000 random jobs (all three modes; rooms, near-equal distances, Σx² = 0, extreme sums;
+/// 20 000 random AR(1) steps (`FitKernel::weigh`) equal; 10 000 random jobs (all three modes; rooms, near-equal distances, Σx² = 0, extreme sums;
 /// thesis, narrow, reversed and out-of-range bounds): every result field equal, and the
 /// interesting paths all taken (P0 alone, both in the box, both on an edge of it).
 #[test]
@@ -15,6 +15,7 @@ fn avr_fit_equals_the_portable_one() {
         avr.run_for_ms(500.0);
     }
     let out = avr.uart_output_string();
+    assert!(out.contains("weigh 20000 0\n"), "{out}");
     let line = out
         .lines()
         .find_map(|l| l.strip_prefix("fit "))

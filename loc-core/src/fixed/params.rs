@@ -429,6 +429,11 @@ pub fn fit_least_squares_with<K: FitKernel>(
 pub trait FitKernel {
     /// Reads the job's inputs, writes `p0`, `alpha`, `sse` and `fitted` (see [`FitJob`]).
     fn fit(job: &mut FitJob);
+
+    /// [`Ar1`]'s step: `(a·p + b·x)/2^16` rounded, saturated to `i32` ([`portable_weigh`]).
+    fn weigh(a: i32, p: i32, b: i32, x: i32) -> i32 {
+        portable_weigh(a, p, b, x)
+    }
 }
 
 /// The Rust [`FitKernel`] (the definition the assembly one is checked against).
@@ -717,12 +722,17 @@ impl Ar1 {
         Ar1 { a, b, y: None }
     }
 
-    /// Feeds `x`, returns the new output (rounded; saturating at the `i32` range). Out of line:
-    /// P0's and α's smoothers share one copy.
-    #[inline(never)]
+    /// Feeds `x`, returns the new output (rounded; saturating at the `i32` range).
     pub fn update(&mut self, x: i32) -> i32 {
+        self.update_with::<PortableFit>(x)
+    }
+
+    /// [`Ar1::update`] with `K`'s [`FitKernel::weigh`]. Out of line: P0's and α's smoothers
+    /// share one copy.
+    #[inline(never)]
+    pub fn update_with<K: FitKernel>(&mut self, x: i32) -> i32 {
         let y = match self.y {
-            Some(prev) => weigh(self.a, prev, self.b, x),
+            Some(prev) => K::weigh(self.a, prev, self.b, x),
             None => x,
         };
         self.y = Some(y);
@@ -742,7 +752,7 @@ impl Ar1 {
 
 /// `(a·p + b·x)/2^16` rounded, saturated to `i32`. In 64 bits only (twice per report: a
 /// 32-bit fast path for weights below 2^16 cost 0.4 KB of AVR flash).
-fn weigh(a: i32, p: i32, b: i32, x: i32) -> i32 {
+pub fn portable_weigh(a: i32, p: i32, b: i32, x: i32) -> i32 {
     let v = (a as i64 * p as i64 + b as i64 * x as i64 + (1 << 15)) >> 16;
     clamp_i64(v, i32::MIN as i64, i32::MAX as i64) as i32
 }
@@ -818,12 +828,17 @@ impl OnlineParams {
     /// Feeds the smoothers with a fit made elsewhere (e.g. [`fit_least_squares`] with
     /// [`OnlineParams::current`] as the prior, so that only that method is linked).
     pub fn feed(&mut self, f: &ParamFit) {
+        self.feed_with::<PortableFit>(f)
+    }
+
+    /// [`OnlineParams::feed`] with `K`'s [`FitKernel::weigh`] in the smoothers.
+    pub fn feed_with<K: FitKernel>(&mut self, f: &ParamFit) {
         // One call site per smoother (the mode is not known at compile time on the sink).
         if self.mode != ParamMode::Fixed {
-            self.p0.update(f.model.p0);
+            self.p0.update_with::<K>(f.model.p0);
         }
         if self.mode == ParamMode::P0AndAlpha {
-            self.alpha.update(f.model.alpha);
+            self.alpha.update_with::<K>(f.model.alpha);
         }
         let dof = f.n.saturating_sub(f.fitted as u16);
         if dof > 0 {

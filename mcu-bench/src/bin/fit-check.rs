@@ -5,7 +5,9 @@
 //! everything). Prints
 //! the first mismatches (`bad mode n p0 alpha sse_hi sse_lo fitted`, the twin's then the
 //! assembly's), then `fit <jobs> <mismatches> <fitted 0> <fitted 1> <fitted 2> <on an edge>`
-//! and `end`. `tests/tests/fit_check.rs` runs it in simavr. Build: `cargo fw-bench`.
+//! and `end`; before that the AR(1) step (`FitKernel::weigh`): `weigh <checked> <mismatches>`
+//! after its first mismatches (`badweigh a p b x portable avr`). `tests/tests/fit_check.rs` runs
+//! it in simavr. Build: `cargo fw-bench`.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]
@@ -24,7 +26,8 @@ fn main() -> ! {
 mod avr {
     use core::hint::black_box;
     use loc_core::fixed::{
-        Bounds, CalStats, FitJob, FitKernel, ParamMode, PathLoss, PointCm, PortableFit, ALPHA, DB,
+        portable_weigh, Bounds, CalStats, FitJob, FitKernel, ParamMode, PathLoss, PointCm,
+        PortableFit, ALPHA, DB,
     };
     use uno_board::{AvrFit, Board, Serial};
 
@@ -238,6 +241,39 @@ mod avr {
                 }
             }
         }
+        // The AR(1) step, with the weights `Ar1::new` allows (±4 in Q.16) and any values.
+        let (mut wbad, wn) = (0u32, black_box(20_000u32));
+        for _ in 0..wn {
+            let mut w = || match r.below(4) {
+                0 => r.pick(&[-(4 << 16), 4 << 16, 0, 1, -1, 1 << 16, 52_429, 13_107]),
+                _ => r.range(-(4 << 16), 4 << 16),
+            };
+            let (a, b) = (w(), w());
+            let mut v = || match r.below(4) {
+                0 => r.pick(&[i32::MIN, i32::MAX, 0, -1, 1, -(90 << 16), 3 << 24]),
+                1 => r.next() as i32,
+                _ => r.range(-(100 << 16), 6 << 24),
+            };
+            let (p, x) = (v(), v());
+            let want = portable_weigh(black_box(a), p, b, x);
+            let got = AvrFit::weigh(black_box(a), p, b, x);
+            if want != got {
+                wbad += 1;
+                if wbad <= 5 {
+                    serial.write_bytes(b"badweigh");
+                    for v in [a, p, b, x, want, got] {
+                        serial.write_byte(b' ');
+                        write_u32(&mut serial, v as u32);
+                    }
+                    serial.write_byte(b'\n');
+                }
+            }
+        }
+        serial.write_bytes(b"weigh ");
+        write_u32(&mut serial, wn);
+        serial.write_byte(b' ');
+        write_u32(&mut serial, wbad);
+        serial.write_byte(b'\n');
         serial.write_bytes(b"fit ");
         for v in [jobs, bad, counts[0], counts[1], counts[2], counts[3]] {
             write_u32(&mut serial, v);
