@@ -448,7 +448,7 @@ impl FitKernel for PortableFit {
 
 /// What a [`FitKernel`] solves: `repr(C)`, read by the AVR kernel at fixed offsets (on AVR:
 /// `stats` 0, `a_lo` 2, `a_hi` 6, `p_lo` 10, `p_hi` 14, `p0` 18, `alpha` 22, `sse` 26,
-/// `fitted` 34, `scratch` 35).
+/// `fitted` 34). The sink keeps it in its frame through the position search: no scratch here.
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]
 pub struct FitJob<'a> {
@@ -471,8 +471,6 @@ pub struct FitJob<'a> {
     pub sse: u64,
     /// In: 0 fixed, 1 P0 only, 2 P0 and α. Out: parameters fitted (0, 1 or 2).
     pub fitted: u8,
-    /// The assembly kernel's working storage (best candidate, two 64-bit temporaries).
-    pub scratch: [u8; 24],
 }
 
 impl<'a> FitJob<'a> {
@@ -506,7 +504,6 @@ impl<'a> FitJob<'a> {
             alpha: prior.alpha,
             sse: 0,
             fitted,
-            scratch: [0; 24],
         })
     }
 }
