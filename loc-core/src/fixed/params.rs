@@ -430,9 +430,9 @@ pub trait FitKernel {
     /// Reads the job's inputs, writes `p0`, `alpha`, `sse` and `fitted` (see [`FitJob`]).
     fn fit(job: &mut FitJob);
 
-    /// [`Ar1`]'s step: `(a·p + b·x)/2^16` rounded, saturated to `i32` ([`portable_weigh`]).
-    fn weigh(a: i32, p: i32, b: i32, x: i32) -> i32 {
-        portable_weigh(a, p, b, x)
+    /// [`Ar1::update`]: feeds `x` to `s`, returns the new output ([`portable_ar1_update`]).
+    fn ar1_update(s: &mut Ar1, x: i32) -> i32 {
+        portable_ar1_update(s, x)
     }
 }
 
@@ -682,14 +682,28 @@ fn box_least_squares(
 
 /// First-order autoregressive smoother `y[n] = a·y[n−1] + b·x[n]`, `y[0] = x[0]`, with Q.16
 /// coefficients, on any fixed-point value (P0 Q.16 or α Q.24).
+/// `repr(C)`, the state as a flag and a value: a [`FitKernel`] in assembly updates it in place.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(C)]
 pub struct Ar1 {
     /// Weight of the previous output, Q.16.
     pub a: i32,
     /// Weight of the new input, Q.16.
     pub b: i32,
-    y: Option<i32>,
+    /// The last output (0 before the first input).
+    y: i32,
+    /// Whether there has been an input.
+    started: bool,
 }
+
+// The layout a [`FitKernel`] in assembly reads and writes.
+const _: () = {
+    use core::mem::offset_of;
+    assert!(offset_of!(Ar1, a) == 0);
+    assert!(offset_of!(Ar1, b) == 4);
+    assert!(offset_of!(Ar1, y) == 8);
+    assert!(offset_of!(Ar1, started) == 12);
+};
 
 impl Default for Ar1 {
     /// The thesis' `a = 0.8, b = 0.2`.
@@ -716,7 +730,12 @@ impl Ar1 {
         } else {
             b
         };
-        Ar1 { a, b, y: None }
+        Ar1 {
+            a,
+            b,
+            y: 0,
+            started: false,
+        }
     }
 
     /// Feeds `x`, returns the new output (rounded; saturating at the `i32` range).
@@ -724,27 +743,34 @@ impl Ar1 {
         self.update_with::<PortableFit>(x)
     }
 
-    /// [`Ar1::update`] with `K`'s [`FitKernel::weigh`]. Out of line: P0's and α's smoothers
+    /// [`Ar1::update`] by `K` ([`FitKernel::ar1_update`]). Out of line: P0's and α's smoothers
     /// share one copy.
     #[inline(never)]
     pub fn update_with<K: FitKernel>(&mut self, x: i32) -> i32 {
-        let y = match self.y {
-            Some(prev) => K::weigh(self.a, prev, self.b, x),
-            None => x,
-        };
-        self.y = Some(y);
-        y
+        K::ar1_update(self, x)
     }
 
     /// Current output, `None` before the first input.
     pub fn value(&self) -> Option<i32> {
-        self.y
+        self.started.then_some(self.y)
     }
 
     /// Forgets the state.
     pub fn reset(&mut self) {
-        self.y = None;
+        (self.y, self.started) = (0, false);
     }
+}
+
+/// [`PortableFit`]'s [`FitKernel::ar1_update`]: `x` first, then [`portable_weigh`] of the last
+/// output and `x`.
+pub fn portable_ar1_update(s: &mut Ar1, x: i32) -> i32 {
+    let y = if s.started {
+        portable_weigh(s.a, s.y, s.b, x)
+    } else {
+        x
+    };
+    (s.y, s.started) = (y, true);
+    y
 }
 
 /// `(a·p + b·x)/2^16` rounded, saturated to `i32`. In 64 bits only (twice per report: a
@@ -828,7 +854,7 @@ impl OnlineParams {
         self.feed_with::<PortableFit>(f)
     }
 
-    /// [`OnlineParams::feed`] with `K`'s [`FitKernel::weigh`] in the smoothers.
+    /// [`OnlineParams::feed`] with `K`'s [`FitKernel::ar1_update`] in the smoothers.
     pub fn feed_with<K: FitKernel>(&mut self, f: &ParamFit) {
         // One call site per smoother (the mode is not known at compile time on the sink).
         if self.mode != ParamMode::Fixed {

@@ -5,8 +5,8 @@
 //! everything). Prints
 //! the first mismatches (`bad mode n p0 alpha sse_hi sse_lo fitted`, the twin's then the
 //! assembly's), then `fit <jobs> <mismatches> <fitted 0> <fitted 1> <fitted 2> <on an edge>`
-//! and `end`; before that the AR(1) step (`FitKernel::weigh`): `weigh <checked> <mismatches>`
-//! after its first mismatches (`badweigh a p b x portable avr`). `tests/tests/fit_check.rs` runs
+//! and `end`; before that the AR(1) step (`FitKernel::ar1_update`): `weigh <checked>
+//! <mismatches>` after its first mismatches (`badweigh a b first x portable avr`). `tests/tests/fit_check.rs` runs
 //! it in simavr. Build: `cargo fw-bench`.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
@@ -26,8 +26,8 @@ fn main() -> ! {
 mod avr {
     use core::hint::black_box;
     use loc_core::fixed::{
-        portable_weigh, Bounds, CalStats, FitJob, FitKernel, ParamMode, PathLoss, PointCm,
-        PortableFit, ALPHA, DB,
+        portable_ar1_update, Ar1, Bounds, CalStats, FitJob, FitKernel, ParamMode, PathLoss,
+        PointCm, PortableFit, ALPHA, DB,
     };
     use uno_board::{AvrFit, Board, Serial};
 
@@ -241,27 +241,31 @@ mod avr {
                 }
             }
         }
-        // The AR(1) step, with the weights `Ar1::new` allows (±4 in Q.16) and any values.
+        // The AR(1) step on a fresh or a started smoother, with the weights `Ar1::new` allows
+        // (±4 in Q.16) and any values.
         let (mut wbad, wn) = (0u32, black_box(20_000u32));
         for _ in 0..wn {
             let mut w = || match r.below(4) {
                 0 => r.pick(&[-(4 << 16), 4 << 16, 0, 1, -1, 1 << 16, 52_429, 13_107]),
-                _ => r.range(-(4 << 16), 4 << 16),
+                _ => r.range(-(5 << 16), 5 << 16),
             };
-            let (a, b) = (w(), w());
+            let mut want = Ar1::new(w(), w());
             let mut v = || match r.below(4) {
                 0 => r.pick(&[i32::MIN, i32::MAX, 0, -1, 1, -(90 << 16), 3 << 24]),
                 1 => r.next() as i32,
                 _ => r.range(-(100 << 16), 6 << 24),
             };
-            let (p, x) = (v(), v());
-            let want = portable_weigh(black_box(a), p, b, x);
-            let got = AvrFit::weigh(black_box(a), p, b, x);
-            if want != got {
+            let (first, x) = (v(), v());
+            if r.below(8) != 0 {
+                portable_ar1_update(&mut want, first);
+            }
+            let mut got = want;
+            let y = portable_ar1_update(black_box(&mut want), x);
+            if AvrFit::ar1_update(black_box(&mut got), x) != y || got != want {
                 wbad += 1;
                 if wbad <= 5 {
                     serial.write_bytes(b"badweigh");
-                    for v in [a, p, b, x, want, got] {
+                    for v in [want.a, want.b, first, x, y, got.value().unwrap_or(0)] {
                         serial.write_byte(b' ');
                         write_u32(&mut serial, v as u32);
                     }

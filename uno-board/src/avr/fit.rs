@@ -18,9 +18,7 @@
 
 use core::arch::asm;
 use core::mem::{offset_of, size_of};
-use loc_core::fixed::{FitJob, FitKernel};
-
-// `weigh`'s rounding constant 2^15 is added as 0x80 at byte 1.
+use loc_core::fixed::{Ar1, FitJob, FitKernel};
 
 // The offsets the assembly reads (AVR has no padding).
 const _: () = {
@@ -46,65 +44,67 @@ impl FitKernel for AvrFit {
         fit(job)
     }
 
-    fn weigh(a: i32, p: i32, b: i32, x: i32) -> i32 {
-        weigh(a, p, b, x)
+    fn ar1_update(s: &mut Ar1, x: i32) -> i32 {
+        ar1_update(s, x)
     }
 }
 
-/// [`loc_core::fixed::portable_weigh`] (the AR(1) smoother's step), exactly: `a·p` and `b·x`
-/// by `__muldi3`, the sum, rounding and saturation in registers (LLVM: 0.4 KB with its
-/// caller; checked by `fit-check`).
+/// [`loc_core::fixed::portable_ar1_update`] (the AR(1) smoother's step), exactly, on the
+/// smoother at Z: `a·y` and `b·x` by `__muldi3`, their sum, rounding and saturation in
+/// registers (LLVM: 0.35 KB; checked by `fit-check`).
 #[inline(always)]
-pub fn weigh(a: i32, p: i32, b: i32, x: i32) -> i32 {
-    let [a0, a1, a2, a3] = a.to_le_bytes();
-    let [p0, p1, p2, p3] = p.to_le_bytes();
-    let [b0, b1, b2, b3] = b.to_le_bytes();
+pub fn ar1_update(s: &mut Ar1, x: i32) -> i32 {
     let [x0, x1, x2, x3] = x.to_le_bytes();
     let (y0, y1, y2, y3): (u8, u8, u8, u8);
-    // SAFETY: register arithmetic only, and `__muldi3` (A = r25:r18 times B = r17:r10 into A;
-    // it preserves r2–r17 and r28/r29 and leaves r1 at 0); only the declared registers, r0,
-    // r1 (left at 0), the flags and the stack below SP are written.
+    // SAFETY: the assembly reads the smoother (13 bytes: `a` 0, `b` 4, `y` 8, `started` 12,
+    // asserted in loc-core) through Y (Z saved there; Y pushed and restored) and writes its `y`
+    // and `started`; otherwise register arithmetic, and `__muldi3` (A = r25:r18 times
+    // B = r17:r10 into A; it preserves r2–r17 and r28/r29 and leaves r1 at 0). Only the
+    // declared registers, r0, r1 (left at 0), the flags and the stack below SP are written.
     unsafe {
         asm!(
             "clr r1",
-            // A = a, B = p (sign-extended); A = a·p, kept in r9:r2 (b and x move to A).
-            "clr r22",
-            "sbrc r21, 7",
-            "com r22",
-            "mov r23, r22",
-            "movw r24, r22",
+            "push r28",
+            "push r29",
+            "movw r28, r30",
+            // The first input is the output.
+            "movw r20, r6",
+            "movw r22, r8",
+            "ldd r26, Y+12",
+            "tst r26",
+            "breq 3f",
+            // A = b, B = x (sign-extended); A = b·x, kept in r9:r2.
+            "movw r10, r6",
+            "movw r12, r8",
             "clr r14",
             "sbrc r13, 7",
             "com r14",
             "mov r15, r14",
             "movw r16, r14",
-            "call __muldi3",
-            "movw r26, r2",
+            "ldd r18, Y+4",
+            "ldd r19, Y+5",
+            "ldd r20, Y+6",
+            "ldd r21, Y+7",
+            "rcall 5f",
             "movw r2, r18",
-            "movw r18, r26",
-            "movw r26, r4",
             "movw r4, r20",
-            "movw r20, r26",
-            "movw r26, r6",
             "movw r6, r22",
-            "movw r22, r26",
-            "movw r26, r8",
             "movw r8, r24",
-            "movw r24, r26",
-            // A = b, B = x (sign-extended); A = b·x + a·p + 2^15.
-            "movw r10, r22",
-            "movw r12, r24",
+            // A = a, B = y; A = a·y + b·x + 2^15.
+            "ldd r10, Y+8",
+            "ldd r11, Y+9",
+            "ldd r12, Y+10",
+            "ldd r13, Y+11",
             "clr r14",
             "sbrc r13, 7",
             "com r14",
             "mov r15, r14",
             "movw r16, r14",
-            "clr r22",
-            "sbrc r21, 7",
-            "com r22",
-            "mov r23, r22",
-            "movw r24, r22",
-            "call __muldi3",
+            "ldd r18, Y+0",
+            "ldd r19, Y+1",
+            "ldd r20, Y+2",
+            "ldd r21, Y+3",
+            "rcall 5f",
             "add r18, r2",
             "adc r19, r3",
             "adc r20, r4",
@@ -126,7 +126,7 @@ pub fn weigh(a: i32, p: i32, b: i32, x: i32) -> i32 {
             "sbc r26, r26",
             "cp r24, r26",
             "cpc r25, r26",
-            "breq 1f",
+            "breq 3f",
             "mov r26, r25",
             "lsl r26",
             "sbc r26, r26",
@@ -136,15 +136,33 @@ pub fn weigh(a: i32, p: i32, b: i32, x: i32) -> i32 {
             "mov r22, r26",
             "ldi r23, 0x80",
             "eor r23, r26",
-            "1:",
-            inout("r18") a0 => _, inout("r19") a1 => _,
-            inout("r20") a2 => y0, inout("r21") a3 => y1,
-            out("r22") y2, out("r23") y3,
-            inout("r10") p0 => _, inout("r11") p1 => _, inout("r12") p2 => _, inout("r13") p3 => _,
-            inout("r2") b0 => _, inout("r3") b1 => _, inout("r4") b2 => _, inout("r5") b3 => _,
+            // y = r23:r20, started.
+            "3:",
+            "std Y+8, r20",
+            "std Y+9, r21",
+            "std Y+10, r22",
+            "std Y+11, r23",
+            "ldi r26, 1",
+            "std Y+12, r26",
+            "pop r29",
+            "pop r28",
+            "rjmp 6f",
+            // A (sign-extended from r21:r18) times B.
+            "5:",
+            "clr r22",
+            "sbrc r21, 7",
+            "com r22",
+            "mov r23, r22",
+            "movw r24, r22",
+            "jmp __muldi3",
+            "6:",
+            inout("Z") s as *mut Ar1 => _,
             inout("r6") x0 => _, inout("r7") x1 => _, inout("r8") x2 => _, inout("r9") x3 => _,
-            out("r14") _, out("r15") _, out("r16") _, out("r17") _, out("r24") _, out("r25") _,
-            out("X") _, out("Z") _,
+            out("r20") y0, out("r21") y1, out("r22") y2, out("r23") y3,
+            out("r2") _, out("r3") _, out("r4") _, out("r5") _,
+            out("r10") _, out("r11") _, out("r12") _, out("r13") _,
+            out("r14") _, out("r15") _, out("r16") _, out("r17") _,
+            out("r18") _, out("r19") _, out("r24") _, out("r25") _, out("X") _,
         );
     }
     i32::from_le_bytes([y0, y1, y2, y3])
