@@ -780,6 +780,12 @@ pub fn portable_weigh(a: i32, p: i32, b: i32, x: i32) -> i32 {
     clamp_i64(v, i32::MIN as i64, i32::MAX as i64) as i32
 }
 
+/// `v` clamped to `[−limit, limit]` ([`OnlineParams::current`]'s two clamps share it).
+#[inline(never)]
+fn within(v: i32, limit: i32) -> i32 {
+    clamp_i32(v, -limit, limit)
+}
+
 /// Online parameter estimation: a fit per round, smoothed per parameter by [`Ar1`] (as
 /// [`crate::params::OnlineParams`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -828,11 +834,11 @@ impl OnlineParams {
     /// asks twice per report.
     #[inline(never)]
     pub fn current(&self) -> PathLoss {
+        // [`PathLoss::sane`], with one out-of-line clamp for both (0.15 KB less AVR flash).
         PathLoss {
-            p0: self.p0.value().unwrap_or(self.prior.p0),
-            alpha: self.alpha.value().unwrap_or(self.prior.alpha),
+            p0: within(self.p0.value().unwrap_or(self.prior.p0), P0_LIMIT),
+            alpha: within(self.alpha.value().unwrap_or(self.prior.alpha), ALPHA_LIMIT),
         }
-        .sane()
     }
 
     /// σ of the last successful fit that had one (Q.8 dB, [`ParamFit::sigma`]), for an MMSE with
