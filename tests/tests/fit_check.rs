@@ -4,9 +4,10 @@
 
 use mcu_bench::harness;
 
-/// 20 000 random AR(1) steps (`FitKernel::ar1_update`) equal; over 10 000 random jobs (all three modes; rooms, near-equal distances, Σx² = 0, extreme sums;
-/// thesis, narrow, reversed and out-of-range bounds): every result field equal, and the
-/// interesting paths all taken (P0 alone, both in the box, both on an edge of it).
+/// 20 000 random AR(1) steps (`FitKernel::ar1_update`) equal; over 10 000 random jobs (all
+/// three modes; rooms, near-equal distances, Σx² = 0, extreme sums; thesis, narrow, reversed,
+/// out-of-range and unbounded bounds): every result field equal, and the interesting paths all
+/// taken (P0 alone, both in the box, both on an edge of it).
 #[test]
 fn avr_fit_equals_the_portable_one() {
     harness::build().expect("bench firmware");
