@@ -10,8 +10,14 @@ use simavr::{Avr, State};
 use crate::{float, run, Inputs, Report, MARKS, N_ANCHORS, N_CHANNELS, SIGMA_DB};
 
 /// The firmwares, baseline first.
-pub const BINS: [&str; 4] = ["est-none", "est-fixed", "est-f32", "kernel-check"];
-/// The benchmark variants among [`BINS`] (`kernel-check` is a correctness check).
+pub const BINS: [&str; 5] = [
+    "est-none",
+    "est-fixed",
+    "est-f32",
+    "kernel-check",
+    "fit-check",
+];
+/// The benchmark variants among [`BINS`] (`kernel-check` and `fit-check` are correctness checks).
 pub const ESTIMATES: [&str; 3] = ["est-none", "est-fixed", "est-f32"];
 
 /// Simulated time after which a run that has not stopped counts as hung.
