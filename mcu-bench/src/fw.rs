@@ -243,8 +243,119 @@ fn column_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
     (bad, cols)
 }
 
-/// Compares `uno_board::AvrTerm` with `loc_core::fixed::{portable_term, portable_column}`; see
-/// `kernel-check`.
+/// One pseudo-random posterior column: weights as a search sets them up (σ = 0's span of 1, a
+/// flat cost's unbounded span with `b = 0`, or any span with `ra` the fewest bits that bring it
+/// below 2^16, sometimes more up to 16, and `b` anywhere, so that `y` covers every shift, the
+/// cut-off at 27 and the wrap of `a·b`), a reference and sums so far anywhere, a column offset
+/// (0 to 10, one in 8 any byte) and 1 to 11 costs: at the reference or a little above it (within
+/// or beyond the span), below it (a new reference, weighing 1 to nothing), `u32::MAX` (a
+/// skipped row) or anything.
+fn posterior_inputs(r: &mut u32, sums: &mut [u32; 11]) -> (usize, u8, loc_core::fixed::Posterior) {
+    use loc_core::fixed::{Posterior, Weights};
+    let mut next = || {
+        *r ^= *r << 13;
+        *r ^= *r >> 17;
+        *r ^= *r << 5;
+        *r
+    };
+    let (a, b, c) = (next(), next(), next());
+    let rows = 1 + (a % 11) as usize;
+    let wts = match b % 8 {
+        0 => Weights {
+            span: 1,
+            b: 0,
+            ra: 16,
+        },
+        1 => Weights {
+            span: u32::MAX,
+            b: 0,
+            ra: 16,
+        },
+        _ => {
+            let span = (next() >> ((b >> 8) % 32)).max(1);
+            let mut ra = 0u32;
+            while span >> ra > 0xFFFF {
+                ra += 1;
+            }
+            if (b >> 16).is_multiple_of(4) {
+                ra += (b >> 20) % (17 - ra);
+            }
+            Weights {
+                span,
+                b: next() >> (c % 32),
+                ra: ra as u8,
+            }
+        }
+    };
+    let mut post = Posterior::new(wts, next() >> ((c >> 8) % 32));
+    let col = if (c >> 16).is_multiple_of(8) {
+        (c >> 24) as u8
+    } else {
+        ((c >> 24) % 11) as u8
+    };
+    post.s = next() >> ((a >> 8) % 32);
+    post.sx = next() >> ((a >> 13) % 32);
+    post.sy = next() >> ((a >> 18) % 32);
+    for v in sums[..rows].iter_mut() {
+        let (x, y) = (next(), next());
+        // Excesses (and drops) around the span, on a scale of 2^0 to 2^31.
+        let d = y >> (x % 32);
+        *v = match (x >> 8) % 8 {
+            0 => post.cref,
+            1 | 2 => post.cref.saturating_add(d % post.wts.span.max(1)),
+            3 => post.cref.saturating_add(d),
+            4 | 5 => post.cref.saturating_sub(d),
+            6 => u32::MAX,
+            _ => y,
+        };
+    }
+    (rows, col, post)
+}
+
+/// Whole posterior columns: the assembly routine against `portable_posterior`; returns
+/// (mismatches, columns checked).
+#[inline(never)]
+fn posterior_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
+    use loc_core::fixed::TermKernel;
+    let (mut bad, cols) = (0u32, black_box(5_000u32));
+    let mut sums = [0u32; 11];
+    for _ in 0..cols {
+        let (rows, col, mut want) = posterior_inputs(r, &mut sums);
+        let mut got = want;
+        loc_core::fixed::portable_posterior(black_box(&sums[..rows]), col, &mut want);
+        uno_board::AvrTerm::posterior(black_box(&sums[..rows]), col, &mut got);
+        let w = [want.cref, want.s, want.sx, want.sy];
+        let g = [got.cref, got.s, got.sx, got.sy];
+        if w != g {
+            bad += 1;
+            if bad <= 5 {
+                serial.write_bytes(b"badpost");
+                let p = &want;
+                for v in [
+                    rows as u32,
+                    p.wts.span,
+                    p.wts.ra as u32,
+                    p.wts.b,
+                    col as u32,
+                ] {
+                    serial.write_byte(b' ');
+                    write_u32(serial, v);
+                }
+                for (w, g) in w.iter().zip(&g) {
+                    serial.write_byte(b' ');
+                    write_u32(serial, *w);
+                    serial.write_byte(b'/');
+                    write_u32(serial, *g);
+                }
+                serial.write_byte(b'\n');
+            }
+        }
+    }
+    (bad, cols)
+}
+
+/// Compares `uno_board::AvrTerm` with `loc_core::fixed::{portable_term, portable_column,
+/// portable_posterior}`; see `kernel-check`.
 pub fn kernel_check() -> ! {
     use loc_core::fixed::{portable_term, TermKernel};
     let Some(board) = Board::take() else {
@@ -277,6 +388,12 @@ pub fn kernel_check() -> ! {
     serial.write_byte(b'\n');
     let (bad, cols) = column_check(&mut serial, &mut r);
     serial.write_bytes(b"column ");
+    write_u32(&mut serial, cols);
+    serial.write_byte(b' ');
+    write_u32(&mut serial, bad);
+    serial.write_byte(b'\n');
+    let (bad, cols) = posterior_check(&mut serial, &mut r);
+    serial.write_bytes(b"posterior ");
     write_u32(&mut serial, cols);
     serial.write_byte(b' ');
     write_u32(&mut serial, bad);

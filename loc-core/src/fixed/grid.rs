@@ -22,8 +22,9 @@
 //! written into the caller's storage (a by-value struct is a copy on AVR), the sink's window
 //! loop inlined into its one caller (a frame fewer).
 
-use super::kernel::{log2_segment_base, ColumnJob, Portable, TermKernel, I24};
-use super::math::exp2_neg_q26;
+use super::kernel::{
+    log2_segment_base, mul_hi, ColumnJob, Portable, Posterior, TermKernel, Weights, I24,
+};
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
 use crate::grid::{Search, COARSE_DIVS, FINE_DIVS};
@@ -118,13 +119,6 @@ fn snap(s: i32, side: i32, sw: i32) -> usize {
         v += 2 * t;
     }
     c
-}
-
-/// `⌊a·b / 2^32⌋`, within 2 below, from three 16 × 16 products (no 64-bit arithmetic).
-#[inline(never)]
-fn mul_hi(a: u32, b: u32) -> u32 {
-    let (ah, al, bh, bl) = (a >> 16, a & 0xFFFF, b >> 16, b & 0xFFFF);
-    ah * bh + ((ah * bl) >> 16) + ((al * bh) >> 16)
 }
 
 /// `⌊a·2^e / b⌋` for `1 ≤ b < 2^31`, saturating at `u32::MAX` (one 32-bit division, then a bit
@@ -421,7 +415,7 @@ impl<K: TermKernel> Grid<K> {
             if POST {
                 self.column(i, post.bound().max(best.cost), 0);
                 self.evals += rows;
-                post.add_column((i - i0) as u32, &self.sums[..rows]);
+                K::posterior(&self.sums[..rows], (i - i0) as u8, post);
             } else {
                 self.column(i, best.cost, mask);
                 self.evals += rows - skipped;
@@ -622,21 +616,11 @@ pub fn mle_with<K: TermKernel>(
     Ok(g.finish(obs, area, None, m, Estimator::Mle(search), g.evals))
 }
 
-/// Posterior weights `2^(−y)`, `y = (C' − C'ref)·β` in Q.16, relative to a reference cost that
-/// only ever decreases (the sums are rescaled when a lower cost appears).
+/// The posterior weights of a search: [`Weights`]' setup.
 ///
-/// With ΔC' in Q.20, `β = K²·log2(e)/(32σ²)·2^−4`. A weight is 0 from `y ≥` [`Y_CUT`], i.e.
-/// from `ΔC' ≥ span`; below it `ΔC'` is scaled below 2^16 (`a`) and `y = (a·b) >> 11` with one
-/// 32-bit multiply (`a·b ≤ Y_CUT·2^27`; y within `Y_CUT·2^−15` of exact).
-#[derive(Clone, Copy)]
-struct Weights {
-    /// `C'` excess (Q.20) at or above which a weight is 0 (1 for σ = 0: only the minimisers).
-    span: u32,
-    /// `a = ΔC' >> ra`, `a < 2^16`.
-    ra: u8,
-    b: u32,
-}
-
+/// A weight is 0 from `y ≥` [`Y_CUT`], i.e. from `ΔC' ≥ span`; below it `ΔC'` is scaled below
+/// 2^16 (`a`) and `y = (a·b) >> 11` with one 32-bit multiply (`a·b ≤ Y_CUT·2^27`; y within
+/// `Y_CUT·2^−15` of exact).
 impl Weights {
     /// For `|K|` (Q.26) and σ (Q.8 dB); a flat cost's (`K ≈ 0`) are all equal.
     #[inline(never)]
@@ -681,69 +665,9 @@ impl Weights {
         w.b = div_shl(num, den, e as u32);
         w
     }
-
-    /// Weight (Q.26) of a cost excess over the reference. (Out of line: one copy of the
-    /// `2^−y` evaluation in flash.)
-    #[inline(never)]
-    fn weight(&self, excess: u32) -> u32 {
-        if excess >= self.span {
-            return 0;
-        }
-        let a = excess >> self.ra;
-        exp2_neg_q26(a.wrapping_mul(self.b) >> 11)
-    }
-}
-
-/// A window's posterior sums (≤ 11 × 11 points, offsets from its first column and row):
-/// weights Q.20 relative to a reference cost that only ever decreases. Σw < 2^27, Σw·c and
-/// Σw·r < 2^31: all `u32`.
-struct Posterior {
-    wts: Weights,
-    cref: u32,
-    s: u32,
-    sx: u32,
-    sy: u32,
 }
 
 impl Posterior {
-    fn new(wts: Weights, cref: u32) -> Posterior {
-        Posterior {
-            wts,
-            cref,
-            s: 0,
-            sx: 0,
-            sy: 0,
-        }
-    }
-
-    /// The bound a column needs: costs from it on weigh nothing.
-    fn bound(&self) -> u32 {
-        self.cref.saturating_add(self.wts.span)
-    }
-
-    /// Adds the window's column `c` (offset) with costs `sums` (row offsets 0…).
-    #[inline(never)]
-    fn add_column(&mut self, c: u32, sums: &[u32]) {
-        for (r, &v) in sums.iter().enumerate() {
-            if v >= self.bound() {
-                continue;
-            }
-            if v < self.cref {
-                // The sums so far, relative to the new reference: × 2^(−y(drop)), Q.32.
-                let f = self.wts.weight(self.cref - v).min((1 << 26) - 1) << 6;
-                // (Three calls, not a loop over an array of references: no array on the stack.)
-                self.s = mul_hi(self.s, f);
-                self.sx = mul_hi(self.sx, f);
-                self.sy = mul_hi(self.sy, f);
-                self.cref = v;
-            }
-            let wt = self.wts.weight(v - self.cref) >> 6;
-            self.s += wt;
-            self.sx += wt * c;
-            self.sy += wt * r as u32;
-        }
-    }
-
     /// The posterior mean of a window whose first point is `(i0, j0)`, mm, into `pos` (left
     /// as it is if no weight; in place: a returned point is a stack copy on AVR).
     #[inline(never)]
@@ -797,7 +721,7 @@ pub fn mmse_with<K: TermKernel>(
                 // The smallest cost so far is the reference: costs below it are exact.
                 g.column(i, post.bound(), 0);
                 g.evals += rows;
-                post.add_column((i - i0) as u32, &g.sums[..rows]);
+                K::posterior(&g.sums[..rows], (i - i0) as u8, &mut post);
                 g.take(i, best.cost, &mut best);
             }
             if post.cref < cref {

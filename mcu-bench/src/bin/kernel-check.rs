@@ -1,8 +1,10 @@
-//! kernel-check: `uno_board::AvrTerm` (the cost term and its column loop in AVR assembly)
-//! against `loc_core::fixed::{portable_term, portable_column}` on the MCU itself: edge cases and
-//! 50 000 pseudo-random terms, then 5 000 pseudo-random columns; prints `kernel <checked>
-//! <mismatches>` and `column <checked> <mismatches>`, each after its first mismatches (`bad lo
-//! carry rho clamp portable avr`, `badcol rows anchors bound portable/avr…`).
+//! kernel-check: `uno_board::AvrTerm` (the cost term, its column loop and the posterior's
+//! accumulation in AVR assembly) against `loc_core::fixed::{portable_term, portable_column,
+//! portable_posterior}` on the MCU itself: edge cases and 50 000 pseudo-random terms, then 5 000
+//! pseudo-random columns, then 5 000 pseudo-random posterior columns; prints `kernel <checked>
+//! <mismatches>`, `column <checked> <mismatches>` and `posterior <checked> <mismatches>`, each
+//! after its first mismatches (`bad lo carry rho clamp portable avr`, `badcol rows anchors
+//! bound portable/avr…`, `badpost rows span ra b col portable/avr…` for cref, s, sx, sy).
 //! `tests/tests/mcu_bench.rs` runs it in simavr. Build: `cargo fw-bench`.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 

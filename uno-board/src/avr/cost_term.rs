@@ -21,7 +21,9 @@
 
 use core::arch::asm;
 use core::mem::{offset_of, size_of};
-use loc_core::fixed::{log2_segment_base, AnchorTerm, ColumnJob, TermKernel};
+use loc_core::fixed::{
+    exp2_segment_table, log2_segment_base, AnchorTerm, ColumnJob, Posterior, TermKernel,
+};
 
 // The offsets the assembly reads (AVR has no padding).
 const _: () = {
@@ -46,6 +48,13 @@ const _: () = {
     assert!(offset_of!(ColumnJob, seg_base) == 18);
     assert!(offset_of!(ColumnJob, ystep) == 20);
     assert!(offset_of!(ColumnJob, anchors) == 22);
+    assert!(offset_of!(Posterior, cref) == 0);
+    assert!(offset_of!(Posterior, wts) == 4);
+    assert!(offset_of!(loc_core::fixed::Weights, span) == 0);
+    assert!(offset_of!(loc_core::fixed::Weights, b) == 4);
+    assert!(offset_of!(loc_core::fixed::Weights, ra) == 8);
+    assert!(offset_of!(Posterior, col) == 13);
+    assert!(offset_of!(Posterior, s) == 14);
 };
 
 /// The AVR kernel for `loc_core::fixed::{mle_with, mmse_with, estimate_with}`.
@@ -61,6 +70,12 @@ impl TermKernel for AvrTerm {
     #[inline(never)]
     fn column(sums: &mut [u32], job: &mut ColumnJob) {
         column(sums, job)
+    }
+
+    #[inline(never)]
+    fn posterior(sums: &[u32], col: u8, post: &mut Posterior) {
+        post.col = col;
+        posterior(sums, post)
     }
 }
 
@@ -578,6 +593,293 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             out("r13") _, out("r14") _, out("r15") _, out("r16") _, out("r17") _,
             out("r18") _, out("r19") _, out("r20") _, out("r21") _, out("r22") _,
             out("r23") _, out("r24") _, out("r25") _,
+        );
+    }
+}
+
+/// [`loc_core::fixed::portable_posterior`]`(sums, post.col, post)`, exactly (for `sums.len() ≤
+/// 255`, and weights as the searches set them up: `span >> ra < 2^16`, `ra ≤ 16`): one routine
+/// instead of ≈ 1.2 KB of LLVM's AVR code for the row loop, `2^−y` and the rescaling.
+///
+/// Register plan: the [`Posterior`] in Y (saved on the stack; its `col` the column offset), X
+/// walks the sums, r3 the row, r4 the rows, r7:r6 the exp2 table's flash address (an argument,
+/// not a field: the posterior is on the sink's deepest stack path), r2 zero; a cost, excess or
+/// weight in r25:r22. Subroutines: 40 the weight's
+/// mantissa `m` (r25:r24, r23:r22 cleared; 0: no weight) and shift `int` (r16), so that the
+/// Q.26 weight is `(m << 16) >> (int + 5)` (`2^−y` as `exp2_neg_q26`: `y = (a·b mod 2^32) >>
+/// 11`, its segment from the flash table, the fraction's product `d·frac >> 11` as
+/// `(d·(frac << 5)) >> 16`); 50 r25:r22 >>= r16; 60 r25:r22 = r19:r18 × r21:r20; 70 `mul_hi`
+/// of the `u32` at Z by r15:r12 in place (Z += 4); 80 the `u32` at Z += r24:r22 × r17 (Z += 4).
+pub fn posterior(sums: &[u32], post: &mut Posterior) {
+    let rows = sums.len().min(255) as u8;
+    if rows == 0 {
+        return;
+    }
+    let table = (exp2_segment_table() as u16).to_le_bytes();
+    // SAFETY: X reads the first `rows` (1 to 255) sums; Y (saved on the stack and restored)
+    // points at `post`, whose `cref`, `s`, `sx` and `sy` are written (through Z = Y + 13) and
+    // whose other fields are read; `lpm` reads 4 bytes of the exp2 table (32 × 4 bytes in flash,
+    // at `table`, segment < 32 by construction). Only the declared registers, r0, r1 (left
+    // at 0), the flags, Y (restored) and four stack bytes (Y, then a return address at a time)
+    // are written.
+    unsafe {
+        asm!(
+            "push r28",
+            "push r29",
+            "movw r28, r30",
+            "clr r2",
+            "clr r3",
+            // ---- row r3: v = its cost; u32::MAX (a skipped row) weighs nothing ----
+            "1:",
+            "ld r22, X+",
+            "ld r23, X+",
+            "ld r24, X+",
+            "ld r25, X+",
+            "mov r0, r22",
+            "and r0, r23",
+            "and r0, r24",
+            "and r0, r25",
+            "inc r0",
+            "breq 9f",
+            // ---- e = v − cref ----
+            "ldd r18, Y+0",
+            "ldd r19, Y+1",
+            "ldd r20, Y+2",
+            "ldd r21, Y+3",
+            "sub r22, r18",
+            "sbc r23, r19",
+            "sbc r24, r20",
+            "sbc r25, r21",
+            "brcc 5f",
+            // ---- v < cref: v (= cref + e) the new reference, the sums so far × f, the
+            // weight of the drop −e as a Q.32 factor: min(W, 2^26 − 1) << 6 ----
+            "add r18, r22",
+            "adc r19, r23",
+            "adc r20, r24",
+            "adc r21, r25",
+            "std Y+0, r18",
+            "std Y+1, r19",
+            "std Y+2, r20",
+            "std Y+3, r21",
+            "com r25",
+            "com r24",
+            "com r23",
+            "neg r22",
+            "sbci r23, 0xFF",
+            "sbci r24, 0xFF",
+            "sbci r25, 0xFF",
+            "rcall 40f",
+            // W << 6 = ((m << 16) >> (int − 1)) with the low 6 bits cleared; for int = 0,
+            // m << 17, which overflows only for W = 2^26 (then (2^26 − 1) << 6).
+            "subi r16, 1",
+            "brcc 2f",
+            "lsl r24",
+            "rol r25",
+            "brcc 3f",
+            "ldi r22, 0xC0",
+            "ldi r23, 0xFF",
+            "ldi r24, 0xFF",
+            "ldi r25, 0xFF",
+            "rjmp 3f",
+            "2:",
+            "rcall 50f",
+            "andi r22, 0xC0",
+            "3:",
+            "movw r12, r22",
+            "movw r14, r24",
+            "movw r30, r28",
+            "adiw r30, 14",
+            "rcall 70f",
+            "rcall 70f",
+            "rcall 70f",
+            "clr r22",
+            "clr r23",
+            "movw r24, r22",
+            // ---- w = W >> 6 (Q.20; none: next row); s += w, sx += w·col, sy += w·row ----
+            "5:",
+            "rcall 40f",
+            "tst r25",
+            "breq 9f",
+            "subi r16, -11",
+            "rcall 50f",
+            "movw r30, r28",
+            "adiw r30, 14",
+            "ldi r17, 1",
+            "rcall 80f",
+            "ldd r17, Y+13",
+            "rcall 80f",
+            "mov r17, r3",
+            "rcall 80f",
+            // ---- next row ----
+            "9:",
+            "inc r3",
+            "cp r3, r4",
+            "brsh 10f",
+            "rjmp 1b",
+            "10:",
+            "pop r29",
+            "pop r28",
+            "clr r1",
+            "rjmp 99f",
+            // ---- 40: the weight of the excess r25:r22: 0 from span on ----
+            "40:",
+            "ldd r18, Y+4",
+            "ldd r19, Y+5",
+            "ldd r20, Y+6",
+            "ldd r21, Y+7",
+            "cp r22, r18",
+            "cpc r23, r19",
+            "cpc r24, r20",
+            "cpc r25, r21",
+            "brsh 48f",
+            // a = e >> ra (< 2^16); P = a·b mod 2^32 in r25:r22
+            "ldd r16, Y+12",
+            "rcall 50f",
+            "movw r18, r22",
+            "ldd r20, Y+10",
+            "ldd r21, Y+11",
+            "rcall 60f",
+            "movw r30, r22",
+            "ldd r20, Y+8",
+            "ldd r21, Y+9",
+            "rcall 60f",
+            "add r24, r30",
+            "adc r25, r31",
+            // y = P >> 11: int = P >> 27 (from 27 on: no weight)
+            "mov r16, r25",
+            "lsr r16",
+            "lsr r16",
+            "lsr r16",
+            "cpi r16, 27",
+            "brsh 48f",
+            // P << 2: the fraction × 2^5 in r24:r23 (bits 6..10 cleared), 4·segment from r25
+            "lsl r23",
+            "rol r24",
+            "rol r25",
+            "lsl r23",
+            "rol r24",
+            "rol r25",
+            "andi r23, 0xE0",
+            "andi r25, 0x1F",
+            "lsl r25",
+            "lsl r25",
+            "movw r30, r6",
+            "add r30, r25",
+            "adc r31, r2",
+            "lpm r14, Z+",
+            "lpm r15, Z+",
+            "lpm r20, Z+",
+            "lpm r21, Z",
+            "mov r18, r23",
+            "mov r19, r24",
+            "rcall 60f",
+            // m = v − (d·frac >> 11)
+            "sub r14, r24",
+            "sbc r15, r25",
+            "movw r24, r14",
+            "clr r22",
+            "clr r23",
+            "ret",
+            "48:",
+            "clr r16",
+            "clr r22",
+            "clr r23",
+            "movw r24, r22",
+            "ret",
+            // ---- 50: r25:r22 >>= r16 (bytes, then bits) ----
+            "50:",
+            "cpi r16, 8",
+            "brlo 51f",
+            "mov r22, r23",
+            "mov r23, r24",
+            "mov r24, r25",
+            "clr r25",
+            "subi r16, 8",
+            "rjmp 50b",
+            "51:",
+            "subi r16, 1",
+            "brcs 52f",
+            "lsr r25",
+            "ror r24",
+            "ror r23",
+            "ror r22",
+            "rjmp 51b",
+            "52:",
+            "ret",
+            // ---- 60: r25:r22 = r19:r18 × r21:r20 (inputs kept) ----
+            "60:",
+            "mul r18, r20",
+            "movw r22, r0",
+            "mul r19, r21",
+            "movw r24, r0",
+            "mul r18, r21",
+            "add r23, r0",
+            "adc r24, r1",
+            "adc r25, r2",
+            "mul r19, r20",
+            "add r23, r0",
+            "adc r24, r1",
+            "adc r25, r2",
+            "ret",
+            // ---- 70: u32 at Z = ah·fh + (ah·fl >> 16) + (al·fh >> 16), f = r15:r12 ----
+            "70:",
+            "ld r18, Z",
+            "ldd r19, Z+1",
+            "movw r20, r14",
+            "rcall 60b",
+            "movw r16, r24",
+            "clr r11",
+            "ldd r18, Z+2",
+            "ldd r19, Z+3",
+            "movw r20, r12",
+            "rcall 60b",
+            "add r16, r24",
+            "adc r17, r25",
+            "adc r11, r2",
+            "movw r20, r14",
+            "rcall 60b",
+            "add r22, r16",
+            "adc r23, r17",
+            "adc r24, r11",
+            "adc r25, r2",
+            "st Z+, r22",
+            "st Z+, r23",
+            "st Z+, r24",
+            "st Z+, r25",
+            "ret",
+            // ---- 80: u32 at Z += r24:r22 × r17 ----
+            "80:",
+            "ld r18, Z",
+            "ldd r19, Z+1",
+            "ldd r20, Z+2",
+            "ldd r21, Z+3",
+            "mul r22, r17",
+            "add r18, r0",
+            "adc r19, r1",
+            "adc r20, r2",
+            "adc r21, r2",
+            "mul r23, r17",
+            "add r19, r0",
+            "adc r20, r1",
+            "adc r21, r2",
+            "mul r24, r17",
+            "add r20, r0",
+            "adc r21, r1",
+            "st Z+, r18",
+            "st Z+, r19",
+            "st Z+, r20",
+            "st Z+, r21",
+            "ret",
+            "99:",
+            inout("X") sums.as_ptr() => _,
+            inout("Z") post as *mut Posterior => _,
+            inout("r4") rows => _,
+            in("r6") table[0],
+            in("r7") table[1],
+            out("r2") _, out("r3") _, out("r11") _, out("r12") _, out("r13") _,
+            out("r14") _, out("r15") _, out("r16") _, out("r17") _, out("r18") _,
+            out("r19") _, out("r20") _, out("r21") _, out("r22") _, out("r23") _,
+            out("r24") _, out("r25") _,
         );
     }
 }
