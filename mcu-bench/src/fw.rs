@@ -354,8 +354,51 @@ fn posterior_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
     (bad, cols)
 }
 
+/// The posterior weights' setup: the assembly routine against `portable_weights` for `|K|`
+/// (Q.26) over all magnitudes (flat ones below 2^10 included) and σ anywhere in `u16` (0 and from
+/// 181 dB on, where σ² reaches 2^31, included); returns (mismatches, setups checked).
+#[inline(never)]
+fn weights_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
+    use loc_core::fixed::{TermKernel, Weights};
+    let (mut bad, n) = (0u32, black_box(5_000u32));
+    for _ in 0..n {
+        let mut next = || {
+            *r ^= *r << 13;
+            *r ^= *r >> 17;
+            *r ^= *r << 5;
+            *r
+        };
+        let (a, b) = (next(), next());
+        let k26 = b >> (a % 32);
+        let sigma = match (a >> 8) % 8 {
+            0 => 0,
+            1 => (b >> 16) as u16 | 0xB500,
+            _ => (b >> 16) as u16 >> ((a >> 12) % 16),
+        };
+        let want = loc_core::fixed::portable_weights(black_box(k26), sigma);
+        let mut got = Weights::ZERO;
+        uno_board::AvrTerm::weights(black_box(k26), sigma, &mut got);
+        if want != got {
+            bad += 1;
+            if bad <= 5 {
+                serial.write_bytes(b"badwts");
+                for v in [k26, sigma as u32, want.span, got.span, want.b, got.b] {
+                    serial.write_byte(b' ');
+                    write_u32(serial, v);
+                }
+                for v in [want.ra, got.ra] {
+                    serial.write_byte(b' ');
+                    write_u32(serial, v as u32);
+                }
+                serial.write_byte(b'\n');
+            }
+        }
+    }
+    (bad, n)
+}
+
 /// Compares `uno_board::AvrTerm` with `loc_core::fixed::{portable_term, portable_column,
-/// portable_posterior}`; see `kernel-check`.
+/// portable_posterior, portable_weights}`; see `kernel-check`.
 pub fn kernel_check() -> ! {
     use loc_core::fixed::{portable_term, TermKernel};
     let Some(board) = Board::take() else {
@@ -395,6 +438,12 @@ pub fn kernel_check() -> ! {
     let (bad, cols) = posterior_check(&mut serial, &mut r);
     serial.write_bytes(b"posterior ");
     write_u32(&mut serial, cols);
+    serial.write_byte(b' ');
+    write_u32(&mut serial, bad);
+    serial.write_byte(b'\n');
+    let (bad, n) = weights_check(&mut serial, &mut r);
+    serial.write_bytes(b"weights ");
+    write_u32(&mut serial, n);
     serial.write_byte(b' ');
     write_u32(&mut serial, bad);
     serial.write_bytes(b"\nend\n");

@@ -23,7 +23,7 @@
 //! loop inlined into its one caller (a frame fewer).
 
 use super::kernel::{
-    log2_segment_base, mul_hi, ColumnJob, Portable, Posterior, TermKernel, Weights, I24,
+    div_shl, log2_segment_base, mul_hi, ColumnJob, Portable, Posterior, TermKernel, Weights, I24,
 };
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
@@ -49,10 +49,6 @@ const LOG2_M2: i32 = 25_769_201;
 const LOG2_CLAMP: i32 = 11_836_024;
 /// `5·log10(2)`, Q.31.
 const FIVE_LOG10_2_Q31: u32 = 3_232_284_966;
-/// `log2(e)`, Q.31.
-const LOG2_E_Q31: u32 = 3_098_164_009;
-/// Posterior weights end at `2^−Y_CUT` of the largest (they are Q.20: smaller ones are 0).
-const Y_CUT: u32 = 21;
 
 /// Which estimator produced a fixed-point fix.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -119,25 +115,6 @@ fn snap(s: i32, side: i32, sw: i32) -> usize {
         v += 2 * t;
     }
     c
-}
-
-/// `⌊a·2^e / b⌋` for `1 ≤ b < 2^31`, saturating at `u32::MAX` (one 32-bit division, then a bit
-/// per step).
-#[inline(never)]
-fn div_shl(a: u32, b: u32, e: u32) -> u32 {
-    let (mut q, mut r) = (a / b, a % b);
-    for _ in 0..e {
-        if q >> 31 != 0 {
-            return u32::MAX;
-        }
-        q <<= 1;
-        r <<= 1;
-        if r >= b {
-            r -= b;
-            q |= 1;
-        }
-    }
-    q
 }
 
 /// A lattice point and its cost.
@@ -434,7 +411,7 @@ impl<K: TermKernel> Grid<K> {
     /// [`Grid::fine`] without the posterior, out of line (the MLE searches' copy).
     #[inline(never)]
     fn fine_mle(&mut self, best: &mut LatticeMin) {
-        self.fine::<false>(best, &mut Posterior::new(Weights::new(0, 0), 0));
+        self.fine::<false>(best, &mut Posterior::new(Weights::ZERO, 0));
     }
 
     fn multi_start(&mut self) -> LatticeMin {
@@ -616,57 +593,6 @@ pub fn mle_with<K: TermKernel>(
     Ok(g.finish(obs, area, None, m, Estimator::Mle(search), g.evals))
 }
 
-/// The posterior weights of a search: [`Weights`]' setup.
-///
-/// A weight is 0 from `y ≥` [`Y_CUT`], i.e. from `ΔC' ≥ span`; below it `ΔC'` is scaled below
-/// 2^16 (`a`) and `y = (a·b) >> 11` with one 32-bit multiply (`a·b ≤ Y_CUT·2^27`; y within
-/// `Y_CUT·2^−15` of exact).
-impl Weights {
-    /// For `|K|` (Q.26) and σ (Q.8 dB); a flat cost's (`K ≈ 0`) are all equal.
-    #[inline(never)]
-    fn new(k26: u32, sigma_q8: u16) -> Weights {
-        let mut w = Weights {
-            span: 1,
-            ra: 16,
-            b: 0,
-        };
-        if sigma_q8 == 0 {
-            return w;
-        }
-        w.span = INF;
-        if k26 < 1 << 10 {
-            return w;
-        }
-        // K² normalised (kk ∈ [2^30, 2^32) = K²·2^(20 + 2z)), then p = K²·log2(e)·2^(18 + 2z).
-        let (mut kn, mut z) = (k26, 0);
-        while kn >> 31 == 0 {
-            kn <<= 1;
-            z += 1;
-        }
-        let p = mul_hi(mul_hi(kn, kn), LOG2_E_Q31) >> 1;
-        // span = Y_CUT·2^16/β = Y_CUT·σ_q8²·2^(23 + 2z)/p.
-        let s2 = sigma_q8 as u32 * sigma_q8 as u32;
-        w.span = div_shl(s2, p / Y_CUT, 23 + 2 * z).clamp(1, COST_MAX);
-        w.ra = 0;
-        while w.span >> w.ra > 0xFFFF {
-            w.ra += 1;
-        }
-        // b = β·2^(11 + ra) = p·2^(4 + ra − 2z)/σ_q8² (a·b ≤ Y_CUT·2^27 below span).
-        let mut e = 4 + w.ra as i32 - 2 * z as i32;
-        let (mut num, mut den) = (p, s2);
-        if den >> 31 != 0 {
-            den >>= 1;
-            e -= 1;
-        }
-        if e < 0 {
-            num = num.checked_shr(-e as u32).unwrap_or(0);
-            e = 0;
-        }
-        w.b = div_shl(num, den, e as u32);
-        w
-    }
-}
-
 impl Posterior {
     /// The posterior mean of a window whose first point is `(i0, j0)`, mm, into `pos` (left
     /// as it is if no weight; in place: a returned point is a stack copy on AVR).
@@ -708,7 +634,8 @@ pub fn mmse_with<K: TermKernel>(
     let mut g = Grid::<K>::EMPTY;
     g.setup(obs, model, area);
     let mut best = g.thesis();
-    let wts = Weights::new(g.k26, sigma);
+    let mut wts = Weights::ZERO;
+    K::weights(g.k26, sigma, &mut wts);
     let mut cref = best.cost;
     // Σw (< 2^32), Σw·i and Σw·j (< 2^38), relative to `cref`.
     let (mut s, mut sx, mut sy) = (0u64, 0u64, 0u64);
@@ -809,7 +736,8 @@ pub fn mle_and_mmse_window_into<K: TermKernel>(
     let mut g = Grid::<K>::EMPTY;
     g.setup(obs, model, area);
     let mut best = g.coarse();
-    let mut post = Posterior::new(Weights::new(g.k26, sigma), best.cost);
+    let mut post = Posterior::new(Weights::ZERO, best.cost);
+    K::weights(g.k26, sigma, &mut post.wts);
     let mle_evals = g.fine::<true>(&mut best, &mut post);
     let [mle, mmse] = out;
     *mle = g.finish(

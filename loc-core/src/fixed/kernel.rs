@@ -43,6 +43,17 @@ pub trait TermKernel {
     {
         portable_posterior(sums, col, post)
     }
+
+    /// The posterior weights for `|K|` (Q.26) and σ (Q.8 dB) into `out`: exactly
+    /// [`portable_weights`]`(k26, sigma_q8)` (the default). (In place: on AVR a returned struct
+    /// is a stack copy.)
+    #[inline(always)]
+    fn weights(k26: u32, sigma_q8: u16, out: &mut Weights)
+    where
+        Self: Sized,
+    {
+        *out = portable_weights(k26, sigma_q8)
+    }
 }
 
 /// A 24-bit two's-complement integer, 3 bytes little endian: an [`AnchorTerm`]'s offsets (the
@@ -193,6 +204,13 @@ pub struct Weights {
 }
 
 impl Weights {
+    /// All zero: storage for [`TermKernel::weights`] (zeroed memory, not a copy from flash).
+    pub const ZERO: Weights = Weights {
+        span: 0,
+        b: 0,
+        ra: 0,
+    };
+
     /// Weight (Q.26) of a cost excess over the reference. (Out of line: one copy of the
     /// `2^−y` evaluation in flash.)
     #[inline(never)]
@@ -203,6 +221,79 @@ impl Weights {
         let a = excess >> self.ra;
         exp2_neg_q26(a.wrapping_mul(self.b) >> 11)
     }
+}
+
+/// `log2(e)`, Q.31.
+const LOG2_E_Q31: u32 = 3_098_164_009;
+/// Posterior weights end at `2^−Y_CUT` of the largest (they are Q.20: smaller ones are 0).
+const Y_CUT: u32 = 21;
+
+/// The reference of [`TermKernel::weights`]: the [`Weights`] for `|K|` (Q.26) and σ (Q.8 dB);
+/// a flat cost's (`K < 2^−16`) are all equal, σ = 0's weigh only the minimisers.
+///
+/// A weight is 0 from `y ≥` [`Y_CUT`], i.e. from `ΔC' ≥ span`; below it `ΔC'` is scaled below
+/// 2^16 (`a`) and `y = (a·b) >> 11` with one 32-bit multiply (`a·b ≤ Y_CUT·2^27`; y within
+/// `Y_CUT·2^−15` of exact).
+#[inline(never)]
+pub fn portable_weights(k26: u32, sigma_q8: u16) -> Weights {
+    let mut w = Weights {
+        span: 1,
+        ra: 16,
+        b: 0,
+    };
+    if sigma_q8 == 0 {
+        return w;
+    }
+    w.span = u32::MAX;
+    if k26 < 1 << 10 {
+        return w;
+    }
+    // K² normalised (kk ∈ [2^30, 2^32) = K²·2^(20 + 2z)), then p = K²·log2(e)·2^(18 + 2z).
+    let (mut kn, mut z) = (k26, 0);
+    while kn >> 31 == 0 {
+        kn <<= 1;
+        z += 1;
+    }
+    let p = mul_hi(mul_hi(kn, kn), LOG2_E_Q31) >> 1;
+    // span = Y_CUT·2^16/β = Y_CUT·σ_q8²·2^(23 + 2z)/p.
+    let s2 = sigma_q8 as u32 * sigma_q8 as u32;
+    w.span = div_shl(s2, p / Y_CUT, 23 + 2 * z).clamp(1, u32::MAX - 1);
+    w.ra = 0;
+    while w.span >> w.ra > 0xFFFF {
+        w.ra += 1;
+    }
+    // b = β·2^(11 + ra) = p·2^(4 + ra − 2z)/σ_q8² (a·b ≤ Y_CUT·2^27 below span).
+    let mut e = 4 + w.ra as i32 - 2 * z as i32;
+    let (mut num, mut den) = (p, s2);
+    if den >> 31 != 0 {
+        den >>= 1;
+        e -= 1;
+    }
+    if e < 0 {
+        num = num.checked_shr(-e as u32).unwrap_or(0);
+        e = 0;
+    }
+    w.b = div_shl(num, den, e as u32);
+    w
+}
+
+/// `⌊a·2^e / b⌋` for `1 ≤ b < 2^31`, saturating at `u32::MAX` (one 32-bit division, then a bit
+/// per step).
+#[inline(never)]
+pub(crate) fn div_shl(a: u32, b: u32, e: u32) -> u32 {
+    let (mut q, mut r) = (a / b, a % b);
+    for _ in 0..e {
+        if q >> 31 != 0 {
+            return u32::MAX;
+        }
+        q <<= 1;
+        r <<= 1;
+        if r >= b {
+            r -= b;
+            q |= 1;
+        }
+    }
+    q
 }
 
 /// A window's posterior sums (≤ 11 × 11 points, offsets from its first column and row), for

@@ -114,8 +114,8 @@ pub use grid::{
 };
 pub use kernel::{
     exp2_segment_table, log2_segment_base, log2_segment_table, offset_square, portable_column,
-    portable_posterior, portable_term, AnchorTerm, ColumnJob, Portable, Posterior, TermKernel,
-    Weights, I24, SQ_SAT, U_SAT,
+    portable_posterior, portable_term, portable_weights, AnchorTerm, ColumnJob, Portable,
+    Posterior, TermKernel, Weights, I24, SQ_SAT, U_SAT,
 };
 pub use params::{
     distance_x, fit, fit_grid, fit_least_squares, Ar1, Bounds, CalStats, OnlineParams, ParamFit,
