@@ -397,8 +397,43 @@ fn weights_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
     (bad, n)
 }
 
+/// The searches' division: the assembly `div_shl` against the portable one for `a` and `1 ≤ b <
+/// 2^31` over all magnitudes and `e` from 0 to 80 (the searches use up to 65), saturating
+/// results included; returns (mismatches, divisions checked).
+#[inline(never)]
+fn div_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
+    use loc_core::fixed::TermKernel;
+    let (mut bad, n) = (0u32, black_box(5_000u32));
+    for _ in 0..n {
+        let mut next = || {
+            *r ^= *r << 13;
+            *r ^= *r >> 17;
+            *r ^= *r << 5;
+            *r
+        };
+        let (x, y, z) = (next(), next(), next());
+        let a = x >> (z % 32);
+        let b = ((y >> 1) >> ((z >> 8) % 31)).max(1);
+        let e = (z >> 16) % 81;
+        let want = loc_core::fixed::div_shl(black_box(a), b, e);
+        let got = uno_board::AvrTerm::div_shl(black_box(a), b, e);
+        if want != got {
+            bad += 1;
+            if bad <= 5 {
+                serial.write_bytes(b"baddiv");
+                for v in [a, b, e, want, got] {
+                    serial.write_byte(b' ');
+                    write_u32(serial, v);
+                }
+                serial.write_byte(b'\n');
+            }
+        }
+    }
+    (bad, n)
+}
+
 /// Compares `uno_board::AvrTerm` with `loc_core::fixed::{portable_term, portable_column,
-/// portable_posterior, portable_weights}`; see `kernel-check`.
+/// portable_posterior, portable_weights, div_shl}`; see `kernel-check`.
 pub fn kernel_check() -> ! {
     use loc_core::fixed::{portable_term, TermKernel};
     let Some(board) = Board::take() else {
@@ -443,6 +478,12 @@ pub fn kernel_check() -> ! {
     serial.write_byte(b'\n');
     let (bad, n) = weights_check(&mut serial, &mut r);
     serial.write_bytes(b"weights ");
+    write_u32(&mut serial, n);
+    serial.write_byte(b' ');
+    write_u32(&mut serial, bad);
+    serial.write_byte(b'\n');
+    let (bad, n) = div_check(&mut serial, &mut r);
+    serial.write_bytes(b"div_shl ");
     write_u32(&mut serial, n);
     serial.write_byte(b' ');
     write_u32(&mut serial, bad);

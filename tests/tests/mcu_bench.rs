@@ -245,7 +245,8 @@ fn baseline_runs_the_same_markers() {
 /// assembly, what the sink runs) returns exactly `loc_core::fixed::portable_term`'s value on the
 /// MCU (edge cases and 50 000 random inputs), leaves exactly `portable_column`'s sums (5 000
 /// random columns) and `portable_posterior`'s reference and sums (5 000 random columns), and
-/// sets the weights up exactly as `portable_weights` (5 000 random `K`, σ).
+/// sets the weights up exactly as `portable_weights` (5 000 random `K`, σ) and divides exactly as
+/// `div_shl` (5 000 random divisions).
 #[test]
 fn avr_cost_kernel_equals_the_portable_one() {
     if let Err(e) = BUILD.get_or_init(harness::build) {
@@ -260,4 +261,5 @@ fn avr_cost_kernel_equals_the_portable_one() {
     assert!(out.contains("column 5000 0\n"), "{out}");
     assert!(out.contains("posterior 5000 0\n"), "{out}");
     assert!(out.contains("weights 5000 0\n"), "{out}");
+    assert!(out.contains("div_shl 5000 0\n"), "{out}");
 }

@@ -23,7 +23,7 @@
 //! loop inlined into its one caller (a frame fewer).
 
 use super::kernel::{
-    div_shl, log2_segment_base, mul_hi, ColumnJob, Portable, Posterior, TermKernel, Weights, I24,
+    log2_segment_base, mul_hi, ColumnJob, Portable, Posterior, TermKernel, Weights, I24,
 };
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
@@ -193,7 +193,7 @@ impl<K: TermKernel> Grid<K> {
         let inv_k = if flat {
             0
         } else {
-            div_shl(1 << 30, k26 >> 1, 25)
+            K::div_shl(1 << 30, k26 >> 1, 25)
         };
         let g = self;
         (g.k26, g.p0) = (k26, model.p0);
@@ -597,13 +597,13 @@ impl Posterior {
     /// The posterior mean of a window whose first point is `(i0, j0)`, mm, into `pos` (left
     /// as it is if no weight; in place: a returned point is a stack copy on AVR).
     #[inline(never)]
-    fn mean(&self, area: AreaCm, i0: usize, j0: usize, pos: &mut PointMm) {
+    fn mean<K: TermKernel>(&self, area: AreaCm, i0: usize, j0: usize, pos: &mut PointMm) {
         if self.s == 0 {
             return;
         }
         // The mean offset Σw·k/Σw in Q.12 (≤ 10 steps).
-        pos.x = to_mm(area.width, i0, div_shl(self.sx, self.s, 12));
-        pos.y = to_mm(area.height, j0, div_shl(self.sy, self.s, 12));
+        pos.x = to_mm(area.width, i0, K::div_shl(self.sx, self.s, 12));
+        pos.y = to_mm(area.height, j0, K::div_shl(self.sy, self.s, 12));
     }
 }
 
@@ -750,7 +750,7 @@ pub fn mle_and_mmse_window_into<K: TermKernel>(
     );
     // The same lattice point and cost; its own position, estimator and evaluations.
     *mmse = *mle;
-    post.mean(area, g.i0, g.j0, &mut mmse.pos);
+    post.mean::<K>(area, g.i0, g.j0, &mut mmse.pos);
     mmse.estimator = Estimator::MmseWindow { sigma };
     mmse.evaluations = g.evals as u16;
     Ok(())

@@ -54,6 +54,16 @@ pub trait TermKernel {
     {
         *out = portable_weights(k26, sigma_q8)
     }
+
+    /// `⌊a·2^e / b⌋` for `1 ≤ b < 2^31` and `e ≤ 255`, saturating: exactly [`div_shl`]`(a, b,
+    /// e)` (the default; the searches' one division).
+    #[inline(always)]
+    fn div_shl(a: u32, b: u32, e: u32) -> u32
+    where
+        Self: Sized,
+    {
+        div_shl(a, b, e)
+    }
 }
 
 /// A 24-bit two's-complement integer, 3 bytes little endian: an [`AnchorTerm`]'s offsets (the
@@ -280,7 +290,7 @@ pub fn portable_weights(k26: u32, sigma_q8: u16) -> Weights {
 /// `⌊a·2^e / b⌋` for `1 ≤ b < 2^31`, saturating at `u32::MAX` (one 32-bit division, then a bit
 /// per step).
 #[inline(never)]
-pub(crate) fn div_shl(a: u32, b: u32, e: u32) -> u32 {
+pub fn div_shl(a: u32, b: u32, e: u32) -> u32 {
     let (mut q, mut r) = (a / b, a % b);
     for _ in 0..e {
         if q >> 31 != 0 {

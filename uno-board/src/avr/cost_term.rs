@@ -82,6 +82,11 @@ impl TermKernel for AvrTerm {
     fn weights(k26: u32, sigma_q8: u16, out: &mut Weights) {
         weights(k26, sigma_q8, out)
     }
+
+    #[inline(never)]
+    fn div_shl(a: u32, b: u32, e: u32) -> u32 {
+        div_shl(a, b, e as u8)
+    }
 }
 
 /// `(ρ + max(log2 n, clamp))²` (Q.20, saturated) of `n` = r15:r12 plus `2^32·T` (the T flag),
@@ -1151,4 +1156,62 @@ pub fn weights(k26: u32, sigma_q8: u16, w: &mut Weights) {
             out("r17") _, out("r18") _, out("r19") _, out("X") _,
         );
     }
+}
+
+/// [`loc_core::fixed::div_shl`]`(a, b, e)`, exactly: libgcc's `__udivmodsi4` (the quotient in
+/// r21:r18, the remainder in r25:r22; it clobbers X, Z and r1, which it leaves 0), then a bit
+/// per step, `b` kept in r15:r12.
+pub fn div_shl(a: u32, b: u32, e: u8) -> u32 {
+    let [a0, a1, a2, a3] = a.to_le_bytes();
+    let [mut q0, mut q1, mut q2, mut q3] = b.to_le_bytes();
+    // SAFETY: registers only (the declared ones, r1 left 0 by `__udivmodsi4`, the flags, and a
+    // return address on the stack).
+    unsafe {
+        asm!(
+            "movw r12, r18",
+            "movw r14, r20",
+            "call __udivmodsi4",
+            "1:",
+            "subi r16, 1",
+            "brcs 4f",
+            "sbrc r21, 7",
+            "rjmp 3f",
+            "lsl r18",
+            "rol r19",
+            "rol r20",
+            "rol r21",
+            "lsl r22",
+            "rol r23",
+            "rol r24",
+            "rol r25",
+            "cp r22, r12",
+            "cpc r23, r13",
+            "cpc r24, r14",
+            "cpc r25, r15",
+            "brlo 1b",
+            "sub r22, r12",
+            "sbc r23, r13",
+            "sbc r24, r14",
+            "sbc r25, r15",
+            "ori r18, 1",
+            "rjmp 1b",
+            "3:",
+            "ldi r18, 0xFF",
+            "ldi r19, 0xFF",
+            "ldi r20, 0xFF",
+            "ldi r21, 0xFF",
+            "4:",
+            inout("r22") a0 => _,
+            inout("r23") a1 => _,
+            inout("r24") a2 => _,
+            inout("r25") a3 => _,
+            inout("r18") q0,
+            inout("r19") q1,
+            inout("r20") q2,
+            inout("r21") q3,
+            inout("r16") e => _,
+            out("r12") _, out("r13") _, out("r14") _, out("r15") _, out("X") _, out("Z") _,
+        );
+    }
+    u32::from_le_bytes([q0, q1, q2, q3])
 }
