@@ -596,15 +596,20 @@ pub fn mle_with<K: TermKernel>(
 impl Posterior {
     /// The posterior mean of a window whose first point is `(i0, j0)`, mm, into `pos` (left
     /// as it is if no weight; in place: a returned point is a stack copy on AVR).
-    #[inline(never)]
     fn mean<K: TermKernel>(&self, area: AreaCm, i0: usize, j0: usize, pos: &mut PointMm) {
         if self.s == 0 {
             return;
         }
-        // The mean offset Σw·k/Σw in Q.12 (≤ 10 steps).
-        pos.x = to_mm(area.width, i0, K::div_shl(self.sx, self.s, 12));
-        pos.y = to_mm(area.height, j0, K::div_shl(self.sy, self.s, 12));
+        pos.x = mean_mm::<K>(area.width, i0, self.sx, self.s);
+        pos.y = mean_mm::<K>(area.height, j0, self.sy, self.s);
     }
+}
+
+/// One coordinate of a posterior mean, mm: first index `o` plus the mean offset `Σw·k/Σw` (Q.12,
+/// ≤ 10 steps) along a side of `side` cm. (Out of line: one copy for both coordinates.)
+#[inline(never)]
+fn mean_mm<K: TermKernel>(side: u16, o: usize, swk: u32, sw: u32) -> u32 {
+    to_mm(side, o, K::div_shl(swk, sw, 12))
 }
 
 /// Posterior-mean position of `obs` under `model` within `area` with shadowing σ (Q.8 dB).
