@@ -83,9 +83,9 @@ impl TermKernel for AvrTerm {
         weights(k26, sigma_q8, out)
     }
 
-    #[inline(never)]
+    #[inline(always)]
     fn div_shl(a: u32, b: u32, e: u32) -> u32 {
-        div_shl(a, b, e as u8)
+        div_shl_c(a, b, e as u8)
     }
 }
 
@@ -898,9 +898,8 @@ pub fn posterior(sums: &[u32], post: &mut Posterior) {
 ///
 /// Register plan: the [`Weights`] in Y (saved on the stack; `b`'s bytes hold σ² until `b` is
 /// known), `k26 << z` then `p` in r11:r8, `z` in r17, r2 zero. Subroutines: 60 r25:r22 = r19:r18
-/// × r21:r20; 70 r25:r22 = `mul_hi(r11:r8, r15:r12)` (the same three products as `mul_hi`); 80
-/// r25:r22 = `div_shl(r25:r22, r21:r18, r16)` through libgcc's `__udivmodsi4` (quotient in
-/// r21:r18, remainder in r25:r22; it clobbers X, Z and r1, which it leaves 0).
+/// × r21:r20; 70 r25:r22 = `mul_hi(r11:r8, r15:r12)` (the same three products as `mul_hi`); and
+/// [`div_shl_c`] (the C ABI; it writes only r0, r1 (left 0), X, Z and r25:r22).
 pub fn weights(k26: u32, sigma_q8: u16, w: &mut Weights) {
     let [k0, k1, k2, k3] = k26.to_le_bytes();
     let [s0, s1] = sigma_q8.to_le_bytes();
@@ -996,7 +995,7 @@ pub fn weights(k26: u32, sigma_q8: u16, w: &mut Weights) {
             "mov r16, r17",
             "lsl r16",
             "subi r16, -23",
-            "rcall 80f",
+            "call {div}",
             "cp r22, r2",
             "cpc r23, r2",
             "cpc r24, r2",
@@ -1058,7 +1057,7 @@ pub fn weights(k26: u32, sigma_q8: u16, w: &mut Weights) {
             "inc r16",
             "brne 9b",
             "10:",
-            "rcall 80f",
+            "call {div}",
             "std Y+4, r22",
             "std Y+5, r23",
             "std Y+6, r24",
@@ -1104,45 +1103,6 @@ pub fn weights(k26: u32, sigma_q8: u16, w: &mut Weights) {
             "adc r24, r30",
             "adc r25, r2",
             "ret",
-            // ---- 80: r25:r22 = ⌊a·2^e / b⌋ (u32::MAX on overflow), a = r25:r22, b = r21:r18,
-            // e = r16 ----
-            "80:",
-            "movw r12, r18",
-            "movw r14, r20",
-            "call __udivmodsi4",
-            "81:",
-            "subi r16, 1",
-            "brcs 84f",
-            "sbrc r21, 7",
-            "rjmp 83f",
-            "lsl r18",
-            "rol r19",
-            "rol r20",
-            "rol r21",
-            "lsl r22",
-            "rol r23",
-            "rol r24",
-            "rol r25",
-            "cp r22, r12",
-            "cpc r23, r13",
-            "cpc r24, r14",
-            "cpc r25, r15",
-            "brlo 81b",
-            "sub r22, r12",
-            "sbc r23, r13",
-            "sbc r24, r14",
-            "sbc r25, r15",
-            "ori r18, 1",
-            "rjmp 81b",
-            "83:",
-            "ldi r18, 0xFF",
-            "ldi r19, 0xFF",
-            "ldi r20, 0xFF",
-            "ldi r21, 0xFF",
-            "84:",
-            "movw r22, r18",
-            "movw r24, r20",
-            "ret",
             "99:",
             inout("Z") w as *mut Weights => _,
             inout("r22") k0 => _,
@@ -1154,64 +1114,68 @@ pub fn weights(k26: u32, sigma_q8: u16, w: &mut Weights) {
             out("r2") _, out("r8") _, out("r9") _, out("r10") _, out("r11") _,
             out("r12") _, out("r13") _, out("r14") _, out("r15") _, out("r16") _,
             out("r17") _, out("r18") _, out("r19") _, out("X") _,
+            div = sym div_shl_c,
         );
     }
 }
 
-/// [`loc_core::fixed::div_shl`]`(a, b, e)`, exactly: libgcc's `__udivmodsi4` (the quotient in
-/// r21:r18, the remainder in r25:r22; it clobbers X, Z and r1, which it leaves 0), then a bit
-/// per step, `b` kept in r15:r12.
-pub fn div_shl(a: u32, b: u32, e: u8) -> u32 {
-    let [a0, a1, a2, a3] = a.to_le_bytes();
-    let [mut q0, mut q1, mut q2, mut q3] = b.to_le_bytes();
-    // SAFETY: registers only (the declared ones, r1 left 0 by `__udivmodsi4`, the flags, and a
-    // return address on the stack).
-    unsafe {
-        asm!(
-            "movw r12, r18",
-            "movw r14, r20",
-            "call __udivmodsi4",
-            "1:",
-            "subi r16, 1",
-            "brcs 4f",
-            "sbrc r21, 7",
-            "rjmp 3f",
-            "lsl r18",
-            "rol r19",
-            "rol r20",
-            "rol r21",
-            "lsl r22",
-            "rol r23",
-            "rol r24",
-            "rol r25",
-            "cp r22, r12",
-            "cpc r23, r13",
-            "cpc r24, r14",
-            "cpc r25, r15",
-            "brlo 1b",
-            "sub r22, r12",
-            "sbc r23, r13",
-            "sbc r24, r14",
-            "sbc r25, r15",
-            "ori r18, 1",
-            "rjmp 1b",
-            "3:",
-            "ldi r18, 0xFF",
-            "ldi r19, 0xFF",
-            "ldi r20, 0xFF",
-            "ldi r21, 0xFF",
-            "4:",
-            inout("r22") a0 => _,
-            inout("r23") a1 => _,
-            inout("r24") a2 => _,
-            inout("r25") a3 => _,
-            inout("r18") q0,
-            inout("r19") q1,
-            inout("r20") q2,
-            inout("r21") q3,
-            inout("r16") e => _,
-            out("r12") _, out("r13") _, out("r14") _, out("r15") _, out("X") _, out("Z") _,
-        );
-    }
-    u32::from_le_bytes([q0, q1, q2, q3])
+/// [`loc_core::fixed::div_shl`]`(a, b, e)`, exactly (for `b < 2^31`): one restoring division of
+/// `a·2^e` by `b`, the remainder in Z:X, 32 steps (the quotient `a / b`, counted in r1) then
+/// `e` more (counted in r0), each first checking that the quotient's top bit is clear (else
+/// `u32::MAX`). The C ABI (`a` r25:r22, `b` r21:r18, `e` r16; the result in r25:r22), naked: it
+/// writes only r0, r1 (left 0: both loops count it down to 0), X, Z, r25:r22 and the flags, and
+/// [`weights`]' assembly calls it too. (Naked: an `asm!` block's bytes would be reassembled into
+/// a `u32` by ≈ 25 moves. Base instructions only: a naked function's assembly does not get the
+/// ATmega328P's `movw` and `mul`.)
+#[unsafe(naked)]
+pub extern "C" fn div_shl_c(a: u32, b: u32, e: u8) -> u32 {
+    core::arch::naked_asm!(
+        "mov r0, r16",
+        "ldi r26, 32",
+        "mov r1, r26",
+        "clr r26",
+        "clr r27",
+        "clr r30",
+        "clr r31",
+        // ---- a step: the 32 of a / b, then e more, each checking the quotient first ----
+        "1:",
+        "tst r1",
+        "brne 2f",
+        "tst r0",
+        "breq 4f",
+        "sbrc r25, 7",
+        "rjmp 3f",
+        "dec r0",
+        "inc r1",
+        // ---- (remainder:quotient) << 1; the remainder reaches b: subtract, quotient bit ----
+        "2:",
+        "lsl r22",
+        "rol r23",
+        "rol r24",
+        "rol r25",
+        "rol r26",
+        "rol r27",
+        "rol r30",
+        "rol r31",
+        "cp r26, r18",
+        "cpc r27, r19",
+        "cpc r30, r20",
+        "cpc r31, r21",
+        "brlo 5f",
+        "sub r26, r18",
+        "sbc r27, r19",
+        "sbc r30, r20",
+        "sbc r31, r21",
+        "ori r22, 1",
+        "5:",
+        "dec r1",
+        "rjmp 1b",
+        "3:",
+        "ldi r22, 0xFF",
+        "ldi r23, 0xFF",
+        "ldi r24, 0xFF",
+        "ldi r25, 0xFF",
+        "4:",
+        "ret",
+    )
 }
