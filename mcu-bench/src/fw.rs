@@ -432,8 +432,47 @@ fn div_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
     (bad, n)
 }
 
+/// The searches' `mul_hi`: the assembly one against the portable one for `a`, `b` over the
+/// whole range and over all magnitudes (both extremes included); returns (mismatches, products
+/// checked).
+#[inline(never)]
+fn mul_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
+    use loc_core::fixed::TermKernel;
+    let (mut bad, n) = (0u32, black_box(5_000u32));
+    for i in 0..n {
+        let mut next = || {
+            *r ^= *r << 13;
+            *r ^= *r >> 17;
+            *r ^= *r << 5;
+            *r
+        };
+        let (x, y, z) = (next(), next(), next());
+        let (a, b) = match i {
+            0 => (u32::MAX, u32::MAX),
+            1 => (0, u32::MAX),
+            // Half over the whole range (the high sums' carries), half over all magnitudes.
+            _ if z & 1 == 0 => (x, y),
+            _ => (x >> ((z >> 1) % 32), y >> ((z >> 8) % 32)),
+        };
+        let want = loc_core::fixed::mul_hi(black_box(a), b);
+        let got = uno_board::AvrTerm::mul_hi(black_box(a), b);
+        if want != got {
+            bad += 1;
+            if bad <= 5 {
+                serial.write_bytes(b"badmul");
+                for v in [a, b, want, got] {
+                    serial.write_byte(b' ');
+                    write_u32(serial, v);
+                }
+                serial.write_byte(b'\n');
+            }
+        }
+    }
+    (bad, n)
+}
+
 /// Compares `uno_board::AvrTerm` with `loc_core::fixed::{portable_term, portable_column,
-/// portable_posterior, portable_weights, div_shl}`; see `kernel-check`.
+/// portable_posterior, portable_weights, div_shl, mul_hi}`; see `kernel-check`.
 pub fn kernel_check() -> ! {
     use loc_core::fixed::{portable_term, TermKernel};
     let Some(board) = Board::take() else {
@@ -484,6 +523,12 @@ pub fn kernel_check() -> ! {
     serial.write_byte(b'\n');
     let (bad, n) = div_check(&mut serial, &mut r);
     serial.write_bytes(b"div_shl ");
+    write_u32(&mut serial, n);
+    serial.write_byte(b' ');
+    write_u32(&mut serial, bad);
+    serial.write_byte(b'\n');
+    let (bad, n) = mul_check(&mut serial, &mut r);
+    serial.write_bytes(b"mul_hi ");
     write_u32(&mut serial, n);
     serial.write_byte(b' ');
     write_u32(&mut serial, bad);

@@ -22,9 +22,7 @@
 //! written into the caller's storage (a by-value struct is a copy on AVR), the sink's window
 //! loop inlined into its one caller (a frame fewer).
 
-use super::kernel::{
-    log2_segment_base, mul_hi, ColumnJob, Portable, Posterior, TermKernel, Weights, I24,
-};
+use super::kernel::{log2_segment_base, ColumnJob, Portable, Posterior, TermKernel, Weights, I24};
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
 use crate::grid::{Search, COARSE_DIVS, FINE_DIVS};
@@ -184,7 +182,7 @@ impl<K: TermKernel> Grid<K> {
     fn setup(&mut self, obs: &Observations, model: PathLoss, area: AreaCm) {
         // |α| ≤ 32 (ALPHA_LIMIT, 2^29 in Q.24): Q.27 fits a u32; K < 48.2 in Q.26 too. (P0
         // needs no clamp: |z − P0| is limited below.)
-        let k26 = mul_hi(
+        let k26 = K::mul_hi(
             model.alpha.unsigned_abs().min(super::ALPHA_LIMIT as u32) << 3,
             FIVE_LOG10_2_Q31,
         );
@@ -206,7 +204,7 @@ impl<K: TermKernel> Grid<K> {
         for o in obs.as_slice() {
             let d = o.z.wrapping_sub(model.p0);
             // |z − P0| Q.16 (< 2^26) as Q.22, × 2^30/K → Q.20.
-            let r = mul_hi(d.unsigned_abs().min((1 << 26) - 1) << 6, inv_k).min(1 << 30) as i32;
+            let r = K::mul_hi(d.unsigned_abs().min((1 << 26) - 1) << 6, inv_k).min(1 << 30) as i32;
             let r = if (d < 0) != (model.alpha < 0) { -r } else { r };
             // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32.
             let rho = r - LOG2_M2;
@@ -532,7 +530,7 @@ impl<K: TermKernel> Grid<K> {
             s
         } else {
             // C = K²·C': K² Q.20 (< 2^32) × C' Q.20 → Q.8.
-            mul_hi(best.cost, mul_hi(self.k26, self.k26))
+            K::mul_hi(best.cost, K::mul_hi(self.k26, self.k26))
         };
         Estimate {
             pos: pos.unwrap_or(PointMm {

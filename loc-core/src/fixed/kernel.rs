@@ -64,6 +64,15 @@ pub trait TermKernel {
     {
         div_shl(a, b, e)
     }
+
+    /// `⌊a·b / 2^32⌋` within 2 below: exactly [`mul_hi`]`(a, b)` (the default).
+    #[inline(always)]
+    fn mul_hi(a: u32, b: u32) -> u32
+    where
+        Self: Sized,
+    {
+        mul_hi(a, b)
+    }
 }
 
 /// A 24-bit two's-complement integer, 3 bytes little endian: an [`AnchorTerm`]'s offsets (the
@@ -377,7 +386,7 @@ pub fn portable_posterior(sums: &[u32], col: u8, post: &mut Posterior) {
 
 /// `⌊a·b / 2^32⌋`, within 2 below, from three 16 × 16 products (no 64-bit arithmetic).
 #[inline(never)]
-pub(crate) fn mul_hi(a: u32, b: u32) -> u32 {
+pub fn mul_hi(a: u32, b: u32) -> u32 {
     let (ah, al, bh, bl) = (a >> 16, a & 0xFFFF, b >> 16, b & 0xFFFF);
     ah * bh + ((ah * bl) >> 16) + ((al * bh) >> 16)
 }

@@ -113,7 +113,7 @@ pub use grid::{
     mle_with, mmse, mmse_window, mmse_window_with, mmse_with, sink_fix, Estimate, Estimator,
 };
 pub use kernel::{
-    div_shl, exp2_segment_table, log2_segment_base, log2_segment_table, offset_square,
+    div_shl, exp2_segment_table, log2_segment_base, log2_segment_table, mul_hi, offset_square,
     portable_column, portable_posterior, portable_term, portable_weights, AnchorTerm, ColumnJob,
     Portable, Posterior, TermKernel, Weights, I24, SQ_SAT, U_SAT,
 };

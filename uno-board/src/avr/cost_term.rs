@@ -87,6 +87,11 @@ impl TermKernel for AvrTerm {
     fn div_shl(a: u32, b: u32, e: u32) -> u32 {
         div_shl_c(a, b, e as u8)
     }
+
+    #[inline(never)]
+    fn mul_hi(a: u32, b: u32) -> u32 {
+        mul_hi(a, b)
+    }
 }
 
 /// `(ρ + max(log2 n, clamp))²` (Q.20, saturated) of `n` = r15:r12 plus `2^32·T` (the T flag),
@@ -1178,4 +1183,74 @@ pub extern "C" fn div_shl_c(a: u32, b: u32, e: u8) -> u32 {
         "4:",
         "ret",
     )
+}
+
+/// [`loc_core::fixed::mul_hi`]`(a, b)`, exactly: `ah·bh + (ah·bl >> 16) + (al·bh >> 16)`, each
+/// 16 × 16 product from four `mul`s, in the argument registers and X, Z (no register to save).
+pub fn mul_hi(a: u32, b: u32) -> u32 {
+    let (mut lo, mut hi) = (a as u16, (a >> 16) as u16);
+    // SAFETY: registers only (the declared ones, r0, r1 (left 0) and the flags).
+    unsafe {
+        asm!(
+            "clr r27",
+            // ---- h1 = (al·bh) >> 16 in r31:r30 ----
+            "mul r23, r21",
+            "movw r30, r0",
+            "mul r22, r20",
+            "mov r26, r1",
+            "mul r22, r21",
+            "add r26, r0",
+            "adc r30, r1",
+            "adc r31, r27",
+            "mul r23, r20",
+            "add r26, r0",
+            "adc r30, r1",
+            "adc r31, r27",
+            // ---- h2 = (ah·bl) >> 16 in r23:r22 (al's) ----
+            "mul r25, r19",
+            "movw r22, r0",
+            "mul r24, r18",
+            "mov r26, r1",
+            "mul r24, r19",
+            "add r26, r0",
+            "adc r22, r1",
+            "adc r23, r27",
+            "mul r25, r18",
+            "add r26, r0",
+            "adc r22, r1",
+            "adc r23, r27",
+            // ---- h = h1 + h2 (17 bits: r26:r31:r30) ----
+            "clr r26",
+            "add r30, r22",
+            "adc r31, r23",
+            "adc r26, r27",
+            // ---- ah·bh in r23:r22:r19:r18 (bl's), plus h ----
+            "mul r24, r20",
+            "movw r18, r0",
+            "mul r25, r21",
+            "movw r22, r0",
+            "mul r24, r21",
+            "add r19, r0",
+            "adc r22, r1",
+            "adc r23, r27",
+            "mul r25, r20",
+            "add r19, r0",
+            "adc r22, r1",
+            "adc r23, r27",
+            "add r18, r30",
+            "adc r19, r31",
+            "adc r22, r26",
+            "adc r23, r27",
+            "movw r24, r22",
+            "movw r22, r18",
+            "clr r1",
+            inout("r23r22") lo,
+            inout("r25r24") hi,
+            inout("r19r18") b as u16 => _,
+            in("r21r20") (b >> 16) as u16,
+            out("X") _, out("Z") _,
+            options(pure, nomem, nostack),
+        );
+    }
+    (hi as u32) << 16 | lo as u32
 }
