@@ -243,8 +243,236 @@ fn column_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
     (bad, cols)
 }
 
-/// Compares `uno_board::AvrTerm` with `loc_core::fixed::{portable_term, portable_column}`; see
-/// `kernel-check`.
+/// One pseudo-random posterior column: weights as a search sets them up (σ = 0's span of 1, a
+/// flat cost's unbounded span with `b = 0`, or any span with `ra` the fewest bits that bring it
+/// below 2^16, sometimes more up to 16, and `b` anywhere, so that `y` covers every shift, the
+/// cut-off at 27 and the wrap of `a·b`), a reference and sums so far anywhere, a column offset
+/// (0 to 10, one in 8 any byte) and 1 to 11 costs: at the reference or a little above it (within
+/// or beyond the span), below it (a new reference, weighing 1 to nothing), `u32::MAX` (a
+/// skipped row) or anything.
+fn posterior_inputs(r: &mut u32, sums: &mut [u32; 11]) -> (usize, u8, loc_core::fixed::Posterior) {
+    use loc_core::fixed::{Posterior, Weights};
+    let mut next = || {
+        *r ^= *r << 13;
+        *r ^= *r >> 17;
+        *r ^= *r << 5;
+        *r
+    };
+    let (a, b, c) = (next(), next(), next());
+    let rows = 1 + (a % 11) as usize;
+    let wts = match b % 8 {
+        0 => Weights {
+            span: 1,
+            b: 0,
+            ra: 16,
+        },
+        1 => Weights {
+            span: u32::MAX,
+            b: 0,
+            ra: 16,
+        },
+        _ => {
+            let span = (next() >> ((b >> 8) % 32)).max(1);
+            let mut ra = 0u32;
+            while span >> ra > 0xFFFF {
+                ra += 1;
+            }
+            if (b >> 16).is_multiple_of(4) {
+                ra += (b >> 20) % (17 - ra);
+            }
+            Weights {
+                span,
+                b: next() >> (c % 32),
+                ra: ra as u8,
+            }
+        }
+    };
+    let mut post = Posterior::new(wts, next() >> ((c >> 8) % 32));
+    let col = if (c >> 16).is_multiple_of(8) {
+        (c >> 24) as u8
+    } else {
+        ((c >> 24) % 11) as u8
+    };
+    post.s = next() >> ((a >> 8) % 32);
+    post.sx = next() >> ((a >> 13) % 32);
+    post.sy = next() >> ((a >> 18) % 32);
+    for v in sums[..rows].iter_mut() {
+        let (x, y) = (next(), next());
+        // Excesses (and drops) around the span, on a scale of 2^0 to 2^31.
+        let d = y >> (x % 32);
+        *v = match (x >> 8) % 8 {
+            0 => post.cref,
+            1 | 2 => post.cref.saturating_add(d % post.wts.span.max(1)),
+            3 => post.cref.saturating_add(d),
+            4 | 5 => post.cref.saturating_sub(d),
+            6 => u32::MAX,
+            _ => y,
+        };
+    }
+    (rows, col, post)
+}
+
+/// Whole posterior columns: the assembly routine against `portable_posterior`; returns
+/// (mismatches, columns checked).
+#[inline(never)]
+fn posterior_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
+    use loc_core::fixed::TermKernel;
+    let (mut bad, cols) = (0u32, black_box(5_000u32));
+    let mut sums = [0u32; 11];
+    for _ in 0..cols {
+        let (rows, col, mut want) = posterior_inputs(r, &mut sums);
+        let mut got = want;
+        loc_core::fixed::portable_posterior(black_box(&sums[..rows]), col, &mut want);
+        uno_board::AvrTerm::posterior(black_box(&sums[..rows]), col, &mut got);
+        let w = [want.cref, want.s, want.sx, want.sy];
+        let g = [got.cref, got.s, got.sx, got.sy];
+        if w != g {
+            bad += 1;
+            if bad <= 5 {
+                serial.write_bytes(b"badpost");
+                let p = &want;
+                for v in [
+                    rows as u32,
+                    p.wts.span,
+                    p.wts.ra as u32,
+                    p.wts.b,
+                    col as u32,
+                ] {
+                    serial.write_byte(b' ');
+                    write_u32(serial, v);
+                }
+                for (w, g) in w.iter().zip(&g) {
+                    serial.write_byte(b' ');
+                    write_u32(serial, *w);
+                    serial.write_byte(b'/');
+                    write_u32(serial, *g);
+                }
+                serial.write_byte(b'\n');
+            }
+        }
+    }
+    (bad, cols)
+}
+
+/// The posterior weights' setup: the assembly routine against `portable_weights` for `|K|`
+/// (Q.26) over all magnitudes (flat ones below 2^10 included) and σ anywhere in `u16` (0 and from
+/// 181 dB on, where σ² reaches 2^31, included); returns (mismatches, setups checked).
+#[inline(never)]
+fn weights_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
+    use loc_core::fixed::{TermKernel, Weights};
+    let (mut bad, n) = (0u32, black_box(5_000u32));
+    for _ in 0..n {
+        let mut next = || {
+            *r ^= *r << 13;
+            *r ^= *r >> 17;
+            *r ^= *r << 5;
+            *r
+        };
+        let (a, b) = (next(), next());
+        let k26 = b >> (a % 32);
+        let sigma = match (a >> 8) % 8 {
+            0 => 0,
+            1 => (b >> 16) as u16 | 0xB500,
+            _ => (b >> 16) as u16 >> ((a >> 12) % 16),
+        };
+        let want = loc_core::fixed::portable_weights(black_box(k26), sigma);
+        let mut got = Weights::ZERO;
+        uno_board::AvrTerm::weights(black_box(k26), sigma, &mut got);
+        if want != got {
+            bad += 1;
+            if bad <= 5 {
+                serial.write_bytes(b"badwts");
+                for v in [k26, sigma as u32, want.span, got.span, want.b, got.b] {
+                    serial.write_byte(b' ');
+                    write_u32(serial, v);
+                }
+                for v in [want.ra, got.ra] {
+                    serial.write_byte(b' ');
+                    write_u32(serial, v as u32);
+                }
+                serial.write_byte(b'\n');
+            }
+        }
+    }
+    (bad, n)
+}
+
+/// The searches' division: the assembly `div_shl` against the portable one for `a` and `1 ≤ b <
+/// 2^31` over all magnitudes and `e` from 0 to 80 (the searches use up to 65), saturating
+/// results included; returns (mismatches, divisions checked).
+#[inline(never)]
+fn div_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
+    use loc_core::fixed::TermKernel;
+    let (mut bad, n) = (0u32, black_box(5_000u32));
+    for _ in 0..n {
+        let mut next = || {
+            *r ^= *r << 13;
+            *r ^= *r >> 17;
+            *r ^= *r << 5;
+            *r
+        };
+        let (x, y, z) = (next(), next(), next());
+        let a = x >> (z % 32);
+        let b = ((y >> 1) >> ((z >> 8) % 31)).max(1);
+        let e = (z >> 16) % 81;
+        let want = loc_core::fixed::div_shl(black_box(a), b, e);
+        let got = uno_board::AvrTerm::div_shl(black_box(a), b, e);
+        if want != got {
+            bad += 1;
+            if bad <= 5 {
+                serial.write_bytes(b"baddiv");
+                for v in [a, b, e, want, got] {
+                    serial.write_byte(b' ');
+                    write_u32(serial, v);
+                }
+                serial.write_byte(b'\n');
+            }
+        }
+    }
+    (bad, n)
+}
+
+/// The searches' `mul_hi`: the assembly one against the portable one for `a`, `b` over the
+/// whole range and over all magnitudes (both extremes included); returns (mismatches, products
+/// checked).
+#[inline(never)]
+fn mul_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
+    use loc_core::fixed::TermKernel;
+    let (mut bad, n) = (0u32, black_box(5_000u32));
+    for i in 0..n {
+        let mut next = || {
+            *r ^= *r << 13;
+            *r ^= *r >> 17;
+            *r ^= *r << 5;
+            *r
+        };
+        let (x, y, z) = (next(), next(), next());
+        let (a, b) = match i {
+            0 => (u32::MAX, u32::MAX),
+            1 => (0, u32::MAX),
+            // Half over the whole range (the high sums' carries), half over all magnitudes.
+            _ if z & 1 == 0 => (x, y),
+            _ => (x >> ((z >> 1) % 32), y >> ((z >> 8) % 32)),
+        };
+        let want = loc_core::fixed::mul_hi(black_box(a), b);
+        let got = uno_board::AvrTerm::mul_hi(black_box(a), b);
+        if want != got {
+            bad += 1;
+            if bad <= 5 {
+                serial.write_bytes(b"badmul");
+                for v in [a, b, want, got] {
+                    serial.write_byte(b' ');
+                    write_u32(serial, v);
+                }
+                serial.write_byte(b'\n');
+            }
+        }
+    }
+    (bad, n)
+}
+
+/// Compares `uno_board::AvrTerm` with `loc_core::fixed::{portable_term, portable_column,
+/// portable_posterior, portable_weights, div_shl, mul_hi}`; see `kernel-check`.
 pub fn kernel_check() -> ! {
     use loc_core::fixed::{portable_term, TermKernel};
     let Some(board) = Board::take() else {
@@ -278,6 +506,30 @@ pub fn kernel_check() -> ! {
     let (bad, cols) = column_check(&mut serial, &mut r);
     serial.write_bytes(b"column ");
     write_u32(&mut serial, cols);
+    serial.write_byte(b' ');
+    write_u32(&mut serial, bad);
+    serial.write_byte(b'\n');
+    let (bad, cols) = posterior_check(&mut serial, &mut r);
+    serial.write_bytes(b"posterior ");
+    write_u32(&mut serial, cols);
+    serial.write_byte(b' ');
+    write_u32(&mut serial, bad);
+    serial.write_byte(b'\n');
+    let (bad, n) = weights_check(&mut serial, &mut r);
+    serial.write_bytes(b"weights ");
+    write_u32(&mut serial, n);
+    serial.write_byte(b' ');
+    write_u32(&mut serial, bad);
+    serial.write_byte(b'\n');
+    let (bad, n) = div_check(&mut serial, &mut r);
+    serial.write_bytes(b"div_shl ");
+    write_u32(&mut serial, n);
+    serial.write_byte(b' ');
+    write_u32(&mut serial, bad);
+    serial.write_byte(b'\n');
+    let (bad, n) = mul_check(&mut serial, &mut r);
+    serial.write_bytes(b"mul_hi ");
+    write_u32(&mut serial, n);
     serial.write_byte(b' ');
     write_u32(&mut serial, bad);
     serial.write_bytes(b"\nend\n");

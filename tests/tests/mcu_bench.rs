@@ -241,19 +241,26 @@ fn baseline_runs_the_same_markers() {
     assert!(p.iter().all(|&c| (3080..3500).contains(&c)), "{p:?}");
 }
 
-/// `uno_board::AvrTerm` (the cost term and the column loop in AVR assembly, what the sink runs)
-/// returns exactly `loc_core::fixed::portable_term`'s value on the MCU (edge cases and 50 000
-/// random inputs) and leaves exactly `portable_column`'s sums (5 000 random columns).
+/// `uno_board::AvrTerm` (the cost term, the column loop and the posterior's accumulation in AVR
+/// assembly, what the sink runs) returns exactly `loc_core::fixed::portable_term`'s value on the
+/// MCU (edge cases and 50 000 random inputs), leaves exactly `portable_column`'s sums (5 000
+/// random columns) and `portable_posterior`'s reference and sums (5 000 random columns), and
+/// sets the weights up exactly as `portable_weights` (5 000 random `K`, σ) and divides exactly as
+/// `div_shl` and `mul_hi` (5 000 random divisions, 5 000 random products).
 #[test]
 fn avr_cost_kernel_equals_the_portable_one() {
     if let Err(e) = BUILD.get_or_init(harness::build) {
         panic!("bench firmware: {e}");
     }
     let mut avr = simavr::Avr::load(harness::elf("kernel-check")).unwrap();
-    while !avr.uart_output_string().contains("end\n") && avr.time_ms() < 20_000.0 {
+    while !avr.uart_output_string().contains("end\n") && avr.time_ms() < 40_000.0 {
         avr.run_for_ms(100.0);
     }
     let out = avr.uart_output_string();
     assert!(out.contains("kernel 50000 0\n"), "{out}");
     assert!(out.contains("column 5000 0\n"), "{out}");
+    assert!(out.contains("posterior 5000 0\n"), "{out}");
+    assert!(out.contains("weights 5000 0\n"), "{out}");
+    assert!(out.contains("div_shl 5000 0\n"), "{out}");
+    assert!(out.contains("mul_hi 5000 0\n"), "{out}");
 }

@@ -22,8 +22,7 @@
 //! written into the caller's storage (a by-value struct is a copy on AVR), the sink's window
 //! loop inlined into its one caller (a frame fewer).
 
-use super::kernel::{log2_segment_base, ColumnJob, Portable, TermKernel, I24};
-use super::math::exp2_neg_q26;
+use super::kernel::{log2_segment_base, ColumnJob, Portable, Posterior, TermKernel, Weights, I24};
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
 use crate::grid::{Search, COARSE_DIVS, FINE_DIVS};
@@ -48,10 +47,6 @@ const LOG2_M2: i32 = 25_769_201;
 const LOG2_CLAMP: i32 = 11_836_024;
 /// `5·log10(2)`, Q.31.
 const FIVE_LOG10_2_Q31: u32 = 3_232_284_966;
-/// `log2(e)`, Q.31.
-const LOG2_E_Q31: u32 = 3_098_164_009;
-/// Posterior weights end at `2^−Y_CUT` of the largest (they are Q.20: smaller ones are 0).
-const Y_CUT: u32 = 21;
 
 /// Which estimator produced a fixed-point fix.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -118,32 +113,6 @@ fn snap(s: i32, side: i32, sw: i32) -> usize {
         v += 2 * t;
     }
     c
-}
-
-/// `⌊a·b / 2^32⌋`, within 2 below, from three 16 × 16 products (no 64-bit arithmetic).
-#[inline(never)]
-fn mul_hi(a: u32, b: u32) -> u32 {
-    let (ah, al, bh, bl) = (a >> 16, a & 0xFFFF, b >> 16, b & 0xFFFF);
-    ah * bh + ((ah * bl) >> 16) + ((al * bh) >> 16)
-}
-
-/// `⌊a·2^e / b⌋` for `1 ≤ b < 2^31`, saturating at `u32::MAX` (one 32-bit division, then a bit
-/// per step).
-#[inline(never)]
-fn div_shl(a: u32, b: u32, e: u32) -> u32 {
-    let (mut q, mut r) = (a / b, a % b);
-    for _ in 0..e {
-        if q >> 31 != 0 {
-            return u32::MAX;
-        }
-        q <<= 1;
-        r <<= 1;
-        if r >= b {
-            r -= b;
-            q |= 1;
-        }
-    }
-    q
 }
 
 /// A lattice point and its cost.
@@ -213,7 +182,7 @@ impl<K: TermKernel> Grid<K> {
     fn setup(&mut self, obs: &Observations, model: PathLoss, area: AreaCm) {
         // |α| ≤ 32 (ALPHA_LIMIT, 2^29 in Q.24): Q.27 fits a u32; K < 48.2 in Q.26 too. (P0
         // needs no clamp: |z − P0| is limited below.)
-        let k26 = mul_hi(
+        let k26 = K::mul_hi(
             model.alpha.unsigned_abs().min(super::ALPHA_LIMIT as u32) << 3,
             FIVE_LOG10_2_Q31,
         );
@@ -222,7 +191,7 @@ impl<K: TermKernel> Grid<K> {
         let inv_k = if flat {
             0
         } else {
-            div_shl(1 << 30, k26 >> 1, 25)
+            K::div_shl(1 << 30, k26 >> 1, 25)
         };
         let g = self;
         (g.k26, g.p0) = (k26, model.p0);
@@ -235,7 +204,7 @@ impl<K: TermKernel> Grid<K> {
         for o in obs.as_slice() {
             let d = o.z.wrapping_sub(model.p0);
             // |z − P0| Q.16 (< 2^26) as Q.22, × 2^30/K → Q.20.
-            let r = mul_hi(d.unsigned_abs().min((1 << 26) - 1) << 6, inv_k).min(1 << 30) as i32;
+            let r = K::mul_hi(d.unsigned_abs().min((1 << 26) - 1) << 6, inv_k).min(1 << 30) as i32;
             let r = if (d < 0) != (model.alpha < 0) { -r } else { r };
             // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32.
             let rho = r - LOG2_M2;
@@ -421,7 +390,7 @@ impl<K: TermKernel> Grid<K> {
             if POST {
                 self.column(i, post.bound().max(best.cost), 0);
                 self.evals += rows;
-                post.add_column((i - i0) as u32, &self.sums[..rows]);
+                K::posterior(&self.sums[..rows], (i - i0) as u8, post);
             } else {
                 self.column(i, best.cost, mask);
                 self.evals += rows - skipped;
@@ -440,7 +409,7 @@ impl<K: TermKernel> Grid<K> {
     /// [`Grid::fine`] without the posterior, out of line (the MLE searches' copy).
     #[inline(never)]
     fn fine_mle(&mut self, best: &mut LatticeMin) {
-        self.fine::<false>(best, &mut Posterior::new(Weights::new(0, 0), 0));
+        self.fine::<false>(best, &mut Posterior::new(Weights::ZERO, 0));
     }
 
     fn multi_start(&mut self) -> LatticeMin {
@@ -561,7 +530,7 @@ impl<K: TermKernel> Grid<K> {
             s
         } else {
             // C = K²·C': K² Q.20 (< 2^32) × C' Q.20 → Q.8.
-            mul_hi(best.cost, mul_hi(self.k26, self.k26))
+            K::mul_hi(best.cost, K::mul_hi(self.k26, self.k26))
         };
         Estimate {
             pos: pos.unwrap_or(PointMm {
@@ -622,139 +591,23 @@ pub fn mle_with<K: TermKernel>(
     Ok(g.finish(obs, area, None, m, Estimator::Mle(search), g.evals))
 }
 
-/// Posterior weights `2^(−y)`, `y = (C' − C'ref)·β` in Q.16, relative to a reference cost that
-/// only ever decreases (the sums are rescaled when a lower cost appears).
-///
-/// With ΔC' in Q.20, `β = K²·log2(e)/(32σ²)·2^−4`. A weight is 0 from `y ≥` [`Y_CUT`], i.e.
-/// from `ΔC' ≥ span`; below it `ΔC'` is scaled below 2^16 (`a`) and `y = (a·b) >> 11` with one
-/// 32-bit multiply (`a·b ≤ Y_CUT·2^27`; y within `Y_CUT·2^−15` of exact).
-#[derive(Clone, Copy)]
-struct Weights {
-    /// `C'` excess (Q.20) at or above which a weight is 0 (1 for σ = 0: only the minimisers).
-    span: u32,
-    /// `a = ΔC' >> ra`, `a < 2^16`.
-    ra: u8,
-    b: u32,
-}
-
-impl Weights {
-    /// For `|K|` (Q.26) and σ (Q.8 dB); a flat cost's (`K ≈ 0`) are all equal.
-    #[inline(never)]
-    fn new(k26: u32, sigma_q8: u16) -> Weights {
-        let mut w = Weights {
-            span: 1,
-            ra: 16,
-            b: 0,
-        };
-        if sigma_q8 == 0 {
-            return w;
-        }
-        w.span = INF;
-        if k26 < 1 << 10 {
-            return w;
-        }
-        // K² normalised (kk ∈ [2^30, 2^32) = K²·2^(20 + 2z)), then p = K²·log2(e)·2^(18 + 2z).
-        let (mut kn, mut z) = (k26, 0);
-        while kn >> 31 == 0 {
-            kn <<= 1;
-            z += 1;
-        }
-        let p = mul_hi(mul_hi(kn, kn), LOG2_E_Q31) >> 1;
-        // span = Y_CUT·2^16/β = Y_CUT·σ_q8²·2^(23 + 2z)/p.
-        let s2 = sigma_q8 as u32 * sigma_q8 as u32;
-        w.span = div_shl(s2, p / Y_CUT, 23 + 2 * z).clamp(1, COST_MAX);
-        w.ra = 0;
-        while w.span >> w.ra > 0xFFFF {
-            w.ra += 1;
-        }
-        // b = β·2^(11 + ra) = p·2^(4 + ra − 2z)/σ_q8² (a·b ≤ Y_CUT·2^27 below span).
-        let mut e = 4 + w.ra as i32 - 2 * z as i32;
-        let (mut num, mut den) = (p, s2);
-        if den >> 31 != 0 {
-            den >>= 1;
-            e -= 1;
-        }
-        if e < 0 {
-            num = num.checked_shr(-e as u32).unwrap_or(0);
-            e = 0;
-        }
-        w.b = div_shl(num, den, e as u32);
-        w
-    }
-
-    /// Weight (Q.26) of a cost excess over the reference. (Out of line: one copy of the
-    /// `2^−y` evaluation in flash.)
-    #[inline(never)]
-    fn weight(&self, excess: u32) -> u32 {
-        if excess >= self.span {
-            return 0;
-        }
-        let a = excess >> self.ra;
-        exp2_neg_q26(a.wrapping_mul(self.b) >> 11)
-    }
-}
-
-/// A window's posterior sums (≤ 11 × 11 points, offsets from its first column and row):
-/// weights Q.20 relative to a reference cost that only ever decreases. Σw < 2^27, Σw·c and
-/// Σw·r < 2^31: all `u32`.
-struct Posterior {
-    wts: Weights,
-    cref: u32,
-    s: u32,
-    sx: u32,
-    sy: u32,
-}
-
 impl Posterior {
-    fn new(wts: Weights, cref: u32) -> Posterior {
-        Posterior {
-            wts,
-            cref,
-            s: 0,
-            sx: 0,
-            sy: 0,
-        }
-    }
-
-    /// The bound a column needs: costs from it on weigh nothing.
-    fn bound(&self) -> u32 {
-        self.cref.saturating_add(self.wts.span)
-    }
-
-    /// Adds the window's column `c` (offset) with costs `sums` (row offsets 0…).
-    #[inline(never)]
-    fn add_column(&mut self, c: u32, sums: &[u32]) {
-        for (r, &v) in sums.iter().enumerate() {
-            if v >= self.bound() {
-                continue;
-            }
-            if v < self.cref {
-                // The sums so far, relative to the new reference: × 2^(−y(drop)), Q.32.
-                let f = self.wts.weight(self.cref - v).min((1 << 26) - 1) << 6;
-                // (Three calls, not a loop over an array of references: no array on the stack.)
-                self.s = mul_hi(self.s, f);
-                self.sx = mul_hi(self.sx, f);
-                self.sy = mul_hi(self.sy, f);
-                self.cref = v;
-            }
-            let wt = self.wts.weight(v - self.cref) >> 6;
-            self.s += wt;
-            self.sx += wt * c;
-            self.sy += wt * r as u32;
-        }
-    }
-
     /// The posterior mean of a window whose first point is `(i0, j0)`, mm, into `pos` (left
     /// as it is if no weight; in place: a returned point is a stack copy on AVR).
-    #[inline(never)]
-    fn mean(&self, area: AreaCm, i0: usize, j0: usize, pos: &mut PointMm) {
+    fn mean<K: TermKernel>(&self, area: AreaCm, i0: usize, j0: usize, pos: &mut PointMm) {
         if self.s == 0 {
             return;
         }
-        // The mean offset Σw·k/Σw in Q.12 (≤ 10 steps).
-        pos.x = to_mm(area.width, i0, div_shl(self.sx, self.s, 12));
-        pos.y = to_mm(area.height, j0, div_shl(self.sy, self.s, 12));
+        pos.x = mean_mm::<K>(area.width, i0, self.sx, self.s);
+        pos.y = mean_mm::<K>(area.height, j0, self.sy, self.s);
     }
+}
+
+/// One coordinate of a posterior mean, mm: first index `o` plus the mean offset `Σw·k/Σw` (Q.12,
+/// ≤ 10 steps) along a side of `side` cm. (Out of line: one copy for both coordinates.)
+#[inline(never)]
+fn mean_mm<K: TermKernel>(side: u16, o: usize, swk: u32, sw: u32) -> u32 {
+    to_mm(side, o, K::div_shl(swk, sw, 12))
 }
 
 /// Posterior-mean position of `obs` under `model` within `area` with shadowing σ (Q.8 dB).
@@ -784,7 +637,8 @@ pub fn mmse_with<K: TermKernel>(
     let mut g = Grid::<K>::EMPTY;
     g.setup(obs, model, area);
     let mut best = g.thesis();
-    let wts = Weights::new(g.k26, sigma);
+    let mut wts = Weights::ZERO;
+    K::weights(g.k26, sigma, &mut wts);
     let mut cref = best.cost;
     // Σw (< 2^32), Σw·i and Σw·j (< 2^38), relative to `cref`.
     let (mut s, mut sx, mut sy) = (0u64, 0u64, 0u64);
@@ -797,7 +651,7 @@ pub fn mmse_with<K: TermKernel>(
                 // The smallest cost so far is the reference: costs below it are exact.
                 g.column(i, post.bound(), 0);
                 g.evals += rows;
-                post.add_column((i - i0) as u32, &g.sums[..rows]);
+                K::posterior(&g.sums[..rows], (i - i0) as u8, &mut post);
                 g.take(i, best.cost, &mut best);
             }
             if post.cref < cref {
@@ -885,7 +739,8 @@ pub fn mle_and_mmse_window_into<K: TermKernel>(
     let mut g = Grid::<K>::EMPTY;
     g.setup(obs, model, area);
     let mut best = g.coarse();
-    let mut post = Posterior::new(Weights::new(g.k26, sigma), best.cost);
+    let mut post = Posterior::new(Weights::ZERO, best.cost);
+    K::weights(g.k26, sigma, &mut post.wts);
     let mle_evals = g.fine::<true>(&mut best, &mut post);
     let [mle, mmse] = out;
     *mle = g.finish(
@@ -898,7 +753,7 @@ pub fn mle_and_mmse_window_into<K: TermKernel>(
     );
     // The same lattice point and cost; its own position, estimator and evaluations.
     *mmse = *mle;
-    post.mean(area, g.i0, g.j0, &mut mmse.pos);
+    post.mean::<K>(area, g.i0, g.j0, &mut mmse.pos);
     mmse.estimator = Estimator::MmseWindow { sigma };
     mmse.evaluations = g.evals as u16;
     Ok(())

@@ -6,8 +6,16 @@
 //! hand-written AVR version of `uno-board` (`uno_board::AvrTerm`, ≈ 7× fewer cycles) while
 //! this crate keeps no `unsafe`. Every implementation must return exactly [`portable_term`]'s
 //! value for every input; `uno-board`'s is checked against it in simavr.
+//!
+//! The same plug serves the sink's flash: the windowed MMSE's accumulation
+//! ([`TermKernel::posterior`]: `2^−y` weights, rescaling, sums), its weights' setup
+//! ([`TermKernel::weights`]) and the searches' division and high product
+//! ([`TermKernel::div_shl`], [`TermKernel::mul_hi`]) are ≈ 2.4 KB of LLVM's AVR code as Rust and
+//! ≈ 1.1 KB as `uno-board`'s assembly; the Rust here ([`portable_posterior`],
+//! [`portable_weights`], [`div_shl`], [`mul_hi`]) is the reference every implementation must
+//! equal, bit for bit.
 
-use super::math::{log2_fast, sq16, sq_q18};
+use super::math::{exp2_neg_q26, log2_fast, sq16, sq_q18};
 use super::tables;
 use crate::MAX_ANCHORS;
 
@@ -30,6 +38,48 @@ pub trait TermKernel {
         Self: Sized,
     {
         portable_column::<Self>(sums, job)
+    }
+
+    /// A window column's costs `sums` (at most 255 rows) at column offset `col` added to the
+    /// posterior sums `post`: exactly [`portable_posterior`]`(sums, col, post)` (the default). A
+    /// kernel overrides it to keep the weights' arithmetic in registers: in Rust it is ≈ 1.2 KB
+    /// of AVR flash.
+    #[inline(always)]
+    fn posterior(sums: &[u32], col: u8, post: &mut Posterior)
+    where
+        Self: Sized,
+    {
+        portable_posterior(sums, col, post)
+    }
+
+    /// The posterior weights for `|K|` (Q.26) and σ (Q.8 dB) into `out`: exactly
+    /// [`portable_weights`]`(k26, sigma_q8)` (the default). (In place: on AVR a returned struct
+    /// is a stack copy.)
+    #[inline(always)]
+    fn weights(k26: u32, sigma_q8: u16, out: &mut Weights)
+    where
+        Self: Sized,
+    {
+        *out = portable_weights(k26, sigma_q8)
+    }
+
+    /// `⌊a·2^e / b⌋` for `1 ≤ b < 2^31` and `e ≤ 255`, saturating: exactly [`div_shl`]`(a, b,
+    /// e)` (the default; the searches' one division).
+    #[inline(always)]
+    fn div_shl(a: u32, b: u32, e: u32) -> u32
+    where
+        Self: Sized,
+    {
+        div_shl(a, b, e)
+    }
+
+    /// `⌊a·b / 2^32⌋` within 2 below: exactly [`mul_hi`]`(a, b)` (the default).
+    #[inline(always)]
+    fn mul_hi(a: u32, b: u32) -> u32
+    where
+        Self: Sized,
+    {
+        mul_hi(a, b)
     }
 }
 
@@ -159,6 +209,200 @@ impl ColumnJob {
         ystep: 0,
         anchors: [AnchorTerm::NONE; MAX_ANCHORS],
     };
+}
+
+/// Posterior weights `2^(−y)`, `y = (C' − C'ref)·β` in Q.16, relative to a reference cost that
+/// only ever decreases (the sums are rescaled when a lower cost appears); the search sets them
+/// up for its σ and `K`.
+///
+/// With ΔC' in Q.20, `β = K²·log2(e)/(32σ²)·2^−4`. A weight is 0 from `ΔC' ≥ span` (`y ≥ 21`);
+/// below it `ΔC'` is scaled below 2^16 (`a = ΔC' >> ra`) and `y = (a·b mod 2^32) >> 11` with one
+/// 32-bit multiply. `repr(C)` (on AVR: `span` 0, `b` 4, `ra` 8): an assembly kernel reads it by
+/// offset. Every weight needs `span >> ra < 2^16` and `ra ≤ 16` (what the search sets).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Weights {
+    /// `C'` excess (Q.20) at or above which a weight is 0 (1 for σ = 0: only the minimisers).
+    pub span: u32,
+    /// `β·2^(11 + ra)`.
+    pub b: u32,
+    /// `a = ΔC' >> ra`, `a < 2^16`.
+    pub ra: u8,
+}
+
+impl Weights {
+    /// All zero: storage for [`TermKernel::weights`] (zeroed memory, not a copy from flash).
+    pub const ZERO: Weights = Weights {
+        span: 0,
+        b: 0,
+        ra: 0,
+    };
+
+    /// Weight (Q.26) of a cost excess over the reference. (Out of line: one copy of the
+    /// `2^−y` evaluation in flash.)
+    #[inline(never)]
+    pub fn weight(&self, excess: u32) -> u32 {
+        if excess >= self.span {
+            return 0;
+        }
+        let a = excess >> self.ra;
+        exp2_neg_q26(a.wrapping_mul(self.b) >> 11)
+    }
+}
+
+/// `log2(e)`, Q.31.
+const LOG2_E_Q31: u32 = 3_098_164_009;
+/// Posterior weights end at `2^−Y_CUT` of the largest (they are Q.20: smaller ones are 0).
+const Y_CUT: u32 = 21;
+
+/// The reference of [`TermKernel::weights`]: the [`Weights`] for `|K|` (Q.26) and σ (Q.8 dB);
+/// a flat cost's (`K < 2^−16`) are all equal, σ = 0's weigh only the minimisers.
+///
+/// A weight is 0 from `y ≥ Y_CUT` (21), i.e. from `ΔC' ≥ span`; below it `ΔC'` is scaled below
+/// 2^16 (`a`) and `y = (a·b) >> 11` with one 32-bit multiply (`a·b ≤ Y_CUT·2^27`; y within
+/// `Y_CUT·2^−15` of exact).
+#[inline(never)]
+pub fn portable_weights(k26: u32, sigma_q8: u16) -> Weights {
+    let mut w = Weights {
+        span: 1,
+        ra: 16,
+        b: 0,
+    };
+    if sigma_q8 == 0 {
+        return w;
+    }
+    w.span = u32::MAX;
+    if k26 < 1 << 10 {
+        return w;
+    }
+    // K² normalised (kk ∈ [2^30, 2^32) = K²·2^(20 + 2z)), then p = K²·log2(e)·2^(18 + 2z).
+    let (mut kn, mut z) = (k26, 0);
+    while kn >> 31 == 0 {
+        kn <<= 1;
+        z += 1;
+    }
+    let p = mul_hi(mul_hi(kn, kn), LOG2_E_Q31) >> 1;
+    // span = Y_CUT·2^16/β = Y_CUT·σ_q8²·2^(23 + 2z)/p.
+    let s2 = sigma_q8 as u32 * sigma_q8 as u32;
+    w.span = div_shl(s2, p / Y_CUT, 23 + 2 * z).clamp(1, u32::MAX - 1);
+    w.ra = 0;
+    while w.span >> w.ra > 0xFFFF {
+        w.ra += 1;
+    }
+    // b = β·2^(11 + ra) = p·2^(4 + ra − 2z)/σ_q8² (a·b ≤ Y_CUT·2^27 below span).
+    let mut e = 4 + w.ra as i32 - 2 * z as i32;
+    let (mut num, mut den) = (p, s2);
+    if den >> 31 != 0 {
+        den >>= 1;
+        e -= 1;
+    }
+    if e < 0 {
+        num = num.checked_shr(-e as u32).unwrap_or(0);
+        e = 0;
+    }
+    w.b = div_shl(num, den, e as u32);
+    w
+}
+
+/// `⌊a·2^e / b⌋` for `1 ≤ b < 2^31`, saturating at `u32::MAX` (one 32-bit division, then a bit
+/// per step).
+#[inline(never)]
+pub fn div_shl(a: u32, b: u32, e: u32) -> u32 {
+    let (mut q, mut r) = (a / b, a % b);
+    for _ in 0..e {
+        if q >> 31 != 0 {
+            return u32::MAX;
+        }
+        q <<= 1;
+        r <<= 1;
+        if r >= b {
+            r -= b;
+            q |= 1;
+        }
+    }
+    q
+}
+
+/// A window's posterior sums (≤ 11 × 11 points, offsets from its first column and row), for
+/// [`TermKernel::posterior`]: weights Q.20 relative to a reference cost `cref` that only ever
+/// decreases. In a search Σw < 2^27, Σw·c and Σw·r < 2^31: all `u32` (they wrap otherwise).
+///
+/// `repr(C)` (on AVR: `cref` 0, `wts` 4, `col` 13, `s` 14, `sx` 18, `sy` 22; 26 bytes, on the
+/// sink's deepest stack path: the exp2 table's address is an argument of the AVR kernel).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct Posterior {
+    /// The reference cost (Q.20): weights are relative to it.
+    pub cref: u32,
+    /// The weights.
+    pub wts: Weights,
+    /// Scratch for kernels (the AVR one keeps the call's column offset here).
+    pub col: u8,
+    /// `Σw` (Q.20)…
+    pub s: u32,
+    /// …`Σw·c`…
+    pub sx: u32,
+    /// …and `Σw·r`.
+    pub sy: u32,
+}
+
+impl Posterior {
+    /// No points yet, reference `cref`.
+    pub fn new(wts: Weights, cref: u32) -> Posterior {
+        Posterior {
+            cref,
+            wts,
+            col: 0,
+            s: 0,
+            sx: 0,
+            sy: 0,
+        }
+    }
+
+    /// The bound a column needs: costs from it on weigh nothing.
+    pub fn bound(&self) -> u32 {
+        self.cref.saturating_add(self.wts.span)
+    }
+}
+
+/// The reference of [`TermKernel::posterior`]: row `r`'s cost `v` (skipped if at least
+/// [`Posterior::bound`]) weighs `2^−y(v − cref)`; a cost below `cref` first becomes the
+/// reference, the sums so far scaled by the weight of the drop (`mul_hi`, Q.32 factor). Adds
+/// `w`, `w·col` and `w·r` (`w` Q.20).
+#[inline(always)]
+pub fn portable_posterior(sums: &[u32], col: u8, post: &mut Posterior) {
+    let c = col as u32;
+    for (r, &v) in sums.iter().enumerate() {
+        if v >= post.bound() {
+            continue;
+        }
+        if v < post.cref {
+            // The sums so far, relative to the new reference: × 2^(−y(drop)), Q.32.
+            let f = post.wts.weight(post.cref - v).min((1 << 26) - 1) << 6;
+            // (Three calls, not a loop over an array of references: no array on the stack.)
+            post.s = mul_hi(post.s, f);
+            post.sx = mul_hi(post.sx, f);
+            post.sy = mul_hi(post.sy, f);
+            post.cref = v;
+        }
+        let wt = post.wts.weight(v - post.cref) >> 6;
+        post.s = post.s.wrapping_add(wt);
+        post.sx = post.sx.wrapping_add(wt * c);
+        post.sy = post.sy.wrapping_add(wt * r as u32);
+    }
+}
+
+/// `⌊a·b / 2^32⌋`, within 2 below, from three 16 × 16 products (no 64-bit arithmetic).
+#[inline(never)]
+pub fn mul_hi(a: u32, b: u32) -> u32 {
+    let (ah, al, bh, bl) = (a >> 16, a & 0xFFFF, b >> 16, b & 0xFFFF);
+    ah * bh + ((ah * bl) >> 16) + ((al * bh) >> 16)
+}
+
+/// Address of the exp2 segment table (32 segments × 2 `u16`, little endian: `2^(−k/32)` Q.15
+/// and the difference to the next): on AVR a flash address, to be read with `lpm`.
+pub fn exp2_segment_table() -> *const [u16; 2] {
+    tables::exp2_seg_table()
 }
 
 /// `|v|` rounded to `2^shift` units (half up), squared, as the kernels do it: `v` taken as a

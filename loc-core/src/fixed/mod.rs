@@ -113,8 +113,9 @@ pub use grid::{
     mle_with, mmse, mmse_window, mmse_window_with, mmse_with, sink_fix, Estimate, Estimator,
 };
 pub use kernel::{
-    log2_segment_base, log2_segment_table, offset_square, portable_column, portable_term,
-    AnchorTerm, ColumnJob, Portable, TermKernel, I24, SQ_SAT, U_SAT,
+    div_shl, exp2_segment_table, log2_segment_base, log2_segment_table, mul_hi, offset_square,
+    portable_column, portable_posterior, portable_term, portable_weights, AnchorTerm, ColumnJob,
+    Portable, Posterior, TermKernel, Weights, I24, SQ_SAT, U_SAT,
 };
 pub use params::{
     distance_x, fit, fit_grid, fit_least_squares, fit_least_squares_with, portable_ar1_update,

@@ -181,6 +181,18 @@ pub(crate) fn exp2_seg(k: usize) -> [u16; 2] {
     }
 }
 
+/// Where the exp2 table starts (a flash address on AVR), for the assembly posterior.
+pub(crate) fn exp2_seg_table() -> *const [u16; 2] {
+    #[cfg(target_arch = "avr")]
+    {
+        EXP2_SEG.as_ptr().cast()
+    }
+    #[cfg(not(target_arch = "avr"))]
+    {
+        plain::EXP2_SEG.as_ptr()
+    }
+}
+
 /// `10^(−k/10)` in Q.31 for `k < 10`.
 pub(crate) fn decibel(k: usize) -> u32 {
     #[cfg(target_arch = "avr")]

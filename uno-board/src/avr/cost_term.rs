@@ -11,6 +11,11 @@
 //! in simavr on every edge case and 50 000 random terms and 5 000 random columns
 //! (`tests/tests/mcu_bench.rs`).
 //!
+//! The windowed MMSE's routines are here too, for flash more than cycles ([`posterior`],
+//! [`weights`], [`div_shl_c`], [`mul_hi`]: ≈ 1.1 KB for ≈ 2.4 KB of LLVM's code); each computes
+//! exactly its `loc_core::fixed` reference, which the same simavr test checks on 5 000 random
+//! inputs each.
+//!
 //! Register plan (explicit, so both entry points share one instruction text, [`term_body!`]):
 //! `d²` in r15:r12 with its 33rd bit in the T flag, the term in r15:r12; the [`AnchorTerm`] in
 //! `Z` (the body reads `lclamp`, `ρ` and the table address at their offsets, and restores `Z`
@@ -21,7 +26,9 @@
 
 use core::arch::asm;
 use core::mem::{offset_of, size_of};
-use loc_core::fixed::{log2_segment_base, AnchorTerm, ColumnJob, TermKernel};
+use loc_core::fixed::{
+    exp2_segment_table, log2_segment_base, AnchorTerm, ColumnJob, Posterior, TermKernel, Weights,
+};
 
 // The offsets the assembly reads (AVR has no padding).
 const _: () = {
@@ -46,6 +53,13 @@ const _: () = {
     assert!(offset_of!(ColumnJob, seg_base) == 18);
     assert!(offset_of!(ColumnJob, ystep) == 20);
     assert!(offset_of!(ColumnJob, anchors) == 22);
+    assert!(offset_of!(Posterior, cref) == 0);
+    assert!(offset_of!(Posterior, wts) == 4);
+    assert!(offset_of!(loc_core::fixed::Weights, span) == 0);
+    assert!(offset_of!(loc_core::fixed::Weights, b) == 4);
+    assert!(offset_of!(loc_core::fixed::Weights, ra) == 8);
+    assert!(offset_of!(Posterior, col) == 13);
+    assert!(offset_of!(Posterior, s) == 14);
 };
 
 /// The AVR kernel for `loc_core::fixed::{mle_with, mmse_with, estimate_with}`.
@@ -61,6 +75,27 @@ impl TermKernel for AvrTerm {
     #[inline(never)]
     fn column(sums: &mut [u32], job: &mut ColumnJob) {
         column(sums, job)
+    }
+
+    #[inline(never)]
+    fn posterior(sums: &[u32], col: u8, post: &mut Posterior) {
+        post.col = col;
+        posterior(sums, post)
+    }
+
+    #[inline(never)]
+    fn weights(k26: u32, sigma_q8: u16, out: &mut Weights) {
+        weights(k26, sigma_q8, out)
+    }
+
+    #[inline(always)]
+    fn div_shl(a: u32, b: u32, e: u32) -> u32 {
+        div_shl_c(a, b, e as u8)
+    }
+
+    #[inline(never)]
+    fn mul_hi(a: u32, b: u32) -> u32 {
+        mul_hi(a, b)
     }
 }
 
@@ -580,4 +615,647 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             out("r23") _, out("r24") _, out("r25") _,
         );
     }
+}
+
+/// [`loc_core::fixed::portable_posterior`]`(sums, post.col, post)`, exactly (for `sums.len() ≤
+/// 255`, and weights as the searches set them up: `span >> ra < 2^16`, `ra ≤ 16`): one routine
+/// instead of ≈ 1.2 KB of LLVM's AVR code for the row loop, `2^−y` and the rescaling.
+///
+/// Register plan: the [`Posterior`] in Y (saved on the stack; its `col` the column offset), X
+/// walks the sums, r3 the row, r4 the rows, r7:r6 the exp2 table's flash address (an argument,
+/// not a field: the posterior is on the sink's deepest stack path), r2 zero; a cost, excess or
+/// weight in r25:r22. Subroutines: 40 the weight's
+/// mantissa `m` (r25:r24, r23:r22 cleared; 0: no weight) and shift `int` (r16), so that the
+/// Q.26 weight is `(m << 16) >> (int + 5)` (`2^−y` as `exp2_neg_q26`: `y = (a·b mod 2^32) >>
+/// 11`, its segment from the flash table, the fraction's product `d·frac >> 11` as
+/// `(d·(frac << 5)) >> 16`); 50 r25:r22 >>= r16; 60 r25:r22 = r19:r18 × r21:r20; 70 `mul_hi`
+/// of the `u32` at Z by r15:r12 in place (Z += 4); 80 the `u32` at Z += r24:r22 × r17 (Z += 4).
+pub fn posterior(sums: &[u32], post: &mut Posterior) {
+    let rows = sums.len().min(255) as u8;
+    if rows == 0 {
+        return;
+    }
+    let table = (exp2_segment_table() as u16).to_le_bytes();
+    // SAFETY: X reads the first `rows` (1 to 255) sums; Y (saved on the stack and restored)
+    // points at `post`, whose `cref`, `s`, `sx` and `sy` are written (through Z = Y + 13) and
+    // whose other fields are read; `lpm` reads 4 bytes of the exp2 table (32 × 4 bytes in flash,
+    // at `table`, segment < 32 by construction). Only the declared registers, r0, r1 (left
+    // at 0), the flags, Y (restored) and four stack bytes (Y, then a return address at a time)
+    // are written.
+    unsafe {
+        asm!(
+            "push r28",
+            "push r29",
+            "movw r28, r30",
+            "clr r2",
+            "clr r3",
+            // ---- row r3: v = its cost; u32::MAX (a skipped row) weighs nothing ----
+            "1:",
+            "ld r22, X+",
+            "ld r23, X+",
+            "ld r24, X+",
+            "ld r25, X+",
+            "mov r0, r22",
+            "and r0, r23",
+            "and r0, r24",
+            "and r0, r25",
+            "inc r0",
+            "breq 9f",
+            // ---- e = v − cref ----
+            "ldd r18, Y+0",
+            "ldd r19, Y+1",
+            "ldd r20, Y+2",
+            "ldd r21, Y+3",
+            "sub r22, r18",
+            "sbc r23, r19",
+            "sbc r24, r20",
+            "sbc r25, r21",
+            "brcc 5f",
+            // ---- v < cref: v (= cref + e) the new reference, the sums so far × f, the
+            // weight of the drop −e as a Q.32 factor: min(W, 2^26 − 1) << 6 ----
+            "add r18, r22",
+            "adc r19, r23",
+            "adc r20, r24",
+            "adc r21, r25",
+            "std Y+0, r18",
+            "std Y+1, r19",
+            "std Y+2, r20",
+            "std Y+3, r21",
+            "com r25",
+            "com r24",
+            "com r23",
+            "neg r22",
+            "sbci r23, 0xFF",
+            "sbci r24, 0xFF",
+            "sbci r25, 0xFF",
+            "rcall 40f",
+            // W << 6 = ((m << 16) >> (int − 1)) with the low 6 bits cleared; for int = 0,
+            // m << 17, which overflows only for W = 2^26 (then (2^26 − 1) << 6).
+            "subi r16, 1",
+            "brcc 2f",
+            "lsl r24",
+            "rol r25",
+            "brcc 3f",
+            "ldi r22, 0xC0",
+            "ldi r23, 0xFF",
+            "ldi r24, 0xFF",
+            "ldi r25, 0xFF",
+            "rjmp 3f",
+            "2:",
+            "rcall 50f",
+            "andi r22, 0xC0",
+            "3:",
+            "movw r12, r22",
+            "movw r14, r24",
+            "movw r30, r28",
+            "adiw r30, 14",
+            "rcall 70f",
+            "rcall 70f",
+            "rcall 70f",
+            "clr r22",
+            "clr r23",
+            "movw r24, r22",
+            // ---- w = W >> 6 (Q.20; none: next row); s += w, sx += w·col, sy += w·row ----
+            "5:",
+            "rcall 40f",
+            "tst r25",
+            "breq 9f",
+            "subi r16, -11",
+            "rcall 50f",
+            "movw r30, r28",
+            "adiw r30, 14",
+            "ldi r17, 1",
+            "rcall 80f",
+            "ldd r17, Y+13",
+            "rcall 80f",
+            "mov r17, r3",
+            "rcall 80f",
+            // ---- next row ----
+            "9:",
+            "inc r3",
+            "cp r3, r4",
+            "brsh 10f",
+            "rjmp 1b",
+            "10:",
+            "pop r29",
+            "pop r28",
+            "clr r1",
+            "rjmp 99f",
+            // ---- 40: the weight of the excess r25:r22: 0 from span on ----
+            "40:",
+            "ldd r18, Y+4",
+            "ldd r19, Y+5",
+            "ldd r20, Y+6",
+            "ldd r21, Y+7",
+            "cp r22, r18",
+            "cpc r23, r19",
+            "cpc r24, r20",
+            "cpc r25, r21",
+            "brsh 48f",
+            // a = e >> ra (< 2^16); P = a·b mod 2^32 in r25:r22
+            "ldd r16, Y+12",
+            "rcall 50f",
+            "movw r18, r22",
+            "ldd r20, Y+10",
+            "ldd r21, Y+11",
+            "rcall 60f",
+            "movw r30, r22",
+            "ldd r20, Y+8",
+            "ldd r21, Y+9",
+            "rcall 60f",
+            "add r24, r30",
+            "adc r25, r31",
+            // y = P >> 11: int = P >> 27 (from 27 on: no weight)
+            "mov r16, r25",
+            "lsr r16",
+            "lsr r16",
+            "lsr r16",
+            "cpi r16, 27",
+            "brsh 48f",
+            // P << 2: the fraction × 2^5 in r24:r23 (bits 6..10 cleared), 4·segment from r25
+            "lsl r23",
+            "rol r24",
+            "rol r25",
+            "lsl r23",
+            "rol r24",
+            "rol r25",
+            "andi r23, 0xE0",
+            "andi r25, 0x1F",
+            "lsl r25",
+            "lsl r25",
+            "movw r30, r6",
+            "add r30, r25",
+            "adc r31, r2",
+            "lpm r14, Z+",
+            "lpm r15, Z+",
+            "lpm r20, Z+",
+            "lpm r21, Z",
+            "mov r18, r23",
+            "mov r19, r24",
+            "rcall 60f",
+            // m = v − (d·frac >> 11)
+            "sub r14, r24",
+            "sbc r15, r25",
+            "movw r24, r14",
+            "clr r22",
+            "clr r23",
+            "ret",
+            "48:",
+            "clr r16",
+            "clr r22",
+            "clr r23",
+            "movw r24, r22",
+            "ret",
+            // ---- 50: r25:r22 >>= r16 (bytes, then bits) ----
+            "50:",
+            "cpi r16, 8",
+            "brlo 51f",
+            "mov r22, r23",
+            "mov r23, r24",
+            "mov r24, r25",
+            "clr r25",
+            "subi r16, 8",
+            "rjmp 50b",
+            "51:",
+            "subi r16, 1",
+            "brcs 52f",
+            "lsr r25",
+            "ror r24",
+            "ror r23",
+            "ror r22",
+            "rjmp 51b",
+            "52:",
+            "ret",
+            // ---- 60: r25:r22 = r19:r18 × r21:r20 (inputs kept) ----
+            "60:",
+            "mul r18, r20",
+            "movw r22, r0",
+            "mul r19, r21",
+            "movw r24, r0",
+            "mul r18, r21",
+            "add r23, r0",
+            "adc r24, r1",
+            "adc r25, r2",
+            "mul r19, r20",
+            "add r23, r0",
+            "adc r24, r1",
+            "adc r25, r2",
+            "ret",
+            // ---- 70: u32 at Z = ah·fh + (ah·fl >> 16) + (al·fh >> 16), f = r15:r12 ----
+            "70:",
+            "ld r18, Z",
+            "ldd r19, Z+1",
+            "movw r20, r14",
+            "rcall 60b",
+            "movw r16, r24",
+            "clr r11",
+            "ldd r18, Z+2",
+            "ldd r19, Z+3",
+            "movw r20, r12",
+            "rcall 60b",
+            "add r16, r24",
+            "adc r17, r25",
+            "adc r11, r2",
+            "movw r20, r14",
+            "rcall 60b",
+            "add r22, r16",
+            "adc r23, r17",
+            "adc r24, r11",
+            "adc r25, r2",
+            "st Z+, r22",
+            "st Z+, r23",
+            "st Z+, r24",
+            "st Z+, r25",
+            "ret",
+            // ---- 80: u32 at Z += r24:r22 × r17 ----
+            "80:",
+            "ld r18, Z",
+            "ldd r19, Z+1",
+            "ldd r20, Z+2",
+            "ldd r21, Z+3",
+            "mul r22, r17",
+            "add r18, r0",
+            "adc r19, r1",
+            "adc r20, r2",
+            "adc r21, r2",
+            "mul r23, r17",
+            "add r19, r0",
+            "adc r20, r1",
+            "adc r21, r2",
+            "mul r24, r17",
+            "add r20, r0",
+            "adc r21, r1",
+            "st Z+, r18",
+            "st Z+, r19",
+            "st Z+, r20",
+            "st Z+, r21",
+            "ret",
+            "99:",
+            inout("X") sums.as_ptr() => _,
+            inout("Z") post as *mut Posterior => _,
+            inout("r4") rows => _,
+            in("r6") table[0],
+            in("r7") table[1],
+            out("r2") _, out("r3") _, out("r11") _, out("r12") _, out("r13") _,
+            out("r14") _, out("r15") _, out("r16") _, out("r17") _, out("r18") _,
+            out("r19") _, out("r20") _, out("r21") _, out("r22") _, out("r23") _,
+            out("r24") _, out("r25") _,
+        );
+    }
+}
+
+/// [`loc_core::fixed::portable_weights`], exactly: 386 bytes of flash for LLVM's 712.
+///
+/// Register plan: the [`Weights`] in Y (saved on the stack; `b`'s bytes hold σ² until `b` is
+/// known), `k26 << z` then `p` in r11:r8, `z` in r17, r2 zero. Subroutines: 60 r25:r22 = r19:r18
+/// × r21:r20; 70 r25:r22 = `mul_hi(r11:r8, r15:r12)` (the same three products as `mul_hi`); and
+/// [`div_shl_c`] (the C ABI; it writes only r0, r1 (left 0), X, Z and r25:r22).
+pub fn weights(k26: u32, sigma_q8: u16, w: &mut Weights) {
+    let [k0, k1, k2, k3] = k26.to_le_bytes();
+    let [s0, s1] = sigma_q8.to_le_bytes();
+    // SAFETY: Y (saved on the stack and restored) points at `*w` (9 bytes, the offsets asserted
+    // above), the only memory written; `__udivmodsi4` (libgcc, linked by every firmware) writes
+    // only r18–r27, r30, r31 and r1 (left 0). Only the declared registers, r0, r1 (left at 0),
+    // the flags, Y (restored) and four stack bytes (Y, then return addresses) are written.
+    unsafe {
+        asm!(
+            "push r28",
+            "push r29",
+            "movw r28, r30",
+            "clr r2",
+            // ---- b = 0, ra = 16; span 1 for σ = 0 (done), else u32::MAX ----
+            "ldi r16, 16",
+            "std Y+8, r16",
+            "std Y+4, r2",
+            "std Y+5, r2",
+            "std Y+6, r2",
+            "std Y+7, r2",
+            "ldi r16, 0xFF",
+            "ldi r17, 0xFF",
+            "cp r20, r2",
+            "cpc r21, r2",
+            "brne 1f",
+            "ldi r16, 1",
+            "ldi r17, 0",
+            "1:",
+            "std Y+0, r16",
+            "std Y+1, r17",
+            "std Y+2, r17",
+            "std Y+3, r17",
+            "brne 11f",
+            "rjmp 90f",
+            "11:",
+            // ---- a flat cost (K < 2^10 in Q.26): done ----
+            "cpi r23, 4",
+            "cpc r24, r2",
+            "cpc r25, r2",
+            "brsh 12f",
+            "rjmp 90f",
+            "12:",
+            // ---- σ² into b's bytes ----
+            "movw r8, r22",
+            "movw r10, r24",
+            "movw r18, r20",
+            "rcall 60f",
+            "std Y+4, r22",
+            "std Y+5, r23",
+            "std Y+6, r24",
+            "std Y+7, r25",
+            // ---- kn = K << z, top bit set ----
+            "clr r17",
+            "2:",
+            "sbrc r11, 7",
+            "rjmp 3f",
+            "lsl r8",
+            "rol r9",
+            "rol r10",
+            "rol r11",
+            "inc r17",
+            "rjmp 2b",
+            "3:",
+            // ---- p = mul_hi(mul_hi(kn, kn), log2(e) Q.31) >> 1 ----
+            "movw r12, r8",
+            "movw r14, r10",
+            "rcall 70f",
+            "movw r8, r22",
+            "movw r10, r24",
+            "ldi r18, 0x29",
+            "ldi r19, 0x3B",
+            "ldi r20, 0xAA",
+            "ldi r21, 0xB8",
+            "movw r12, r18",
+            "movw r14, r20",
+            "rcall 70f",
+            "lsr r25",
+            "ror r24",
+            "ror r23",
+            "ror r22",
+            "movw r8, r22",
+            "movw r10, r24",
+            // ---- span = div_shl(σ², p / 21, 23 + 2z), clamped to [1, u32::MAX − 1] ----
+            "ldi r18, 21",
+            "ldi r19, 0",
+            "ldi r20, 0",
+            "ldi r21, 0",
+            "call __udivmodsi4",
+            "ldd r22, Y+4",
+            "ldd r23, Y+5",
+            "ldd r24, Y+6",
+            "ldd r25, Y+7",
+            "mov r16, r17",
+            "lsl r16",
+            "subi r16, -23",
+            "call {div}",
+            "cp r22, r2",
+            "cpc r23, r2",
+            "cpc r24, r2",
+            "cpc r25, r2",
+            "brne 4f",
+            "inc r22",
+            "4:",
+            "mov r0, r22",
+            "and r0, r23",
+            "and r0, r24",
+            "and r0, r25",
+            "inc r0",
+            "brne 5f",
+            "dec r22",
+            "5:",
+            "std Y+0, r22",
+            "std Y+1, r23",
+            "std Y+2, r24",
+            "std Y+3, r25",
+            // ---- ra: the bits of span >> 16 ----
+            "clr r16",
+            "6:",
+            "cp r24, r2",
+            "cpc r25, r2",
+            "breq 7f",
+            "lsr r25",
+            "ror r24",
+            "inc r16",
+            "rjmp 6b",
+            "7:",
+            "std Y+8, r16",
+            // ---- e = 4 + ra − 2z; den = σ² (halved, e − 1, from 2^31 on) ----
+            "subi r16, -4",
+            "sub r16, r17",
+            "sub r16, r17",
+            "ldd r18, Y+4",
+            "ldd r19, Y+5",
+            "ldd r20, Y+6",
+            "ldd r21, Y+7",
+            "sbrs r21, 7",
+            "rjmp 8f",
+            "lsr r21",
+            "ror r20",
+            "ror r19",
+            "ror r18",
+            "dec r16",
+            "8:",
+            // ---- b = div_shl(p >> −e, den, 0) for e < 0 (0 from 32 bits on), else
+            // div_shl(p, den, e) ----
+            "movw r22, r8",
+            "movw r24, r10",
+            "tst r16",
+            "brpl 10f",
+            "9:",
+            "lsr r25",
+            "ror r24",
+            "ror r23",
+            "ror r22",
+            "inc r16",
+            "brne 9b",
+            "10:",
+            "call {div}",
+            "std Y+4, r22",
+            "std Y+5, r23",
+            "std Y+6, r24",
+            "std Y+7, r25",
+            "90:",
+            "pop r29",
+            "pop r28",
+            "clr r1",
+            "rjmp 99f",
+            // ---- 60: r25:r22 = r19:r18 × r21:r20 (inputs kept) ----
+            "60:",
+            "mul r18, r20",
+            "movw r22, r0",
+            "mul r19, r21",
+            "movw r24, r0",
+            "mul r18, r21",
+            "add r23, r0",
+            "adc r24, r1",
+            "adc r25, r2",
+            "mul r19, r20",
+            "add r23, r0",
+            "adc r24, r1",
+            "adc r25, r2",
+            "ret",
+            // ---- 70: r25:r22 = ah·fh + (ah·fl >> 16) + (al·fh >> 16), a = r11:r8, f =
+            // r15:r12 (h in r27:r26, its carry in r30) ----
+            "70:",
+            "movw r18, r8",
+            "movw r20, r14",
+            "rcall 60b",
+            "movw r26, r24",
+            "clr r30",
+            "movw r18, r10",
+            "movw r20, r12",
+            "rcall 60b",
+            "add r26, r24",
+            "adc r27, r25",
+            "adc r30, r2",
+            "movw r20, r14",
+            "rcall 60b",
+            "add r22, r26",
+            "adc r23, r27",
+            "adc r24, r30",
+            "adc r25, r2",
+            "ret",
+            "99:",
+            inout("Z") w as *mut Weights => _,
+            inout("r22") k0 => _,
+            inout("r23") k1 => _,
+            inout("r24") k2 => _,
+            inout("r25") k3 => _,
+            inout("r20") s0 => _,
+            inout("r21") s1 => _,
+            out("r2") _, out("r8") _, out("r9") _, out("r10") _, out("r11") _,
+            out("r12") _, out("r13") _, out("r14") _, out("r15") _, out("r16") _,
+            out("r17") _, out("r18") _, out("r19") _, out("X") _,
+            div = sym div_shl_c,
+        );
+    }
+}
+
+/// [`loc_core::fixed::div_shl`]`(a, b, e)`, exactly (for `b < 2^31`): one restoring division of
+/// `a·2^e` by `b`, the remainder in Z:X, 32 steps (the quotient `a / b`, counted in r1) then
+/// `e` more (counted in r0), each first checking that the quotient's top bit is clear (else
+/// `u32::MAX`). The C ABI (`a` r25:r22, `b` r21:r18, `e` r16; the result in r25:r22), naked: it
+/// writes only r0, r1 (left 0: both loops count it down to 0), X, Z, r25:r22 and the flags, and
+/// [`weights`]' assembly calls it too. (Naked: an `asm!` block's bytes would be reassembled into
+/// a `u32` by ≈ 25 moves. Base instructions only: a naked function's assembly does not get the
+/// ATmega328P's `movw` and `mul`.)
+#[unsafe(naked)]
+pub extern "C" fn div_shl_c(a: u32, b: u32, e: u8) -> u32 {
+    core::arch::naked_asm!(
+        "mov r0, r16",
+        "ldi r26, 32",
+        "mov r1, r26",
+        "clr r26",
+        "clr r27",
+        "clr r30",
+        "clr r31",
+        // ---- a step: the 32 of a / b, then e more, each checking the quotient first ----
+        "1:",
+        "tst r1",
+        "brne 2f",
+        "tst r0",
+        "breq 4f",
+        "sbrc r25, 7",
+        "rjmp 3f",
+        "dec r0",
+        "inc r1",
+        // ---- (remainder:quotient) << 1; the remainder reaches b: subtract, quotient bit ----
+        "2:",
+        "lsl r22",
+        "rol r23",
+        "rol r24",
+        "rol r25",
+        "rol r26",
+        "rol r27",
+        "rol r30",
+        "rol r31",
+        "cp r26, r18",
+        "cpc r27, r19",
+        "cpc r30, r20",
+        "cpc r31, r21",
+        "brlo 5f",
+        "sub r26, r18",
+        "sbc r27, r19",
+        "sbc r30, r20",
+        "sbc r31, r21",
+        "ori r22, 1",
+        "5:",
+        "dec r1",
+        "rjmp 1b",
+        "3:",
+        "ldi r22, 0xFF",
+        "ldi r23, 0xFF",
+        "ldi r24, 0xFF",
+        "ldi r25, 0xFF",
+        "4:",
+        "ret",
+    )
+}
+
+/// [`loc_core::fixed::mul_hi`]`(a, b)`, exactly: `ah·bh + (ah·bl >> 16) + (al·bh >> 16)`, each
+/// 16 × 16 product from four `mul`s, in the argument registers and X, Z (no register to save).
+pub fn mul_hi(a: u32, b: u32) -> u32 {
+    let (mut lo, mut hi) = (a as u16, (a >> 16) as u16);
+    // SAFETY: registers only (the declared ones, r0, r1 (left 0) and the flags).
+    unsafe {
+        asm!(
+            "clr r27",
+            // ---- h1 = (al·bh) >> 16 in r31:r30 ----
+            "mul r23, r21",
+            "movw r30, r0",
+            "mul r22, r20",
+            "mov r26, r1",
+            "mul r22, r21",
+            "add r26, r0",
+            "adc r30, r1",
+            "adc r31, r27",
+            "mul r23, r20",
+            "add r26, r0",
+            "adc r30, r1",
+            "adc r31, r27",
+            // ---- h2 = (ah·bl) >> 16 in r23:r22 (al's) ----
+            "mul r25, r19",
+            "movw r22, r0",
+            "mul r24, r18",
+            "mov r26, r1",
+            "mul r24, r19",
+            "add r26, r0",
+            "adc r22, r1",
+            "adc r23, r27",
+            "mul r25, r18",
+            "add r26, r0",
+            "adc r22, r1",
+            "adc r23, r27",
+            // ---- h = h1 + h2 (17 bits: r26:r31:r30) ----
+            "clr r26",
+            "add r30, r22",
+            "adc r31, r23",
+            "adc r26, r27",
+            // ---- ah·bh in r23:r22:r19:r18 (bl's), plus h ----
+            "mul r24, r20",
+            "movw r18, r0",
+            "mul r25, r21",
+            "movw r22, r0",
+            "mul r24, r21",
+            "add r19, r0",
+            "adc r22, r1",
+            "adc r23, r27",
+            "mul r25, r20",
+            "add r19, r0",
+            "adc r22, r1",
+            "adc r23, r27",
+            "add r18, r30",
+            "adc r19, r31",
+            "adc r22, r26",
+            "adc r23, r27",
+            "movw r24, r22",
+            "movw r22, r18",
+            "clr r1",
+            inout("r23r22") lo,
+            inout("r25r24") hi,
+            inout("r19r18") b as u16 => _,
+            in("r21r20") (b >> 16) as u16,
+            out("X") _, out("Z") _,
+            options(pure, nomem, nostack),
+        );
+    }
+    (hi as u32) << 16 | lo as u32
 }
