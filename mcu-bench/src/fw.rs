@@ -471,6 +471,74 @@ fn mul_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
     (bad, n)
 }
 
+/// The window moves: the assembly `move_window` against [`loc_core::fixed::portable_move`] on
+/// random jobs (garbage in every anchor slot, steps of any size, zero and the extremes among
+/// them) and column/row moves over the whole `i8` range (the searches use ±50); compares every
+/// anchor's bytes; returns (mismatches, moves checked).
+#[inline(never)]
+fn move_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
+    use loc_core::fixed::{ColumnJob, TermKernel, I24};
+    let (mut bad, n) = (0u32, black_box(5_000u32));
+    let mut jw = ColumnJob::EMPTY;
+    let mut jg = ColumnJob::EMPTY;
+    for i in 0..n {
+        let mut next = || {
+            *r ^= *r << 13;
+            *r ^= *r >> 17;
+            *r ^= *r << 5;
+            *r
+        };
+        let (x, y) = (next(), next());
+        (jw.xstep, jw.ystep) = match i % 8 {
+            0 => (0, 0),
+            1 => (u16::MAX, u16::MAX),
+            2 => (x as u16 % 6_001, y as u16 % 6_001),
+            _ => (x as u16, y as u16),
+        };
+        let (di, dj) = match i % 16 {
+            3 => (i8::MIN, i8::MIN),
+            4 => (i8::MAX, 0),
+            5 => (0, i8::MAX),
+            _ => ((x >> 16) as i8, (y >> 16) as i8),
+        };
+        for t in jw.anchors.iter_mut() {
+            t.dx0 = I24::new(next() as i32);
+            t.dy0 = I24::new(next() as i32);
+            t.rho = next() as i32;
+        }
+        jg.clone_from(&jw);
+        loc_core::fixed::portable_move(black_box(&mut jw), di, dj);
+        uno_board::AvrTerm::move_window(black_box(&mut jg), di, dj);
+        let ok = jw
+            .anchors
+            .iter()
+            .zip(&jg.anchors)
+            .all(|(w, g)| (w.dx0, w.dy0, w.rho, w.dx2) == (g.dx0, g.dy0, g.rho, g.dx2))
+            && (jw.xstep, jw.ystep) == (jg.xstep, jg.ystep);
+        if !ok {
+            bad += 1;
+            if bad <= 5 {
+                serial.write_bytes(b"badmove");
+                for v in [
+                    jw.xstep as u32,
+                    jw.ystep as u32,
+                    di as u32,
+                    dj as u32,
+                    jw.anchors[0].dx0.get() as u32,
+                    jg.anchors[0].dx0.get() as u32,
+                    jw.anchors[0].dy0.get() as u32,
+                    jg.anchors[0].dy0.get() as u32,
+                ] {
+                    serial.write_byte(b' ');
+                    write_u32(serial, v);
+                }
+                serial.write_byte(b'\n');
+            }
+        }
+    }
+    (bad, n)
+}
+
 /// Compares `uno_board::AvrTerm` with `loc_core::fixed::{portable_term, portable_column,
 /// portable_posterior, portable_weights, div_shl, mul_hi}`; see `kernel-check`.
 pub fn kernel_check() -> ! {
@@ -529,6 +597,12 @@ pub fn kernel_check() -> ! {
     serial.write_byte(b'\n');
     let (bad, n) = mul_check(&mut serial, &mut r);
     serial.write_bytes(b"mul_hi ");
+    write_u32(&mut serial, n);
+    serial.write_byte(b' ');
+    write_u32(&mut serial, bad);
+    serial.write_byte(b'\n');
+    let (bad, n) = move_check(&mut serial, &mut r);
+    serial.write_bytes(b"move_window ");
     write_u32(&mut serial, n);
     serial.write_byte(b' ');
     write_u32(&mut serial, bad);

@@ -286,13 +286,13 @@ impl<K: TermKernel> Grid<K> {
     /// apart.
     #[inline(never)]
     fn window(&mut self, i0: usize, j0: usize, stride: usize, rows: usize) {
-        let dx = self.width() * (i0 as i32 - self.i0 as i32);
-        let dy = self.height() * (j0 as i32 - self.j0 as i32);
-        for t in &mut self.job.anchors {
-            // (|·| < 2^23 anywhere in the area: 24 bits hold them.)
-            t.dx0.add(dx);
-            t.dy0.add(dy);
-        }
+        // (Indices ≤ 50: the steps fit an i8. |offsets| < 2^23 anywhere in the area: 24 bits
+        // hold them.)
+        K::move_window(
+            &mut self.job,
+            (i0 as i8).wrapping_sub(self.i0 as i8),
+            (j0 as i8).wrapping_sub(self.j0 as i8),
+        );
         (self.i0, self.j0, self.rows) = (i0, j0, rows);
         self.job.stride = stride as u8;
     }

@@ -63,6 +63,18 @@ pub trait TermKernel {
         *out = portable_weights(k26, sigma_q8)
     }
 
+    /// Moves a search window by `di` columns and `dj` rows: every anchor's offsets (all
+    /// [`MAX_ANCHORS`], in use or not) plus `di·xstep`, `dj·ystep`, 24-bit wrapping: exactly
+    /// [`portable_move`]`(job, di, dj)` (the default). A kernel overrides it: LLVM spends
+    /// ≈ 330 bytes of AVR flash on this loop.
+    #[inline(always)]
+    fn move_window(job: &mut ColumnJob, di: i8, dj: i8)
+    where
+        Self: Sized,
+    {
+        portable_move(job, di, dj)
+    }
+
     /// `⌊a·2^e / b⌋` for `1 ≤ b < 2^31` and `e ≤ 255`, saturating: exactly [`div_shl`]`(a, b,
     /// e)` (the default; the searches' one division).
     #[inline(always)]
@@ -416,6 +428,17 @@ pub fn offset_square(v: i32, shift: u8) -> u32 {
         (a >> shift) + ((a >> (shift - 1)) & 1)
     };
     sq16((r & 0xFFFF) as i32)
+}
+
+/// The reference of [`TermKernel::move_window`]: `dx0 += di·xstep`, `dy0 += dj·ystep` for every
+/// anchor slot, wrapping at 24 bits.
+pub fn portable_move(job: &mut ColumnJob, di: i8, dj: i8) {
+    let dx = job.xstep as i32 * di as i32;
+    let dy = job.ystep as i32 * dj as i32;
+    for t in &mut job.anchors {
+        t.dx0.add(dx);
+        t.dy0.add(dy);
+    }
 }
 
 /// The reference of [`TermKernel::column`]: every row's cost from scratch, column offset `col`.

@@ -53,6 +53,7 @@ const _: () = {
     assert!(offset_of!(ColumnJob, seg_base) == 18);
     assert!(offset_of!(ColumnJob, ystep) == 20);
     assert!(offset_of!(ColumnJob, anchors) == 22);
+    assert!(size_of::<ColumnJob>() == 22 + 20 * loc_core::MAX_ANCHORS);
     assert!(offset_of!(Posterior, cref) == 0);
     assert!(offset_of!(Posterior, wts) == 4);
     assert!(offset_of!(loc_core::fixed::Weights, span) == 0);
@@ -96,6 +97,11 @@ impl TermKernel for AvrTerm {
     #[inline(never)]
     fn mul_hi(a: u32, b: u32) -> u32 {
         mul_hi(a, b)
+    }
+
+    #[inline(never)]
+    fn move_window(job: &mut ColumnJob, di: i8, dj: i8) {
+        move_window(job, di, dj)
     }
 }
 
@@ -1258,4 +1264,71 @@ pub fn mul_hi(a: u32, b: u32) -> u32 {
         );
     }
     (hi as u32) << 16 | lo as u32
+}
+
+/// [`loc_core::fixed::portable_move`]`(job, di, dj)`, exactly: `di·xstep` and `dj·ystep` (signed
+/// 8 × unsigned 16 bits, two `mulsu` each, kept to 24 bits) added to every anchor slot's
+/// 24-bit `dx0` and `dy0` (≈ 70 bytes for LLVM's ≈ 330).
+pub fn move_window(job: &mut ColumnJob, di: i8, dj: i8) {
+    // SAFETY: writes only the job's anchors (through Z, within the `&mut`); registers declared,
+    // r1 cleared at the end.
+    unsafe {
+        asm!(
+            // ---- dx = di·xstep in r26:r25:r24 ----
+            "ldd r18, Z+14",
+            "ldd r19, Z+15",
+            "mulsu r22, r18",
+            "movw r24, r0",
+            "clr r26",
+            "sbrc r25, 7",
+            "com r26",
+            "mulsu r22, r19",
+            "add r25, r0",
+            "adc r26, r1",
+            // ---- dy = dj·ystep in r27:r17:r16 ----
+            "ldd r18, Z+20",
+            "ldd r19, Z+21",
+            "mulsu r20, r18",
+            "movw r16, r0",
+            "clr r27",
+            "sbrc r17, 7",
+            "com r27",
+            "mulsu r20, r19",
+            "add r17, r0",
+            "adc r27, r1",
+            "clr r1",
+            // ---- every anchor: dx0 (offset 4) += dx, dy0 (7) += dy ----
+            "adiw r30, 26",
+            "ldi r18, {n}",
+            "2:",
+            "ld r0, Z",
+            "add r0, r24",
+            "st Z+, r0",
+            "ld r0, Z",
+            "adc r0, r25",
+            "st Z+, r0",
+            "ld r0, Z",
+            "adc r0, r26",
+            "st Z+, r0",
+            "ld r0, Z",
+            "add r0, r16",
+            "st Z+, r0",
+            "ld r0, Z",
+            "adc r0, r17",
+            "st Z+, r0",
+            "ld r0, Z",
+            "adc r0, r27",
+            "st Z+, r0",
+            "adiw r30, 14",
+            "dec r18",
+            "brne 2b",
+            n = const loc_core::MAX_ANCHORS,
+            inout("Z") job as *mut ColumnJob => _,
+            in("r22") di,
+            in("r20") dj,
+            out("r16") _, out("r17") _, out("r18") _, out("r19") _,
+            out("r24") _, out("r25") _, out("X") _,
+            options(nostack),
+        );
+    }
 }
