@@ -471,6 +471,179 @@ fn mul_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
     (bad, n)
 }
 
+/// The window moves: the assembly `move_window` against [`loc_core::fixed::portable_move`] on
+/// random jobs (garbage in every anchor slot, steps of any size, zero and the extremes among
+/// them) and column/row moves over the whole `i8` range (the searches use ±50); compares every
+/// anchor's bytes; returns (mismatches, moves checked).
+#[inline(never)]
+fn move_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
+    use loc_core::fixed::{ColumnJob, TermKernel, I24};
+    let (mut bad, n) = (0u32, black_box(5_000u32));
+    let mut jw = ColumnJob::EMPTY;
+    let mut jg = ColumnJob::EMPTY;
+    for i in 0..n {
+        let mut next = || {
+            *r ^= *r << 13;
+            *r ^= *r >> 17;
+            *r ^= *r << 5;
+            *r
+        };
+        let (x, y) = (next(), next());
+        (jw.xstep, jw.ystep) = match i % 8 {
+            0 => (0, 0),
+            1 => (u16::MAX, u16::MAX),
+            2 => (x as u16 % 6_001, y as u16 % 6_001),
+            _ => (x as u16, y as u16),
+        };
+        let (di, dj) = match i % 16 {
+            3 => (i8::MIN, i8::MIN),
+            4 => (i8::MAX, 0),
+            5 => (0, i8::MAX),
+            _ => ((x >> 16) as i8, (y >> 16) as i8),
+        };
+        for t in jw.anchors.iter_mut() {
+            t.dx0 = I24::new(next() as i32);
+            t.dy0 = I24::new(next() as i32);
+            t.rho = next() as i32;
+        }
+        jg.clone_from(&jw);
+        loc_core::fixed::portable_move(black_box(&mut jw), di, dj);
+        uno_board::AvrTerm::move_window(black_box(&mut jg), di, dj);
+        let ok = jw
+            .anchors
+            .iter()
+            .zip(&jg.anchors)
+            .all(|(w, g)| (w.dx0, w.dy0, w.rho, w.dx2) == (g.dx0, g.dy0, g.rho, g.dx2))
+            && (jw.xstep, jw.ystep) == (jg.xstep, jg.ystep);
+        if !ok {
+            bad += 1;
+            if bad <= 5 {
+                serial.write_bytes(b"badmove");
+                for v in [
+                    jw.xstep as u32,
+                    jw.ystep as u32,
+                    di as u32,
+                    dj as u32,
+                    jw.anchors[0].dx0.get() as u32,
+                    jg.anchors[0].dx0.get() as u32,
+                    jw.anchors[0].dy0.get() as u32,
+                    jg.anchors[0].dy0.get() as u32,
+                ] {
+                    serial.write_byte(b' ');
+                    write_u32(serial, v);
+                }
+                serial.write_byte(b'\n');
+            }
+        }
+    }
+    (bad, n)
+}
+
+/// The setup's anchor placement: the assembly `place` against
+/// [`loc_core::fixed::portable_place`] on 700 random jobs of 8 placements each (garbage in every
+/// slot, sides 0 to 65 535 cm, anchors anywhere in `i16`, weights any byte, `ρ` over its whole
+/// range `±(2^30 + 2^25)` or from 4 values, ties among them); compares `n` and every slot's
+/// fields after each placement; returns (mismatches, placements checked).
+#[inline(never)]
+fn place_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
+    use loc_core::fixed::{ColumnJob, Placement, TermKernel, I24};
+    let (mut bad, mut n) = (0u32, 0u32);
+    let mut jw = ColumnJob::EMPTY;
+    let mut jg = ColumnJob::EMPTY;
+    for i in 0..black_box(700u32) {
+        let mut next = || {
+            *r ^= *r << 13;
+            *r ^= *r >> 17;
+            *r ^= *r << 5;
+            *r
+        };
+        let (x, y) = (next(), next());
+        (jw.xstep, jw.ystep) = match i % 8 {
+            0 => (0, 0),
+            1 => (u16::MAX, u16::MAX),
+            2 | 3 => (300 + x as u16 % 2_700, 300 + y as u16 % 2_700),
+            _ => (x as u16, y as u16),
+        };
+        jw.n = 0;
+        for t in jw.anchors.iter_mut() {
+            t.dx2 = next();
+            t.dx0 = I24::new(next() as i32);
+            t.dy0 = I24::new(next() as i32);
+            t.lclamp = next() as i32;
+            t.rho = next() as i32;
+            let v = next();
+            (t.w, t.shift) = (v as u8, (v >> 8) as u8);
+        }
+        jg.clone_from(&jw);
+        let few = i % 3 == 0;
+        for _ in 0..loc_core::MAX_ANCHORS {
+            let (a, b, c) = (next(), next(), next());
+            let lim = (1u32 << 30) + (1 << 25);
+            let rho = if few {
+                ((a % 4) as i32 - 2) << 22
+            } else {
+                (a % (2 * lim + 1)) as i32 - lim as i32
+            };
+            let (px, py) = if i % 8 == 1 && c % 4 == 1 {
+                // Sides 65 535: M = 41 942 or 41 943, m = 50·M just below and at 65 535·2^5
+                // (the shift's boundary).
+                let v = 23_592 + (b % 2) as i16;
+                (v, v)
+            } else if c % 4 == 0 {
+                (b as i16, (b >> 16) as i16)
+            } else {
+                // Around the area (anchors may lie outside it).
+                let (w, h) = (jw.xstep as u32 + 1, jw.ystep as u32 + 1);
+                ((b % w) as i16 - 300, ((b >> 16) % h) as i16 - 300)
+            };
+            let p = Placement {
+                rho,
+                x: px,
+                y: py,
+                weight: (c >> 8) as u8 % if c % 2 == 0 { 6 } else { 255 },
+            };
+            loc_core::fixed::portable_place(black_box(&mut jw), &p);
+            uno_board::AvrTerm::place(black_box(&mut jg), &p);
+            n += 1;
+            let same = |w: &loc_core::fixed::AnchorTerm, g: &loc_core::fixed::AnchorTerm| {
+                (w.dx2, w.dx0, w.dy0, w.lclamp, w.rho, w.w, w.shift)
+                    == (g.dx2, g.dx0, g.dy0, g.lclamp, g.rho, g.w, g.shift)
+            };
+            let ok = jw.n == jg.n && jw.anchors.iter().zip(&jg.anchors).all(|(w, g)| same(w, g));
+            if !ok {
+                bad += 1;
+                if bad <= 5 {
+                    serial.write_bytes(b"badplace");
+                    let k = jw
+                        .anchors
+                        .iter()
+                        .zip(&jg.anchors)
+                        .position(|(w, g)| !same(w, g));
+                    let k = k.unwrap_or(0);
+                    let (w, g) = (&jw.anchors[k], &jg.anchors[k]);
+                    for v in [
+                        jg.n as u32,
+                        k as u32,
+                        w.dx0.get() as u32,
+                        g.dx0.get() as u32,
+                        w.rho as u32,
+                        g.rho as u32,
+                        (w.w as u32) << 8 | w.shift as u32,
+                        (g.w as u32) << 8 | g.shift as u32,
+                    ] {
+                        serial.write_byte(b' ');
+                        write_u32(serial, v);
+                    }
+                    serial.write_byte(b'\n');
+                }
+                // One report per job.
+                break;
+            }
+        }
+    }
+    (bad, n)
+}
+
 /// Compares `uno_board::AvrTerm` with `loc_core::fixed::{portable_term, portable_column,
 /// portable_posterior, portable_weights, div_shl, mul_hi}`; see `kernel-check`.
 pub fn kernel_check() -> ! {
@@ -529,6 +702,18 @@ pub fn kernel_check() -> ! {
     serial.write_byte(b'\n');
     let (bad, n) = mul_check(&mut serial, &mut r);
     serial.write_bytes(b"mul_hi ");
+    write_u32(&mut serial, n);
+    serial.write_byte(b' ');
+    write_u32(&mut serial, bad);
+    serial.write_byte(b'\n');
+    let (bad, n) = move_check(&mut serial, &mut r);
+    serial.write_bytes(b"move_window ");
+    write_u32(&mut serial, n);
+    serial.write_byte(b' ');
+    write_u32(&mut serial, bad);
+    serial.write_byte(b'\n');
+    let (bad, n) = place_check(&mut serial, &mut r);
+    serial.write_bytes(b"place ");
     write_u32(&mut serial, n);
     serial.write_byte(b' ');
     write_u32(&mut serial, bad);

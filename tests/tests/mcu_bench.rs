@@ -246,7 +246,9 @@ fn baseline_runs_the_same_markers() {
 /// MCU (edge cases and 50 000 random inputs), leaves exactly `portable_column`'s sums (5 000
 /// random columns) and `portable_posterior`'s reference and sums (5 000 random columns), and
 /// sets the weights up exactly as `portable_weights` (5 000 random `K`, σ) and divides exactly as
-/// `div_shl` and `mul_hi` (5 000 random divisions, 5 000 random products).
+/// `div_shl` and `mul_hi` (5 000 random divisions, 5 000 random products), and moves a window
+/// exactly as `portable_move` (5 000 random moves) and places anchors exactly as `portable_place`
+/// (700 random jobs of 8).
 #[test]
 fn avr_cost_kernel_equals_the_portable_one() {
     if let Err(e) = BUILD.get_or_init(harness::build) {
@@ -263,4 +265,6 @@ fn avr_cost_kernel_equals_the_portable_one() {
     assert!(out.contains("weights 5000 0\n"), "{out}");
     assert!(out.contains("div_shl 5000 0\n"), "{out}");
     assert!(out.contains("mul_hi 5000 0\n"), "{out}");
+    assert!(out.contains("move_window 5000 0\n"), "{out}");
+    assert!(out.contains("place 5600 0\n"), "{out}");
 }

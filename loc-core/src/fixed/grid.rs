@@ -22,7 +22,9 @@
 //! written into the caller's storage (a by-value struct is a copy on AVR), the sink's window
 //! loop inlined into its one caller (a frame fewer).
 
-use super::kernel::{log2_segment_base, ColumnJob, Portable, Posterior, TermKernel, Weights, I24};
+use super::kernel::{
+    log2_segment_base, ColumnJob, Placement, Portable, Posterior, TermKernel, Weights,
+};
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
 use crate::grid::{Search, COARSE_DIVS, FINE_DIVS};
@@ -43,8 +45,6 @@ const COST_MAX: u32 = u32::MAX - 1;
 
 /// `log2(1 m²)` in lattice units `(1/50 cm)²`: `log2(5000²)`, Q.20.
 const LOG2_M2: i32 = 25_769_201;
-/// `log2((1 cm)²)` in lattice units: `log2(50²)`, Q.20 (the model's [`crate::model::MIN_DISTANCE`]).
-const LOG2_CLAMP: i32 = 11_836_024;
 /// `5·log10(2)`, Q.31.
 const FIVE_LOG10_2_Q31: u32 = 3_232_284_966;
 
@@ -198,51 +198,27 @@ impl<K: TermKernel> Grid<K> {
         // The fine steps in lattice units: `W`, `H` (cm).
         (g.job.xstep, g.job.ystep) = (area.width, area.height);
         g.job.seg_base = log2_segment_base();
-        let anchors = &mut g.job.anchors;
-        let (xm, ym) = (50 * area.width as i32, 50 * area.height as i32);
-        let mut n = 0;
+        g.job.n = 0;
         for o in obs.as_slice() {
             let d = o.z.wrapping_sub(model.p0);
             // |z − P0| Q.16 (< 2^26) as Q.22, × 2^30/K → Q.20.
             let r = K::mul_hi(d.unsigned_abs().min((1 << 26) - 1) << 6, inv_k).min(1 << 30) as i32;
             let r = if (d < 0) != (model.alpha < 0) { -r } else { r };
-            // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32.
-            let rho = r - LOG2_M2;
-            // Strongest anchor first: its term grows fastest away from the winner, so
-            // evaluations stop after fewer terms. A completed cost is the same sum in any order,
-            // and one that reaches its bound is set to the bound: no result depends on it.
-            let mut b = n;
-            while b > 0 && rho > anchors[b - 1].rho {
-                anchors[b] = anchors[b - 1];
-                b -= 1;
-            }
-            // Field by field: a whole-struct store goes through a copy on AVR.
-            let t = &mut anchors[b];
-            let (dx0, dy0) = (-50 * o.pos.x as i32, -50 * o.pos.y as i32);
-            (t.dx0, t.dy0) = (I24::new(dx0), I24::new(dy0));
-            // The shift: the fewest bits that bring the farthest offsets (from the area's
-            // sides) below 2^16.
-            let m = (dx0.unsigned_abs().max((dx0 + xm).unsigned_abs()))
-                .max(dy0.unsigned_abs().max((dy0 + ym).unsigned_abs()));
-            t.shift = 0;
-            while m >> t.shift > 65534 {
-                t.shift += 1;
-            }
-            t.rho = rho;
-            t.w = if (1..=3).contains(&o.weight) {
-                o.weight
-            } else {
-                4
+            // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32. Strongest
+            // anchor first: its term grows fastest away from the winner, so evaluations stop
+            // after fewer terms. A completed cost is the same sum in any order, and one that
+            // reaches its bound is set to the bound: no result depends on it.
+            let p = Placement {
+                rho: r - LOG2_M2,
+                x: o.pos.x,
+                y: o.pos.y,
+                weight: o.weight,
             };
-            n += 1;
+            K::place(&mut g.job, &p);
         }
-        for t in &mut anchors[..n] {
-            // d² in units of 2^(2h): log2 d² drops by 2h (after the sort, which is by ρ).
-            let sh = (t.shift as i32) << 21;
-            t.rho += sh;
-            t.lclamp = LOG2_CLAMP - sh;
+        if flat {
+            g.job.n = 0;
         }
-        g.job.n = if flat { 0 } else { n as u8 };
     }
 
     /// The fine column step in lattice units: `W` (cm).
@@ -286,13 +262,13 @@ impl<K: TermKernel> Grid<K> {
     /// apart.
     #[inline(never)]
     fn window(&mut self, i0: usize, j0: usize, stride: usize, rows: usize) {
-        let dx = self.width() * (i0 as i32 - self.i0 as i32);
-        let dy = self.height() * (j0 as i32 - self.j0 as i32);
-        for t in &mut self.job.anchors {
-            // (|·| < 2^23 anywhere in the area: 24 bits hold them.)
-            t.dx0.add(dx);
-            t.dy0.add(dy);
-        }
+        // (Indices ≤ 50: the steps fit an i8. |offsets| < 2^23 anywhere in the area: 24 bits
+        // hold them.)
+        K::move_window(
+            &mut self.job,
+            (i0 as i8).wrapping_sub(self.i0 as i8),
+            (j0 as i8).wrapping_sub(self.j0 as i8),
+        );
         (self.i0, self.j0, self.rows) = (i0, j0, rows);
         self.job.stride = stride as u8;
     }

@@ -63,6 +63,30 @@ pub trait TermKernel {
         *out = portable_weights(k26, sigma_q8)
     }
 
+    /// Moves a search window by `di` columns and `dj` rows: every anchor's offsets (all
+    /// [`MAX_ANCHORS`], in use or not) plus `di·xstep`, `dj·ystep`, 24-bit wrapping: exactly
+    /// [`portable_move`]`(job, di, dj)` (the default). A kernel overrides it: LLVM spends
+    /// ≈ 330 bytes of AVR flash on this loop.
+    #[inline(always)]
+    fn move_window(job: &mut ColumnJob, di: i8, dj: i8)
+    where
+        Self: Sized,
+    {
+        portable_move(job, di, dj)
+    }
+
+    /// Adds anchor `p` to a search's job (`job.n < MAX_ANCHORS` in use, `n` counts it): its
+    /// offsets, shift, weight, `ρ` and clamp, in place among the anchors strongest first:
+    /// exactly [`portable_place`]`(job, p)` (the default). A kernel overrides it: in LLVM's
+    /// `Grid::setup` this is most of ≈ 1.5 KB of AVR flash (the loop body twice).
+    #[inline(always)]
+    fn place(job: &mut ColumnJob, p: &Placement)
+    where
+        Self: Sized,
+    {
+        portable_place(job, p)
+    }
+
     /// `⌊a·2^e / b⌋` for `1 ≤ b < 2^31` and `e ≤ 255`, saturating: exactly [`div_shl`]`(a, b,
     /// e)` (the default; the searches' one division).
     #[inline(always)]
@@ -416,6 +440,71 @@ pub fn offset_square(v: i32, shift: u8) -> u32 {
         (a >> shift) + ((a >> (shift - 1)) & 1)
     };
     sq16((r & 0xFFFF) as i32)
+}
+
+/// `log2((1 cm)²)` in lattice units: `log2(50²)`, Q.20 (the model's
+/// [`crate::model::MIN_DISTANCE`]).
+pub const LOG2_CLAMP: i32 = 11_836_024;
+
+/// One anchor for [`TermKernel::place`]. `repr(C)` (on AVR: `rho` 0, `x` 4, `y` 6, `weight` 8):
+/// an assembly kernel reads it by offset.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Placement {
+    /// `ρ = (z − P0)/K − log2(1 m²)`, Q.20, before the shift's correction (the sort key).
+    pub rho: i32,
+    /// Anchor position, cm.
+    pub x: i16,
+    /// Anchor position, cm.
+    pub y: i16,
+    /// Observation weight (1 to 3 kept, anything else is 4).
+    pub weight: u8,
+}
+
+/// The reference of [`TermKernel::place`]: `p` goes after the anchors whose sort key (`ρ`
+/// before the shift's correction) is at least its `ρ` (the ones below move up a slot, whole);
+/// `dx0 = −50·x`, `dy0 = −50·y` (lattice units, the window at the origin); the shift: the fewest
+/// bits that bring the farthest offsets (from the area's sides `xstep`, `ystep` cm) below
+/// 2^16; then `ρ` and the clamp corrected by the shift (`log2 d²` drops by `2·shift`).
+pub fn portable_place(job: &mut ColumnJob, p: &Placement) {
+    let n = job.n as usize;
+    job.n += 1;
+    let key = |t: &AnchorTerm| t.rho - ((t.shift as i32) << 21);
+    let anchors = &mut job.anchors;
+    let mut b = n;
+    while b > 0 && p.rho > key(&anchors[b - 1]) {
+        anchors[b] = anchors[b - 1];
+        b -= 1;
+    }
+    let (xm, ym) = (50 * job.xstep as i32, 50 * job.ystep as i32);
+    let t = &mut anchors[b];
+    let (dx0, dy0) = (-50 * p.x as i32, -50 * p.y as i32);
+    (t.dx0, t.dy0) = (I24::new(dx0), I24::new(dy0));
+    let m = (dx0.unsigned_abs().max((dx0 + xm).unsigned_abs()))
+        .max(dy0.unsigned_abs().max((dy0 + ym).unsigned_abs()));
+    t.shift = 0;
+    while m >> t.shift > 65534 {
+        t.shift += 1;
+    }
+    let sh = (t.shift as i32) << 21;
+    t.rho = p.rho + sh;
+    t.lclamp = LOG2_CLAMP - sh;
+    t.w = if (1..=3).contains(&p.weight) {
+        p.weight
+    } else {
+        4
+    };
+}
+
+/// The reference of [`TermKernel::move_window`]: `dx0 += di·xstep`, `dy0 += dj·ystep` for every
+/// anchor slot, wrapping at 24 bits.
+pub fn portable_move(job: &mut ColumnJob, di: i8, dj: i8) {
+    let dx = job.xstep as i32 * di as i32;
+    let dy = job.ystep as i32 * dj as i32;
+    for t in &mut job.anchors {
+        t.dx0.add(dx);
+        t.dy0.add(dy);
+    }
 }
 
 /// The reference of [`TermKernel::column`]: every row's cost from scratch, column offset `col`.

@@ -27,7 +27,8 @@
 use core::arch::asm;
 use core::mem::{offset_of, size_of};
 use loc_core::fixed::{
-    exp2_segment_table, log2_segment_base, AnchorTerm, ColumnJob, Posterior, TermKernel, Weights,
+    exp2_segment_table, log2_segment_base, AnchorTerm, ColumnJob, Placement, Posterior, TermKernel,
+    Weights,
 };
 
 // The offsets the assembly reads (AVR has no padding).
@@ -53,6 +54,12 @@ const _: () = {
     assert!(offset_of!(ColumnJob, seg_base) == 18);
     assert!(offset_of!(ColumnJob, ystep) == 20);
     assert!(offset_of!(ColumnJob, anchors) == 22);
+    assert!(size_of::<ColumnJob>() == 22 + 20 * loc_core::MAX_ANCHORS);
+    assert!(offset_of!(Placement, rho) == 0);
+    assert!(offset_of!(Placement, x) == 4);
+    assert!(offset_of!(Placement, y) == 6);
+    assert!(offset_of!(Placement, weight) == 8);
+    assert!(loc_core::fixed::LOG2_CLAMP == 0x00B4_9A78);
     assert!(offset_of!(Posterior, cref) == 0);
     assert!(offset_of!(Posterior, wts) == 4);
     assert!(offset_of!(loc_core::fixed::Weights, span) == 0);
@@ -96,6 +103,16 @@ impl TermKernel for AvrTerm {
     #[inline(never)]
     fn mul_hi(a: u32, b: u32) -> u32 {
         mul_hi(a, b)
+    }
+
+    #[inline(never)]
+    fn move_window(job: &mut ColumnJob, di: i8, dj: i8) {
+        move_window(job, di, dj)
+    }
+
+    #[inline(never)]
+    fn place(job: &mut ColumnJob, p: &Placement) {
+        place(job, p)
     }
 }
 
@@ -1258,4 +1275,277 @@ pub fn mul_hi(a: u32, b: u32) -> u32 {
         );
     }
     (hi as u32) << 16 | lo as u32
+}
+
+/// [`loc_core::fixed::portable_move`]`(job, di, dj)`, exactly: `di·xstep` and `dj·ystep` (signed
+/// 8 × unsigned 16 bits, two `mulsu` each, kept to 24 bits) added to every anchor slot's
+/// 24-bit `dx0` and `dy0` (≈ 70 bytes for LLVM's ≈ 330).
+pub fn move_window(job: &mut ColumnJob, di: i8, dj: i8) {
+    // SAFETY: writes only the job's anchors (through Z, within the `&mut`); registers declared,
+    // r1 cleared at the end.
+    unsafe {
+        asm!(
+            // ---- dx = di·xstep in r26:r25:r24 ----
+            "ldd r18, Z+14",
+            "ldd r19, Z+15",
+            "mulsu r22, r18",
+            "movw r24, r0",
+            "clr r26",
+            "sbrc r25, 7",
+            "com r26",
+            "mulsu r22, r19",
+            "add r25, r0",
+            "adc r26, r1",
+            // ---- dy = dj·ystep in r27:r17:r16 ----
+            "ldd r18, Z+20",
+            "ldd r19, Z+21",
+            "mulsu r20, r18",
+            "movw r16, r0",
+            "clr r27",
+            "sbrc r17, 7",
+            "com r27",
+            "mulsu r20, r19",
+            "add r17, r0",
+            "adc r27, r1",
+            "clr r1",
+            // ---- every anchor: dx0 (offset 4) += dx, dy0 (7) += dy ----
+            "adiw r30, 26",
+            "ldi r18, {n}",
+            "2:",
+            "ld r0, Z",
+            "add r0, r24",
+            "st Z+, r0",
+            "ld r0, Z",
+            "adc r0, r25",
+            "st Z+, r0",
+            "ld r0, Z",
+            "adc r0, r26",
+            "st Z+, r0",
+            "ld r0, Z",
+            "add r0, r16",
+            "st Z+, r0",
+            "ld r0, Z",
+            "adc r0, r17",
+            "st Z+, r0",
+            "ld r0, Z",
+            "adc r0, r27",
+            "st Z+, r0",
+            "adiw r30, 14",
+            "dec r18",
+            "brne 2b",
+            n = const loc_core::MAX_ANCHORS,
+            inout("Z") job as *mut ColumnJob => _,
+            in("r22") di,
+            in("r20") dj,
+            out("r16") _, out("r17") _, out("r18") _, out("r19") _,
+            out("r24") _, out("r25") _, out("X") _,
+            options(nostack),
+        );
+    }
+}
+
+/// [`loc_core::fixed::portable_place`]`(job, p)`, exactly: the farthest offset `50·M`, `M` the
+/// largest of `|0 − x|`, `|W − x|`, `|0 − y|`, `|H − y|` (17 bits, one local subroutine), its
+/// shift, the insertion (20-byte slot copies, the key `ρ − shift·2^21` rebuilt from each
+/// slot), then the new slot's fields (≈ 240 bytes for most of LLVM's ≈ 1.5 KB `Grid::setup`).
+pub fn place(job: &mut ColumnJob, p: &Placement) {
+    // SAFETY: reads `p` (X) and writes the job's first `n + 1` anchors and `n` (Z, within the
+    // `&mut`; `n < MAX_ANCHORS` is the caller's contract, as for the portable one, which would
+    // panic); registers declared, r1 cleared; 2 bytes of stack for the local `rcall`.
+    unsafe {
+        asm!(
+            // ---- inputs: ρ r5:r2, x r17:r16, y r19:r18, w r21 (1..=3 kept, else 4) ----
+            "ld r2, X+",
+            "ld r3, X+",
+            "ld r4, X+",
+            "ld r5, X+",
+            "ld r16, X+",
+            "ld r17, X+",
+            "ld r18, X+",
+            "ld r19, X+",
+            "ld r21, X",
+            "subi r21, 1",
+            "cpi r21, 3",
+            "brcs 2f",
+            "ldi r21, 3",
+            "2:",
+            "subi r21, 0xFF",
+            // ---- W r7:r6, H r9:r8; n r20, stored n + 1; Z = &anchors[n − 1] ----
+            "ldd r6, Z+14",
+            "ldd r7, Z+15",
+            "ldd r8, Z+20",
+            "ldd r9, Z+21",
+            "ldd r20, Z+4",
+            "mov r22, r20",
+            "inc r22",
+            "std Z+4, r22",
+            "ldi r22, 20",
+            "mul r20, r22",
+            "add r30, r0",
+            "adc r31, r1",
+            "adiw r30, 2",
+            // ---- M = max |s − c| in r14:r12 ----
+            "clr r12",
+            "clr r13",
+            "clr r14",
+            "clr r26",
+            "clr r27",
+            "movw r10, r16",
+            "rcall 7f",
+            "movw r26, r6",
+            "rcall 7f",
+            "movw r10, r18",
+            "movw r26, r8",
+            "rcall 7f",
+            "clr r26",
+            "clr r27",
+            "rcall 7f",
+            // ---- m = 50·M in r24:r22 (< 2^23) ----
+            "ldi r25, 50",
+            "mul r12, r25",
+            "movw r22, r0",
+            "clr r24",
+            "mul r13, r25",
+            "add r23, r0",
+            "adc r24, r1",
+            "mul r14, r25",
+            "add r24, r0",
+            "clr r1",
+            // ---- shift r10: halve m while m ≥ 65535 ----
+            "clr r10",
+            "ldi r25, 0xFF",
+            "3:",
+            "cpi r22, 0xFF",
+            "cpc r23, r25",
+            "cpc r24, r1",
+            "brcs 4f",
+            "lsr r24",
+            "ror r23",
+            "ror r22",
+            "inc r10",
+            "rjmp 3b",
+            "4:",
+            // ---- insertion: while b > 0 and ρ > key(anchors[b − 1]) move that slot up ----
+            "5:",
+            "tst r20",
+            "breq 6f",
+            "ldd r22, Z+14",
+            "ldd r23, Z+15",
+            "ldd r24, Z+16",
+            "ldd r25, Z+17",
+            "ldd r26, Z+19",
+            "swap r26",
+            "clr r27",
+            "lsl r26",
+            "rol r27",
+            "sub r24, r26",
+            "sbc r25, r27",
+            "cp r22, r2",
+            "cpc r23, r3",
+            "cpc r24, r4",
+            "cpc r25, r5",
+            "brge 6f",
+            "ldi r27, 20",
+            "8:",
+            "ld r0, Z+",
+            "std Z+19, r0",
+            "dec r27",
+            "brne 8b",
+            "sbiw r30, 40",
+            "dec r20",
+            "rjmp 5b",
+            "6:",
+            "adiw r30, 20",
+            // ---- the slot: dx0 = −50·x, dy0 = −50·y (24 bits) ----
+            "ldi r20, 50",
+            "mul r16, r20",
+            "movw r22, r0",
+            "clr r24",
+            "mulsu r17, r20",
+            "add r23, r0",
+            "adc r24, r1",
+            "com r24",
+            "com r23",
+            "neg r22",
+            "sbci r23, 0xFF",
+            "sbci r24, 0xFF",
+            "std Z+4, r22",
+            "std Z+5, r23",
+            "std Z+6, r24",
+            "mul r18, r20",
+            "movw r22, r0",
+            "clr r24",
+            "mulsu r19, r20",
+            "add r23, r0",
+            "adc r24, r1",
+            "com r24",
+            "com r23",
+            "neg r22",
+            "sbci r23, 0xFF",
+            "sbci r24, 0xFF",
+            "std Z+7, r22",
+            "std Z+8, r23",
+            "std Z+9, r24",
+            "clr r1",
+            // ---- shift·2^21 = (shift << 5) in bytes 2, 3: ρ + it, LOG2_CLAMP − it ----
+            "mov r22, r10",
+            "swap r22",
+            "clr r23",
+            "lsl r22",
+            "rol r23",
+            "add r4, r22",
+            "adc r5, r23",
+            "std Z+14, r2",
+            "std Z+15, r3",
+            "std Z+16, r4",
+            "std Z+17, r5",
+            "ldi r24, 0x78",
+            "std Z+10, r24",
+            "ldi r24, 0x9A",
+            "std Z+11, r24",
+            "ldi r24, 0xB4",
+            "clr r25",
+            "sub r24, r22",
+            "sbc r25, r23",
+            "std Z+12, r24",
+            "std Z+13, r25",
+            "std Z+18, r21",
+            "std Z+19, r10",
+            "rjmp 9f",
+            // ---- subroutine: M = max(M, |s − c|), s = r27:r26 (u16), c = r11:r10 (i16) ----
+            "7:",
+            "movw r22, r26",
+            "clr r24",
+            "clr r25",
+            "sbrc r11, 7",
+            "com r25",
+            "sub r22, r10",
+            "sbc r23, r11",
+            "sbc r24, r25",
+            "sbrs r24, 7",
+            "rjmp 2f",
+            "com r24",
+            "com r23",
+            "neg r22",
+            "sbci r23, 0xFF",
+            "sbci r24, 0xFF",
+            "2:",
+            "cp r12, r22",
+            "cpc r13, r23",
+            "cpc r14, r24",
+            "brcc 2f",
+            "movw r12, r22",
+            "mov r14, r24",
+            "2:",
+            "ret",
+            "9:",
+            inout("Z") job as *mut ColumnJob => _,
+            inout("X") p as *const Placement => _,
+            out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
+            out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r12") _,
+            out("r13") _, out("r14") _, out("r16") _, out("r17") _, out("r18") _,
+            out("r19") _, out("r20") _, out("r21") _, out("r22") _, out("r23") _,
+            out("r24") _, out("r25") _,
+        );
+    }
 }
