@@ -151,7 +151,7 @@ impl CalStats {
     /// [`CalStats::push_pair`] for a pair's bytes as a report carries them (0: not heard), the
     /// sums added by `K` ([`FitKernel::push`]: the sink's is AVR assembly, no 64-bit library
     /// arithmetic). Returns how many samples were added.
-    #[inline(never)]
+    #[inline(always)]
     pub fn push_pair_with<K: FitKernel>(
         &mut self,
         a: PointCm,
