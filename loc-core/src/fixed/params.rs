@@ -1144,6 +1144,33 @@ mod tests {
     }
 
     #[test]
+    fn raw_pair_pushes_are_push_pair() {
+        // The sink's path (bytes 0 = not heard, `FitKernel::push`) against `push_pair`.
+        let mut r = Rng(0x0DDB_1A5E_5BAD_5EED);
+        for _ in 0..20_000 {
+            let (mut s, _) = stats_pair(&mut r);
+            let mut t = s;
+            // Full or nearly: the 256-sample limit.
+            if r.below(4) == 0 {
+                let room = MAX_SAMPLES as usize - s.len();
+                let fill = vec![Some(77); room.saturating_sub(r.below(6) as usize)];
+                s.push_at(-(3 << 18), &fill);
+                t = s;
+            }
+            let (a, c) = (point(&mut r), point(&mut r));
+            let mut raw = [0u8; 8];
+            for b in raw.iter_mut() {
+                let any = r.next() as u8;
+                *b = r.pick(&[0, 0, 1, 255, any]);
+            }
+            let opt = raw.map(|b| (b != 0).then_some(b));
+            let k = t.push_pair_with::<PortableFit>(a, c, &raw);
+            assert_eq!(k, s.push_pair(a, c, &opt));
+            assert_eq!(t, s);
+        }
+    }
+
+    #[test]
     fn fits_are_unchanged() {
         let mut r = Rng(0x9E37_79B9_7F4A_7C15);
         for case in 0..20_000 {

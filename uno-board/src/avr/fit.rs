@@ -1,4 +1,4 @@
-//! The sink's least-squares P0/α solve in AVR assembly: [`AvrFit`].
+//! The sink's least-squares P0/α solve and calibration sums in AVR assembly: [`AvrFit`].
 //!
 //! `loc_core::fixed`'s fit (`CalStats::sse_at`, `p0_for`, `alpha_for`, `div_scaled`,
 //! `box_least_squares`) is 64-bit integer arithmetic, which LLVM's AVR backend turns into ≈ 30 B
@@ -9,7 +9,11 @@
 //! same products, shifts, roundings, saturations and edge rule), which `hoploc-tests` checks in
 //! simavr on random jobs (`mcu-bench`'s `fit-check`).
 //!
-//! Register plan: the job in Y (r29:r28, saved on the stack), its `stats` pointer in r3:r2;
+//! The calibration sums come from here too: [`distance_x`] (an anchor pair's `x`, with the
+//! log2 from the flash table) and [`push`] (a pair's bytes into `CalStats`), 8 × 8 `mul`s in
+//! columns instead of LLVM's `log2_u33` and 64-bit library products (sink-fw 0.7 KB smaller).
+//!
+//! The solve's register plan: the job in Y (r29:r28, saved on the stack), its `stats` pointer in r3:r2;
 //! A = r25:r18 (`__muldi3`'s first operand and result, `__udivdi3`'s dividend and quotient),
 //! B = r17:r10 (their second operand, which they preserve); r26/r27 scratch and shift counts,
 //! r6/r7 the division's sign and saturation, r8 the edge counter; two 64-bit temporaries and
