@@ -29,8 +29,9 @@ use loc_core::fixed::{
 };
 use loc_proto::msg::{Position, Report, ReportView};
 
-/// The least-squares solve and the AR(1) smoothers: AVR assembly on the MCU (2.4 KB less
-/// flash), the portable twin on the host; the same results (`fit-check`).
+/// The least-squares solve, the AR(1) smoothers and the anchor pairs' sums (distance and
+/// bytes): AVR assembly on the MCU (3.1 KB less flash), the portable twin on the host; the same
+/// results (`fit-check`).
 #[cfg(target_arch = "avr")]
 type Fit = uno_board::AvrFit;
 #[cfg(not(target_arch = "avr"))]
@@ -455,16 +456,16 @@ pub fn report_inputs(r: &impl ReportData) -> (CalStats, Observations) {
 pub fn report_inputs_into(r: &impl ReportData, stats: &mut CalStats, obs: &mut Observations) {
     let n = r.anchors();
     let c = r.channels();
-    let heard = |b: u8| (b != 0).then_some(b);
-    // Without the relay matrix every byte is 0 (not heard): no samples.
+    // Without the relay matrix every byte is 0 (not heard): no samples. The bytes as they are
+    // (0: not heard), the sums by `Fit` (assembly on the AVR).
     for i in 0..n {
         for j in i + 1..n {
-            let mut bytes = [None; 2 * loc_core::MAX_CHANNELS];
+            let mut bytes = [0; 2 * loc_core::MAX_CHANNELS];
             for ch in 0..c {
-                bytes[ch] = heard(r.relay(ch, i, j));
-                bytes[loc_core::MAX_CHANNELS + ch] = heard(r.relay(ch, j, i));
+                bytes[ch] = r.relay(ch, i, j);
+                bytes[loc_core::MAX_CHANNELS + ch] = r.relay(ch, j, i);
             }
-            stats.push_pair(r.position(i), r.position(j), &bytes);
+            stats.push_pair_with::<Fit>(r.position(i), r.position(j), &bytes);
         }
     }
     // The Extended refinement of each anchor's bytes (0 = not heard), as `observations_of`.

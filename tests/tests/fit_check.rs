@@ -4,7 +4,9 @@
 
 use mcu_bench::harness;
 
-/// 20 000 random AR(1) steps (`FitKernel::ar1_update`) equal; over 10 000 random jobs (all
+/// 20 000 random anchor-pair distances (`FitKernel::distance_x`), 6 000 random pushes of a
+/// pair's samples (`FitKernel::push`) and 20 000 random AR(1) steps
+/// (`FitKernel::ar1_update`) equal; over 10 000 random jobs (all
 /// three modes; rooms, near-equal distances, Σx² = 0, extreme sums; thesis, narrow, reversed,
 /// out-of-range and unbounded bounds): every result field equal, and the interesting paths all
 /// taken (P0 alone, both in the box, both on an edge of it).
@@ -17,6 +19,31 @@ fn avr_fit_equals_the_portable_one() {
     }
     let out = avr.uart_output_string();
     assert!(out.contains("weigh 20000 0\n"), "{out}");
+    // 20 000 random anchor pairs' x (`FitKernel::distance_x`) equal, coincident ones among them.
+    let dist = out
+        .lines()
+        .find_map(|l| l.strip_prefix("dist "))
+        .unwrap_or_else(|| panic!("no dist result: {out}"));
+    println!("distances, mismatches, coincident: {dist}");
+    let d: Vec<u32> = dist
+        .split_whitespace()
+        .map(|w| w.parse().unwrap())
+        .collect();
+    assert_eq!(d[..2], [20_000, 0], "{out}");
+    assert!(d[2] >= 500, "{dist}");
+    // 6 000 random pushes of a pair's bytes (`FitKernel::push`) leave equal sums, hundreds of
+    // them cut short by the 256-sample limit.
+    let push = out
+        .lines()
+        .find_map(|l| l.strip_prefix("push "))
+        .unwrap_or_else(|| panic!("no push result: {out}"));
+    println!("pushes, mismatches, cut short: {push}");
+    let p: Vec<u32> = push
+        .split_whitespace()
+        .map(|w| w.parse().unwrap())
+        .collect();
+    assert_eq!(p[..2], [6_000, 0], "{out}");
+    assert!(p[2] >= 200, "{push}");
     let line = out
         .lines()
         .find_map(|l| l.strip_prefix("fit "))

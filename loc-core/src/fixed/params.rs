@@ -148,6 +148,22 @@ impl CalStats {
         }
     }
 
+    /// [`CalStats::push_pair`] for a pair's bytes as a report carries them (0: not heard), the
+    /// sums added by `K` ([`FitKernel::push`]: the sink's is AVR assembly, no 64-bit library
+    /// arithmetic). Returns how many samples were added.
+    #[inline(always)]
+    pub fn push_pair_with<K: FitKernel>(
+        &mut self,
+        a: PointCm,
+        b: PointCm,
+        bytes: &PairBytes,
+    ) -> usize {
+        match K::distance_x(a, b) {
+            Some(x) => K::push(self, x, bytes) as usize,
+            None => 0,
+        }
+    }
+
     /// [`CalStats::push_at`] for `|x| ≤ 2^23` ([`distance_x`] stays within ±30 dB), inlined into
     /// both entry points (a firmware links one of them).
     #[inline(always)]
@@ -430,10 +446,31 @@ pub trait FitKernel {
     /// Reads the job's inputs, writes `p0`, `alpha`, `sse` and `fitted` (see [`FitJob`]).
     fn fit(job: &mut FitJob);
 
+    /// Adds the samples `bytes` (0: not heard) at `x` (`|x| ≤ 2^23`, as from [`distance_x`]) to
+    /// `stats`; returns how many were added ([`portable_push`]).
+    fn push(stats: &mut CalStats, x: i32, bytes: &PairBytes) -> u8 {
+        portable_push(stats, x, bytes)
+    }
+
+    /// [`distance_x`] (what the sink links of the log2: its only caller there).
+    fn distance_x(a: PointCm, b: PointCm) -> Option<i32> {
+        distance_x(a, b)
+    }
+
     /// [`Ar1::update`]: feeds `x` to `s`, returns the new output ([`portable_ar1_update`]).
     fn ar1_update(s: &mut Ar1, x: i32) -> i32 {
         portable_ar1_update(s, x)
     }
+}
+
+/// One anchor pair's RSSI bytes as a report carries them: both directions, [`MAX_CHANNELS`]
+/// channels each, 0 = not heard.
+pub type PairBytes = [u8; 2 * MAX_CHANNELS];
+
+/// [`PortableFit`]'s [`FitKernel::push`]: [`CalStats::push_at`] of the heard bytes (its clamp
+/// at ±2^23 changes no `x` this takes).
+pub fn portable_push(stats: &mut CalStats, x: i32, bytes: &PairBytes) -> u8 {
+    stats.push_at(x, &bytes.map(|b| (b != 0).then_some(b))) as u8
 }
 
 /// The Rust [`FitKernel`] (the definition the assembly one is checked against).
@@ -1104,6 +1141,33 @@ mod tests {
             .unwrap(),
         );
         assert!(near < 21 << 18 && far > -30 << 18, "{near} {far}");
+    }
+
+    #[test]
+    fn raw_pair_pushes_are_push_pair() {
+        // The sink's path (bytes 0 = not heard, `FitKernel::push`) against `push_pair`.
+        let mut r = Rng(0x0DDB_1A5E_5BAD_5EED);
+        for _ in 0..20_000 {
+            let (mut s, _) = stats_pair(&mut r);
+            let mut t = s;
+            // Full or nearly: the 256-sample limit.
+            if r.below(4) == 0 {
+                let room = MAX_SAMPLES as usize - s.len();
+                let fill = vec![Some(77); room.saturating_sub(r.below(6) as usize)];
+                s.push_at(-(3 << 18), &fill);
+                t = s;
+            }
+            let (a, c) = (point(&mut r), point(&mut r));
+            let mut raw = [0u8; 8];
+            for b in raw.iter_mut() {
+                let any = r.next() as u8;
+                *b = r.pick(&[0, 0, 1, 255, any]);
+            }
+            let opt = raw.map(|b| (b != 0).then_some(b));
+            let k = t.push_pair_with::<PortableFit>(a, c, &raw);
+            assert_eq!(k, s.push_pair(a, c, &opt));
+            assert_eq!(t, s);
+        }
     }
 
     #[test]

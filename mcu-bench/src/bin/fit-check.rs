@@ -6,8 +6,12 @@
 //! the first mismatches (`bad mode n p0 alpha sse_hi sse_lo fitted`, the twin's then the
 //! assembly's), then `fit <jobs> <mismatches> <fitted 0> <fitted 1> <fitted 2> <on an edge>`
 //! and `end`; before that the AR(1) step (`FitKernel::ar1_update`): `weigh <checked>
-//! <mismatches>` after its first mismatches (`badweigh a b first x portable avr`). `tests/tests/fit_check.rs` runs
-//! it in simavr. Build: `cargo fw-bench`.
+//! <mismatches>` after its first mismatches (`badweigh a b first x portable avr`), and before
+//! that a pair's samples into the sums (`FitKernel::push`): `push <checked> <mismatches> <cut
+//! short by the 256-sample limit>` after `badpush x n_portable n_avr k`, and before that the
+//! anchor-pair distance (`FitKernel::distance_x`): `dist <checked> <mismatches> <coincident>`
+//! after `baddist ax ay bx by`.
+//! `tests/tests/fit_check.rs` runs it in simavr. Build: `cargo fw-bench`.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]
@@ -26,8 +30,8 @@ fn main() -> ! {
 mod avr {
     use core::hint::black_box;
     use loc_core::fixed::{
-        portable_ar1_update, Ar1, Bounds, CalStats, FitJob, FitKernel, ParamMode, PathLoss,
-        PointCm, PortableFit, ALPHA, DB,
+        distance_x, portable_ar1_update, portable_push, Ar1, Bounds, CalStats, FitJob, FitKernel,
+        ParamMode, PathLoss, PointCm, PortableFit, ALPHA, DB,
     };
     use uno_board::{AvrFit, Board, Serial};
 
@@ -74,6 +78,13 @@ mod avr {
         serial.write_bytes(&buf[k..]);
     }
 
+    /// [`CalStats::push_pair`] as a firmware with one copy of the sums' code has it.
+    fn push_pair(s: &mut CalStats, a: PointCm, c: PointCm, b: &[Option<u8>]) {
+        if let Some(x) = distance_x(a, c) {
+            s.push_at(x, b);
+        }
+    }
+
     /// Random sums: a room's anchor pairs, or pushes at random (sometimes extreme, sometimes
     /// nearly equal, sometimes zero) x.
     fn stats(r: &mut Rng) -> CalStats {
@@ -105,7 +116,7 @@ mod avr {
                         PointCm::new(r.range(0, 2000) as i16, r.range(0, 2000) as i16)
                     };
                     let (a, c) = (p(r), p(r));
-                    s.push_pair(a, c, b);
+                    push_pair(&mut s, a, c, b);
                 }
                 // Nearly equal distances: α barely identifiable.
                 3 => {
@@ -124,7 +135,7 @@ mod avr {
                     let p = |r: &mut Rng| PointCm::new(r.next() as i16, r.next() as i16);
                     let (a, c) = (p(r), p(r));
                     if r.below(2) == 0 {
-                        s.push_pair(a, c, b);
+                        push_pair(&mut s, a, c, b);
                     } else {
                         s.push_at(r.range(-(33 << 18), 33 << 18), b);
                     }
@@ -242,6 +253,101 @@ mod avr {
                 }
             }
         }
+        // The anchor-pair distance (`FitKernel::distance_x`): coincident, 1 cm, the i16 extremes,
+        // small and room-sized offsets, anything.
+        let (mut dbad, dn, mut dnone) = (0u32, black_box(20_000u32), 0u32);
+        for _ in 0..dn {
+            let c = |r: &mut Rng| match r.below(5) {
+                0 => r.pick(&[i16::MIN, i16::MAX, 0, -1, 1, i16::MIN + 1, i16::MAX - 1]),
+                1 => r.next() as i16,
+                _ => r.range(-300, 2300) as i16,
+            };
+            let a = PointCm::new(c(&mut r), c(&mut r));
+            let b = match r.below(6) {
+                0 => a,
+                1 => PointCm::new(
+                    a.x.wrapping_add(r.range(-2, 2) as i16),
+                    a.y.wrapping_add(r.range(-2, 2) as i16),
+                ),
+                _ => PointCm::new(c(&mut r), c(&mut r)),
+            };
+            let want = distance_x(black_box(a), b);
+            dnone += want.is_none() as u32;
+            if AvrFit::distance_x(black_box(a), b) != want {
+                dbad += 1;
+                if dbad <= 5 {
+                    serial.write_bytes(b"baddist");
+                    for v in [a.x, a.y, b.x, b.y] {
+                        serial.write_byte(b' ');
+                        write_u32(&mut serial, v as u32);
+                    }
+                    serial.write_byte(b'\n');
+                }
+            }
+        }
+        serial.write_bytes(b"dist ");
+        for v in [dn, dbad, dnone] {
+            write_u32(&mut serial, v);
+            serial.write_byte(b' ');
+        }
+        serial.write_byte(b'\n');
+        // A pair's samples into the sums (`FitKernel::push`): random sums (some full or nearly),
+        // x from ±2^23 (extremes, 0, ±1, a room's pairs, anything), bytes 0 (not heard) or not.
+        let (mut pbad, pn, mut plimited) = (0u32, black_box(6_000u32), 0u32);
+        for _ in 0..pn {
+            let mut want = stats(&mut r);
+            if r.below(4) == 0 {
+                // Up to 10 short of full.
+                let fill = [Some(r.pick(&[0u8, 255, 77])); 64];
+                let mut more = 256 - r.range(0, 10) as usize - want.len().min(246);
+                while more > 0 {
+                    let m = more.min(64);
+                    want.push_at(r.range(-(20 << 18), 20 << 18), &fill[..m]);
+                    more -= m;
+                }
+            }
+            const X: i32 = 1 << 23;
+            let x = match r.below(6) {
+                0 => r.pick(&[-X, X, X - 1, -X + 1, 0, 1, -1, 255, -256, 65_535, -65_536]),
+                1 => r.range(-X, X),
+                2 => {
+                    let p = |r: &mut Rng| PointCm::new(r.next() as i16, r.next() as i16);
+                    distance_x(p(&mut r), p(&mut r)).unwrap_or(0)
+                }
+                _ => r.range(-(30 << 18), 20 << 18),
+            };
+            let mut bytes = [0u8; 8];
+            for b in bytes.iter_mut() {
+                *b = match r.below(6) {
+                    0 | 1 => 0,
+                    2 => r.pick(&[1, 255, 254, 128]),
+                    _ => r.next() as u8,
+                };
+            }
+            let heard = bytes.iter().filter(|&&b| b != 0).count() as u8;
+            let mut got = want;
+            let k = portable_push(black_box(&mut want), x, &bytes);
+            if k < heard {
+                plimited += 1;
+            }
+            if AvrFit::push(black_box(&mut got), x, &bytes) != k || got != want {
+                pbad += 1;
+                if pbad <= 5 {
+                    serial.write_bytes(b"badpush");
+                    for v in [x as u32, want.len() as u32, got.len() as u32, k as u32] {
+                        serial.write_byte(b' ');
+                        write_u32(&mut serial, v);
+                    }
+                    serial.write_byte(b'\n');
+                }
+            }
+        }
+        serial.write_bytes(b"push ");
+        for v in [pn, pbad, plimited] {
+            write_u32(&mut serial, v);
+            serial.write_byte(b' ');
+        }
+        serial.write_byte(b'\n');
         // The AR(1) step on a fresh or a started smoother, with the weights `Ar1::new` allows
         // (±4 in Q.16) and any values.
         let (mut wbad, wn) = (0u32, black_box(20_000u32));

@@ -1,4 +1,4 @@
-//! The sink's least-squares P0/α solve in AVR assembly: [`AvrFit`].
+//! The sink's least-squares P0/α solve and calibration sums in AVR assembly: [`AvrFit`].
 //!
 //! `loc_core::fixed`'s fit (`CalStats::sse_at`, `p0_for`, `alpha_for`, `div_scaled`,
 //! `box_least_squares`) is 64-bit integer arithmetic, which LLVM's AVR backend turns into ≈ 30 B
@@ -9,7 +9,11 @@
 //! same products, shifts, roundings, saturations and edge rule), which `hoploc-tests` checks in
 //! simavr on random jobs (`mcu-bench`'s `fit-check`).
 //!
-//! Register plan: the job in Y (r29:r28, saved on the stack), its `stats` pointer in r3:r2;
+//! The calibration sums come from here too: [`distance_x`] (an anchor pair's `x`, with the
+//! log2 from the flash table) and [`push`] (a pair's bytes into `CalStats`), 8 × 8 `mul`s in
+//! columns instead of LLVM's `log2_u33` and 64-bit library products (sink-fw 0.7 KB smaller).
+//!
+//! The solve's register plan: the job in Y (r29:r28, saved on the stack), its `stats` pointer in r3:r2;
 //! A = r25:r18 (`__muldi3`'s first operand and result, `__udivdi3`'s dividend and quotient),
 //! B = r17:r10 (their second operand, which they preserve); r26/r27 scratch and shift counts,
 //! r6/r7 the division's sign and saturation, r8 the edge counter; two 64-bit temporaries and
@@ -18,7 +22,7 @@
 
 use core::arch::asm;
 use core::mem::{offset_of, size_of};
-use loc_core::fixed::{Ar1, FitJob, FitKernel};
+use loc_core::fixed::{log2_segment_base, Ar1, CalStats, FitJob, FitKernel, PairBytes, PointCm};
 
 // The offsets the assembly reads (AVR has no padding).
 const _: () = {
@@ -47,6 +51,498 @@ impl FitKernel for AvrFit {
     fn ar1_update(s: &mut Ar1, x: i32) -> i32 {
         ar1_update(s, x)
     }
+
+    #[inline(always)]
+    fn push(stats: &mut CalStats, x: i32, bytes: &PairBytes) -> u8 {
+        push(stats, x, bytes)
+    }
+
+    #[inline(always)]
+    fn distance_x(a: PointCm, b: PointCm) -> Option<i32> {
+        distance_x(a, b)
+    }
+}
+
+/// [`loc_core::fixed::distance_x`], exactly: `d²` (33 bits) from 8 × 8 `mul`s, normalised by
+/// byte moves and bit shifts, `log2` from the flash table (the column kernel's evaluation), and
+/// `−(5·log10 2 · (log2 d² − log2 1 m²))` rounded as `mul_shr` does, by columns of `mul`s (no
+/// `__muldi3`). 0.6 KB less flash than LLVM's `log2_u33` alone. Checked by `fit-check`.
+#[inline(always)]
+pub fn distance_x(a: PointCm, b: PointCm) -> Option<i32> {
+    let ([ax0, ax1], [bx0, bx1]) = (a.x.to_le_bytes(), b.x.to_le_bytes());
+    let ([ay0, ay1], [by0, by1]) = (a.y.to_le_bytes(), b.y.to_le_bytes());
+    let (x0, x1, x2, x3, some): (u8, u8, u8, u8, u8);
+    // SAFETY: register arithmetic, and `lpm` of 6 bytes of the log2 table (segment `k < 64` of
+    // `log2_segment_base`, flash); writes only the declared registers, r0, r1 (left at 0), the
+    // flags and the stack below SP (its own calls).
+    unsafe {
+        asm!(
+            "clr r2",
+            "clr r11",
+            "clr r12",
+            "clr r13",
+            "clr r14",
+            "clr r15",
+            // |a.x − b.x| (the 17-bit difference's sign in S)
+            "sub r18, r20",
+            "sbc r19, r21",
+            "brge 1f",
+            "com r19",
+            "neg r18",
+            "sbci r19, 0xFF",
+            "1:",
+            "rcall 30f",
+            "movw r18, r22",
+            "sub r18, r24",
+            "sbc r19, r25",
+            "brge 2f",
+            "com r19",
+            "neg r18",
+            "sbci r19, 0xFF",
+            "2:",
+            "rcall 30f",
+            // d² in r11:r15:r12 (r11 the 2^32 bit); e in r16
+            "tst r11",
+            "breq 3f",
+            "lsr r11",
+            "ror r15",
+            "ror r14",
+            "ror r13",
+            "ror r12",
+            "ldi r16, 32",
+            "rjmp 6f",
+            "3:",
+            "ldi r16, 31",
+            "mov r0, r12",
+            "or r0, r13",
+            "or r0, r14",
+            "or r0, r15",
+            "brne 4f",
+            // coincident
+            "clr r17",
+            "rjmp 9f",
+            "4:",
+            "tst r15",
+            "brne 5f",
+            "mov r15, r14",
+            "mov r14, r13",
+            "mov r13, r12",
+            "clr r12",
+            "subi r16, 8",
+            "rjmp 4b",
+            "5:",
+            "sbrc r15, 7",
+            "rjmp 6f",
+            "lsl r12",
+            "rol r13",
+            "rol r14",
+            "rol r15",
+            "dec r16",
+            "rjmp 5b",
+            // segment 64 + k = n >> 25, t = n >> 9 in r14:r13; c0 r5:r3, c1 r7:r6, c2 r8
+            "6:",
+            "lsr r15",
+            "ror r14",
+            "ror r13",
+            "ldi r17, 6",
+            "mul r15, r17",
+            "add r30, r0",
+            "adc r31, r1",
+            "lpm r3, Z+",
+            "lpm r4, Z+",
+            "lpm r5, Z+",
+            "lpm r6, Z+",
+            "lpm r7, Z+",
+            "lpm r8, Z",
+            // q = (t1·c2 + (t0·c2 >> 8)) >> 8; i = c1 − q
+            "mul r13, r8",
+            "mov r17, r1",
+            "mul r14, r8",
+            "add r0, r17",
+            "mov r17, r1",
+            "adc r17, r2",
+            "sub r6, r17",
+            "sbc r7, r2",
+            // mid = (t0·i0 >> 8) + t1·i0 + t0·i1 in r11:r9
+            "mul r13, r6",
+            "mov r9, r1",
+            "clr r10",
+            "clr r11",
+            "mul r14, r6",
+            "add r9, r0",
+            "adc r10, r1",
+            "adc r11, r2",
+            "mul r13, r7",
+            "add r9, r0",
+            "adc r10, r1",
+            "adc r11, r2",
+            // log2 d² = (e << 20) + c0 + t1·i1 + (mid >> 8), Q.20, in r16:r5:r4:r3
+            "mul r14, r7",
+            "add r3, r0",
+            "adc r4, r1",
+            "adc r5, r2",
+            "add r3, r10",
+            "adc r4, r11",
+            "adc r5, r2",
+            "swap r16",
+            "mov r17, r16",
+            "andi r17, 0xF0",
+            "andi r16, 0x0F",
+            "add r5, r17",
+            "adc r16, r2",
+            // l = log2 d² − log2 1 m² (0xD49A78); T = l < 0; |l| (below 2^25)
+            "ldi r17, 0x78",
+            "sub r3, r17",
+            "ldi r17, 0x9A",
+            "sbc r4, r17",
+            "ldi r17, 0xD4",
+            "sbc r5, r17",
+            "sbc r16, r2",
+            "bst r16, 7",
+            "brtc 7f",
+            "com r3",
+            "com r4",
+            "com r5",
+            "com r16",
+            "sec",
+            "adc r3, r2",
+            "adc r4, r2",
+            "adc r5, r2",
+            "adc r16, r2",
+            "7:",
+            // R = (|l|·0x60546093 + 2^31 − T) >> 32 by columns (t = r11:r9; r17 = −T, then
+            // 0x80 − T at byte 3)
+            "ldi r18, 0x93",
+            "ldi r19, 0x60",
+            "ldi r20, 0x54",
+            "ldi r21, 0x60",
+            "clr r17",
+            "brtc 8f",
+            "dec r17",
+            "8:",
+            "mov r9, r17",
+            "clr r10",
+            "clr r11",
+            "mul r3, r18",
+            "rcall 31f",
+            "rcall 32f",
+            "rcall 33f",
+            "mul r3, r19",
+            "rcall 31f",
+            "mul r4, r18",
+            "rcall 31f",
+            "rcall 32f",
+            "rcall 33f",
+            "mul r3, r20",
+            "rcall 31f",
+            "mul r4, r19",
+            "rcall 31f",
+            "mul r5, r18",
+            "rcall 31f",
+            "rcall 32f",
+            "subi r17, 0x80",
+            "rcall 33f",
+            "mul r3, r21",
+            "rcall 31f",
+            "mul r4, r20",
+            "rcall 31f",
+            "mul r5, r19",
+            "rcall 31f",
+            "mul r16, r18",
+            "rcall 31f",
+            "rcall 32f",
+            "mul r4, r21",
+            "rcall 31f",
+            "mul r5, r20",
+            "rcall 31f",
+            "mul r16, r19",
+            "rcall 31f",
+            "mov r22, r9",
+            "rcall 32f",
+            "mul r5, r21",
+            "rcall 31f",
+            "mul r16, r20",
+            "rcall 31f",
+            "mov r23, r9",
+            "rcall 32f",
+            "mul r16, r21",
+            "rcall 31f",
+            "mov r24, r9",
+            "mov r25, r10",
+            // x = R for l < 0, −R otherwise
+            "brts 10f",
+            "com r25",
+            "com r24",
+            "com r23",
+            "neg r22",
+            "sbci r23, 0xFF",
+            "sbci r24, 0xFF",
+            "sbci r25, 0xFF",
+            "10:",
+            "ldi r17, 1",
+            "rjmp 9f",
+            // r11:r15:r12 += (r19:r18)²
+            "30:",
+            "mul r18, r18",
+            "add r12, r0",
+            "adc r13, r1",
+            "adc r14, r2",
+            "adc r15, r2",
+            "adc r11, r2",
+            "mul r19, r19",
+            "add r14, r0",
+            "adc r15, r1",
+            "adc r11, r2",
+            "mul r18, r19",
+            "add r13, r0",
+            "adc r14, r1",
+            "adc r15, r2",
+            "adc r11, r2",
+            "add r13, r0",
+            "adc r14, r1",
+            "adc r15, r2",
+            "adc r11, r2",
+            "ret",
+            // t += r1:r0
+            "31:",
+            "add r9, r0",
+            "adc r10, r1",
+            "adc r11, r2",
+            "ret",
+            // t >>= 8 (the column's byte out)
+            "32:",
+            "mov r9, r10",
+            "mov r10, r11",
+            "clr r11",
+            "ret",
+            // t += r17
+            "33:",
+            "add r9, r17",
+            "adc r10, r2",
+            "adc r11, r2",
+            "ret",
+            "9:",
+            "clr r1",
+            inout("Z") log2_segment_base() => _,
+            inout("r18") ax0 => _, inout("r19") ax1 => _,
+            inout("r20") bx0 => _, inout("r21") bx1 => _,
+            inout("r22") ay0 => x0, inout("r23") ay1 => x1,
+            inout("r24") by0 => x2, inout("r25") by1 => x3,
+            out("r17") some,
+            out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
+            out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r12") _,
+            out("r13") _, out("r14") _, out("r15") _, out("r16") _,
+        );
+    }
+    (some != 0).then_some(i32::from_le_bytes([x0, x1, x2, x3]))
+}
+
+/// [`loc_core::fixed::portable_push`] (a pair's samples into the calibration sums), exactly:
+/// the byte sums in registers, then `k·|x|`, `Σx² += k|x|·|x|` and `Σ|x|b += |x|·Σb` by 8 × 8
+/// `mul`s summed column by column into the `u64` in memory (no `__muldi3`). Checked by
+/// `fit-check`.
+#[inline(always)]
+pub fn push(stats: &mut CalStats, x: i32, bytes: &PairBytes) -> u8 {
+    let [x0, x1, x2, x3] = x.to_le_bytes();
+    let k: u8;
+    // SAFETY: reads the 8 bytes at X and the `CalStats` at Z (40 bytes, offsets asserted in
+    // loc-core: n 0, sb 2, sbb 4, sx 8, sxx 16, sxb 24) and writes only that `CalStats`, the
+    // declared registers, r0, r1 (left at 0), the flags and the stack below SP (its own calls).
+    unsafe {
+        asm!(
+            "clr r1",
+            "clr r5",
+            // n in r25:r24, k r15, Σb r17:r16, Σb² r14:r12
+            "ld r24, Z",
+            "ldd r25, Z+1",
+            "clr r15",
+            "clr r16",
+            "clr r17",
+            "clr r12",
+            "clr r13",
+            "clr r14",
+            "ldi r19, 8",
+            "1:",
+            "ld r18, X+",
+            "tst r18",
+            "breq 2f",
+            // n = 256 (MAX_SAMPLES): no more
+            "sbrc r25, 0",
+            "rjmp 3f",
+            "adiw r24, 1",
+            "inc r15",
+            "add r16, r18",
+            "adc r17, r5",
+            "mul r18, r18",
+            "add r12, r0",
+            "adc r13, r1",
+            "adc r14, r5",
+            "2:",
+            "dec r19",
+            "brne 1b",
+            "3:",
+            "tst r15",
+            "brne 4f",
+            "rjmp 9f",
+            "4:",
+            "st Z+, r24",
+            "st Z+, r25",
+            "ld r18, Z",
+            "add r18, r16",
+            "st Z+, r18",
+            "ld r18, Z",
+            "adc r18, r17",
+            "st Z+, r18",
+            "ld r18, Z",
+            "add r18, r12",
+            "st Z+, r18",
+            "ld r18, Z",
+            "adc r18, r13",
+            "st Z+, r18",
+            "ld r18, Z",
+            "adc r18, r14",
+            "st Z+, r18",
+            "ld r18, Z",
+            "adc r18, r5",
+            "st Z+, r18",
+            // |x| in r22:r20 (below 2^24), T = x < 0 (the side)
+            "bst r23, 7",
+            "brtc 5f",
+            "com r22",
+            "com r21",
+            "neg r20",
+            "sbci r21, 0xFF",
+            "sbci r22, 0xFF",
+            "5:",
+            // k·|x| in r11:r8
+            "mul r15, r20",
+            "movw r8, r0",
+            "mul r15, r22",
+            "movw r10, r0",
+            "mul r15, r21",
+            "add r9, r0",
+            "adc r10, r1",
+            "adc r11, r5",
+            // Σ|x|[side] += k·|x| (Z at +8; X keeps it)
+            "movw r26, r30",
+            "brtc 6f",
+            "adiw r30, 4",
+            "6:",
+            "ld r18, Z",
+            "add r18, r8",
+            "st Z+, r18",
+            "ld r18, Z",
+            "adc r18, r9",
+            "st Z+, r18",
+            "ld r18, Z",
+            "adc r18, r10",
+            "st Z+, r18",
+            "ld r18, Z",
+            "adc r18, r11",
+            "st Z+, r18",
+            // Σx² (+16) += k|x|·|x|, by columns (t = r4:r2)
+            "movw r30, r26",
+            "adiw r30, 8",
+            "rcall 20f",
+            "mul r8, r20",
+            "rcall 22f",
+            "rcall 21f",
+            "mul r8, r21",
+            "rcall 22f",
+            "mul r9, r20",
+            "rcall 22f",
+            "rcall 21f",
+            "mul r8, r22",
+            "rcall 22f",
+            "mul r9, r21",
+            "rcall 22f",
+            "mul r10, r20",
+            "rcall 22f",
+            "rcall 21f",
+            "mul r9, r22",
+            "rcall 22f",
+            "mul r10, r21",
+            "rcall 22f",
+            "mul r11, r20",
+            "rcall 22f",
+            "rcall 21f",
+            "mul r10, r22",
+            "rcall 22f",
+            "mul r11, r21",
+            "rcall 22f",
+            "rcall 21f",
+            "mul r11, r22",
+            "rcall 22f",
+            "rcall 23f",
+            // Σ|x|b[side] (+24, +32) += |x|·Σb (Z at +24)
+            "brtc 7f",
+            "adiw r30, 8",
+            "7:",
+            "rcall 20f",
+            "mul r20, r16",
+            "rcall 22f",
+            "rcall 21f",
+            "mul r20, r17",
+            "rcall 22f",
+            "mul r21, r16",
+            "rcall 22f",
+            "rcall 21f",
+            "mul r21, r17",
+            "rcall 22f",
+            "mul r22, r16",
+            "rcall 22f",
+            "rcall 21f",
+            "mul r22, r17",
+            "rcall 22f",
+            "rcall 23f",
+            "rjmp 9f",
+            // t = 0, 8 bytes to go, t += the first
+            "20:",
+            "clr r2",
+            "clr r3",
+            "clr r4",
+            "ldi r19, 8",
+            "rjmp 24f",
+            // the column's byte stored, t shifted, t += the next byte (if any)
+            "21:",
+            "st Z+, r2",
+            "mov r2, r3",
+            "mov r3, r4",
+            "clr r4",
+            "dec r19",
+            "breq 25f",
+            "24:",
+            "ld r18, Z",
+            "add r2, r18",
+            "adc r3, r5",
+            "adc r4, r5",
+            "25:",
+            "ret",
+            // t += r1:r0
+            "22:",
+            "add r2, r0",
+            "adc r3, r1",
+            "adc r4, r5",
+            "ret",
+            // the columns left (the carry)
+            "23:",
+            "rcall 21b",
+            "tst r19",
+            "brne 23b",
+            "ret",
+            "9:",
+            "clr r1",
+            inout("Z") stats as *mut CalStats => _,
+            inout("X") bytes.as_ptr() => _,
+            inout("r20") x0 => _, inout("r21") x1 => _, inout("r22") x2 => _, inout("r23") x3 => _,
+            out("r15") k,
+            out("r2") _, out("r3") _, out("r4") _, out("r5") _,
+            out("r8") _, out("r9") _, out("r10") _, out("r11") _,
+            out("r12") _, out("r13") _, out("r14") _, out("r16") _, out("r17") _,
+            out("r18") _, out("r19") _, out("r24") _, out("r25") _,
+        );
+    }
+    k
 }
 
 /// [`loc_core::fixed::portable_ar1_update`] (the AR(1) smoother's step), exactly, on the
