@@ -3,8 +3,8 @@
 use crate::{Inputs, Pipeline, Report, N_ANCHORS, N_CHANNELS, SIGMA_DB};
 use loc_core::fixed::{
     estimate_with, fit_least_squares_with, mle_with, mmse_window_with, observations_of, AreaCm,
-    Bounds, CalStats, ChannelBytes, Estimator, FitMethod, Observations, OnlineParams, ParamMode,
-    PathLoss, PointCm, Refinement, Search,
+    Bounds, CalStats, ChannelBytes, Estimator, FitMethod, Observations, OnlineParams, PairBytes,
+    ParamMode, PathLoss, PointCm, Refinement, Search,
 };
 
 /// The cost kernel: the AVR assembly one on the MCU (what the sink runs), the portable one on
@@ -103,13 +103,14 @@ impl Pipeline for Fixed {
         let mut stats = CalStats::new();
         for i in 0..N_ANCHORS {
             for j in i + 1..N_ANCHORS {
-                // Both directions' bytes: one distance (one log) per pair.
-                let mut bytes = [None; 2 * N_CHANNELS];
+                // Both directions' bytes as a report carries them (0: not heard), one distance
+                // (one log) per pair, the sums by the sink's kernel (AVR assembly on the MCU).
+                let mut bytes: PairBytes = [0; 2 * loc_core::MAX_CHANNELS];
                 for c in 0..N_CHANNELS {
-                    bytes[c] = Some(inp.a2a_byte(i, j, c));
-                    bytes[N_CHANNELS + c] = Some(inp.a2a_byte(j, i, c));
+                    bytes[c] = inp.a2a_byte(i, j, c);
+                    bytes[loc_core::MAX_CHANNELS + c] = inp.a2a_byte(j, i, c);
                 }
-                stats.push_pair(a[i], a[j], &bytes);
+                stats.push_pair_with::<Fit>(a[i], a[j], &bytes);
             }
         }
         stats
