@@ -11,7 +11,8 @@
 //!   [`Decoder`] plus about 30 bytes, which matters on a 2 KB-SRAM ATmega328P.
 //! * **Nothing blocks forever.** Every wait (AT response, TX status, guard times, a UART that
 //!   will not take a byte) is bounded by the [`Clock`]; [`Radio::poll`] returns as soon as the
-//!   UART has nothing more.
+//!   UART has nothing more. A wait's `timeout_ms` counts at most 65 535 ms (a larger one waits
+//!   that long): the driver times its waits on the clock's low 16 bits, half the AVR code.
 //! * **Nothing received is lost.** While the driver waits for an AT response or a TX status,
 //!   every other frame (beacons arriving at the same time, say) goes to the caller's `on_other`
 //!   callback, unparsed ([`RawFrame`]) so even a frame this crate cannot parse gets through.
@@ -300,6 +301,12 @@ fn be_u32(bytes: &[u8]) -> Option<u32> {
     (1..=4)
         .contains(&bytes.len())
         .then(|| bytes.iter().fold(0u32, |v, &x| (v << 8) | x as u32))
+}
+
+/// A public wait's `timeout_ms` as the driver keeps it: 16 bits, at most 65 535 ms (on AVR
+/// 16-bit arithmetic is half the code of 32-bit).
+fn ms16(timeout_ms: u32) -> u16 {
+    timeout_ms.min(u16::MAX.into()) as u16
 }
 
 /// The settings [`Radio::read_config`] reads.
@@ -697,10 +704,15 @@ where
         }
     }
 
-    /// Milliseconds since `start` (wrapping). Inlined: the clock read behind it is a call
-    /// already (18 B less AVR flash).
-    fn elapsed(&mut self, start: u32) -> u32 {
-        self.clock.now_ms().wrapping_sub(start)
+    /// The clock's low 16 bits: the driver's waits take at most 65 535 ms ([`ms16`]) and look at
+    /// the clock without a long gap, and 16-bit arithmetic is half the AVR code.
+    fn now16(&mut self) -> u16 {
+        self.clock.now_ms() as u16
+    }
+
+    /// Milliseconds since `start` ([`Radio::now16`], wrapping).
+    fn elapsed(&mut self, start: u16) -> u16 {
+        self.now16().wrapping_sub(start)
     }
 
     /// Sends AT command `command` (with `parameter`; empty to query) in a 0x08 frame with a fresh
@@ -720,7 +732,7 @@ where
         let result = self.at_dyn(
             command,
             parameter,
-            timeout_ms,
+            ms16(timeout_ms),
             Some(&mut on_other),
             Some(&mut value),
         );
@@ -738,7 +750,13 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<(), Error> {
-        let result = self.at_dyn(command, parameter, timeout_ms, Some(&mut on_other), None);
+        let result = self.at_dyn(
+            command,
+            parameter,
+            ms16(timeout_ms),
+            Some(&mut on_other),
+            None,
+        );
         self.public(result.map(|_| ()))
     }
 
@@ -750,14 +768,14 @@ where
         &mut self,
         command: [u8; 2],
         parameter: &[u8],
-        timeout_ms: u32,
+        timeout_ms: u16,
         mut on_other: Option<&mut dyn FnMut(RawFrame<'_>)>,
         value: Option<&mut AtValue>,
     ) -> Result<Option<u32>, Failed> {
         let id = self.next_frame_id();
         let [c0, c1] = command;
         self.send_parts(&[AT_COMMAND, id, c0, c1], parameter)?;
-        let start = self.clock.now_ms();
+        let start = self.now16();
         loop {
             match self.next_frame() {
                 Next::Frame(len) => {
@@ -799,16 +817,16 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<(), Error> {
-        let result = self.wait_tx_dyn(timeout_ms, &mut on_other);
+        let result = self.wait_tx_dyn(ms16(timeout_ms), &mut on_other);
         self.public(result)
     }
 
     fn wait_tx_dyn(
         &mut self,
-        timeout_ms: u32,
+        timeout_ms: u16,
         on_other: &mut dyn FnMut(RawFrame<'_>),
     ) -> Result<(), Failed> {
-        let start = self.clock.now_ms();
+        let start = self.now16();
         while self.tx_pending() {
             match self.next_frame() {
                 Next::Frame(len) => on_other(self.decoder.frame(len)),
@@ -833,9 +851,10 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<(), Error> {
+        let t = ms16(timeout_ms);
         let result = self
-            .wait_tx_dyn(timeout_ms, &mut on_other)
-            .and_then(|()| self.at_dyn(*b"CH", &[channel], timeout_ms, Some(&mut on_other), None));
+            .wait_tx_dyn(t, &mut on_other)
+            .and_then(|()| self.at_dyn(*b"CH", &[channel], t, Some(&mut on_other), None));
         self.public(result.map(|_| ()))
     }
 
@@ -845,7 +864,7 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<RadioConfig, Error> {
-        let result = self.read_config_dyn(timeout_ms, &mut on_other);
+        let result = self.read_config_dyn(ms16(timeout_ms), &mut on_other);
         self.public(result)
     }
 
@@ -854,7 +873,7 @@ where
         &mut self,
         command: [u8; 2],
         max: u32,
-        timeout_ms: u32,
+        timeout_ms: u16,
         on_other: Option<&mut dyn FnMut(RawFrame<'_>)>,
     ) -> Result<u32, Failed> {
         match self.at_dyn(command, &[], timeout_ms, on_other, None)? {
@@ -865,7 +884,7 @@ where
 
     fn read_config_dyn(
         &mut self,
-        timeout_ms: u32,
+        timeout_ms: u16,
         on_other: &mut dyn FnMut(RawFrame<'_>),
     ) -> Result<RadioConfig, Failed> {
         Ok(RadioConfig {
@@ -923,7 +942,7 @@ where
     fn query_ap(&mut self, timeout_ms: u16) -> Option<u32> {
         // Twice: a radio still starting up may miss the first.
         for _ in 0..2 {
-            if let Ok(ap) = self.at_dyn(*b"AP", &[], timeout_ms.into(), None, None) {
+            if let Ok(ap) = self.at_dyn(*b"AP", &[], timeout_ms, None, None) {
                 return ap;
             }
         }
@@ -1035,7 +1054,6 @@ where
     ) -> Result<(), Failed> {
         let bytes = value.to_be_bytes();
         let param = if wide { &bytes[..] } else { &bytes[1..] };
-        let timeout_ms = timeout_ms.into();
         self.at_dyn(command, param, timeout_ms, None, None)?;
         if self.query(command, 0xFFFF, timeout_ms, None)? != u32::from(value) {
             return Err(self.fail(Error::Unexpected { command }));
