@@ -296,6 +296,23 @@ impl AtValue {
     }
 }
 
+/// `bytes` as a big-endian number of 1 to 4 bytes, if it is below 65 536 (what the driver's own
+/// queries need: every register it reads is 8 or 16 bits; 16-bit arithmetic is half the AVR
+/// code of 32-bit).
+fn be_u16(bytes: &[u8]) -> Option<u16> {
+    if !(1..=4).contains(&bytes.len()) {
+        return None;
+    }
+    let mut v = 0u16;
+    for &b in bytes {
+        if v > 0xFF {
+            return None;
+        }
+        v = (v << 8) | u16::from(b);
+    }
+    Some(v)
+}
+
 /// `bytes` as a big-endian number of 1 to 4 bytes.
 fn be_u32(bytes: &[u8]) -> Option<u32> {
     (1..=4)
@@ -761,7 +778,7 @@ where
     }
 
     /// [`Radio::at_command`] for every caller: the value is copied to `value` if given, and
-    /// returned as a number if it is one of 1 to 4 bytes (what [`AtValue::as_u32`] gives).
+    /// returned as a number if it is one of 1 to 4 bytes below 65 536 ([`be_u16`]).
     /// Without `on_other` (bring-up), other frames are dropped and counted in `dropped`.
     #[inline(never)]
     fn at_dyn(
@@ -771,7 +788,7 @@ where
         timeout_ms: u16,
         mut on_other: Option<&mut dyn FnMut(RawFrame<'_>)>,
         value: Option<&mut AtValue>,
-    ) -> Result<Option<u32>, Failed> {
+    ) -> Result<Option<u16>, Failed> {
         let id = self.next_frame_id();
         let [c0, c1] = command;
         self.send_parts(&[AT_COMMAND, id, c0, c1], parameter)?;
@@ -789,7 +806,7 @@ where
                             if let Some(value) = value {
                                 *value = AtValue::new(r.data);
                             }
-                            return Ok(be_u32(r.data));
+                            return Ok(be_u16(r.data));
                         }
                         Some(_) => count(&mut self.unexpected),
                         None if raw.frame_type() == AT_RESPONSE => count(&mut self.malformed),
@@ -872,10 +889,10 @@ where
     fn query(
         &mut self,
         command: [u8; 2],
-        max: u32,
+        max: u16,
         timeout_ms: u16,
         on_other: Option<&mut dyn FnMut(RawFrame<'_>)>,
-    ) -> Result<u32, Failed> {
+    ) -> Result<u16, Failed> {
         match self.at_dyn(command, &[], timeout_ms, on_other, None)? {
             Some(v) if v <= max => Ok(v),
             _ => Err(self.fail(Error::Unexpected { command })),
@@ -939,7 +956,7 @@ where
     }
 
     /// Queries `AP` in API mode: the radio's mode if it answered.
-    fn query_ap(&mut self, timeout_ms: u16) -> Option<u32> {
+    fn query_ap(&mut self, timeout_ms: u16) -> Option<u16> {
         // Twice: a radio still starting up may miss the first.
         for _ in 0..2 {
             if let Ok(ap) = self.at_dyn(*b"AP", &[], timeout_ms, None, None) {
@@ -1010,7 +1027,7 @@ where
     /// (with the command-mode step) it is 178 B less AVR flash.
     fn bring_up_dyn(&mut self, cfg: &BringUpConfig) -> Result<BringUp, Failed> {
         let mode = self.mode();
-        let ap = u32::from(mode.ap());
+        let ap = u16::from(mode.ap());
         // Steps 1 and 3 are the same query: once before configuring, once after.
         let mut how = BringUp::AlreadyApi;
         loop {
@@ -1055,7 +1072,7 @@ where
         let bytes = value.to_be_bytes();
         let param = if wide { &bytes[..] } else { &bytes[1..] };
         self.at_dyn(command, param, timeout_ms, None, None)?;
-        if self.query(command, 0xFFFF, timeout_ms, None)? != u32::from(value) {
+        if self.query(command, 0xFFFF, timeout_ms, None)? != value {
             return Err(self.fail(Error::Unexpected { command }));
         }
         Ok(())
@@ -1115,5 +1132,32 @@ where
         } else {
             Error::NoResponse
         }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{be_u16, be_u32};
+
+    /// `be_u16` is `be_u32` where that fits in 16 bits, and `None` elsewhere: every length 0…5
+    /// over bytes that probe each position's zero/nonzero cases.
+    #[test]
+    fn be_u16_is_be_u32_below_65536() {
+        let probe = [0x00, 0x01, 0x7F, 0xFF];
+        let mut checked = 0;
+        for len in 0..=5u32 {
+            for mut k in 0..probe.len().pow(len) {
+                let mut buf = [0u8; 5];
+                for b in &mut buf[..len as usize] {
+                    *b = probe[k % probe.len()];
+                    k /= probe.len();
+                }
+                let bytes = &buf[..len as usize];
+                let want = be_u32(bytes).and_then(|v| u16::try_from(v).ok());
+                assert_eq!(be_u16(bytes), want, "{bytes:02X?}");
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 1 + 4 + 16 + 64 + 256 + 1024);
     }
 }
