@@ -907,8 +907,8 @@ where
         on_other: &mut dyn FnMut(RawFrame<'_>),
     ) -> Result<RadioConfig, Failed> {
         Ok(RadioConfig {
-            my: self.query(*b"MY", 0xFFFF, timeout_ms, Some(&mut *on_other))? as u16,
-            pan_id: self.query(*b"ID", 0xFFFF, timeout_ms, Some(&mut *on_other))? as u16,
+            my: self.query(*b"MY", 0xFFFF, timeout_ms, Some(&mut *on_other))?,
+            pan_id: self.query(*b"ID", 0xFFFF, timeout_ms, Some(&mut *on_other))?,
             channel: self.query(*b"CH", 0xFF, timeout_ms, Some(&mut *on_other))? as u8,
             ap: self.query(*b"AP", 0xFF, timeout_ms, Some(&mut *on_other))? as u8,
         })
