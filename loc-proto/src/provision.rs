@@ -201,6 +201,41 @@ impl ProvisionParser {
     /// frame (delimiter seen) turns out broken or holds an invalid config, and `None` otherwise
     /// (garbage is skipped silently). Never panics.
     pub fn push(&mut self, byte: u8) -> Option<Result<Config, Error>> {
+        let out = self
+            .frame(byte)?
+            .and_then(|()| Config::from_bytes(self.config_bytes()));
+        Some(out.inspect_err(|e| self.count_invalid(e)))
+    }
+
+    /// [`ProvisionParser::push`] and [`answer`] in one: the reply a node of `role` owes at the
+    /// end of a recognised frame (on [`Reply::Ack`] the config to store is
+    /// [`ProvisionParser::config_bytes`]). The node's path: no [`Config`] is handed back, so on
+    /// AVR none is copied through memory.
+    pub fn reply(&mut self, byte: u8, role: Role) -> Option<Reply> {
+        Some(match self.frame(byte)? {
+            Err(e) => Reply::Nak(e.code()),
+            Ok(()) => match Config::from_bytes(self.config_bytes()) {
+                Ok(c) if c.role == role => Reply::Ack,
+                Ok(_) => Reply::Nak(WRONG_ROLE),
+                Err(e) => {
+                    self.count_invalid(&e);
+                    Reply::Nak(e.code())
+                }
+            },
+        })
+    }
+
+    /// A whole frame with a good CRC counts as broken too when its config is invalid.
+    fn count_invalid(&mut self, e: &Error) {
+        if let Error::BadValue { .. } = e {
+            self.errors = self.errors.saturating_add(1);
+        }
+    }
+
+    /// Feeds one byte: `Some(Ok(()))` at the end of a frame with a good CRC (its config, valid or
+    /// not, is [`ProvisionParser::config_bytes`]), `Some(Err(_))` when a frame turns out broken,
+    /// `None` otherwise.
+    fn frame(&mut self, byte: u8) -> Option<Result<(), Error>> {
         let mut n = self.n;
         if n as usize >= MAX_FRAME {
             // Cannot happen (a frame is complete at MAX_FRAME bytes), but stay in bounds.
@@ -214,7 +249,7 @@ impl ProvisionParser {
                 Step::More => break failed.map(Err),
                 Step::Done => {
                     n = 0;
-                    break Some(Config::from_bytes(self.config_bytes()));
+                    break Some(Ok(()));
                 }
                 s => {
                     if let Step::Fail(e) = s {
@@ -234,9 +269,6 @@ impl ProvisionParser {
                 }
             }
         };
-        if let Some(Err(Error::BadValue { .. })) = out {
-            self.errors = self.errors.saturating_add(1);
-        }
         self.n = n;
         out
     }
@@ -296,6 +328,43 @@ mod tests {
             (Reply::Nak(7), None)
         );
         assert_eq!(Reply::Nak(WRONG_ROLE).bytes(), *b"HLN\x0A");
+    }
+
+    /// `reply` is `push` then `answer`, byte for byte, errors counted alike: on the golden
+    /// frame, every one-byte corruption of it, an invalid config with a good CRC, and for each
+    /// role (the golden frame's config is an anchor's).
+    #[test]
+    fn reply_is_push_then_answer() {
+        let mut invalid = DEFAULT_FRAME;
+        invalid[15] = 0;
+        let inner = crc16(&invalid[5..23]);
+        invalid[23..25].copy_from_slice(&inner.to_be_bytes());
+        let outer = crc16(&invalid[3..25]);
+        invalid[25..27].copy_from_slice(&outer.to_be_bytes());
+        let mut streams: Vec<Vec<u8>> = [DEFAULT_FRAME, invalid].map(|f| f.to_vec()).into();
+        for i in 0..DEFAULT_FRAME.len() {
+            let mut bad = DEFAULT_FRAME;
+            bad[i] ^= 0x01;
+            streams.push([&bad[..], &DEFAULT_FRAME[..]].concat());
+        }
+        let mut acks = 0;
+        for role in [Role::Anchor, Role::Agent, Role::Sink] {
+            for s in &streams {
+                let (mut a, mut b) = (ProvisionParser::new(), ProvisionParser::new());
+                for &byte in s {
+                    let want = a.push(byte).map(|o| answer(o, role).0);
+                    let got = b.reply(byte, role);
+                    assert_eq!(got, want, "{role:?} {s:?}");
+                    acks += usize::from(got == Some(Reply::Ack));
+                    if got == Some(Reply::Ack) {
+                        assert_eq!(b.config_bytes(), &DEFAULT_FRAME[5..25]);
+                    }
+                }
+                assert_eq!(a.errors(), b.errors());
+            }
+        }
+        // The anchor acknowledges the golden frame alone and after each corruption.
+        assert_eq!(acks, 1 + DEFAULT_FRAME.len());
     }
 
     #[test]

@@ -11,7 +11,8 @@
 //!   [`Decoder`] plus about 30 bytes, which matters on a 2 KB-SRAM ATmega328P.
 //! * **Nothing blocks forever.** Every wait (AT response, TX status, guard times, a UART that
 //!   will not take a byte) is bounded by the [`Clock`]; [`Radio::poll`] returns as soon as the
-//!   UART has nothing more.
+//!   UART has nothing more. A wait's `timeout_ms` counts at most 65 535 ms (a larger one waits
+//!   that long): the driver times its waits on the clock's low 16 bits, half the AVR code.
 //! * **Nothing received is lost.** While the driver waits for an AT response or a TX status,
 //!   every other frame (beacons arriving at the same time, say) goes to the caller's `on_other`
 //!   callback, unparsed ([`RawFrame`]) so even a frame this crate cannot parse gets through.
@@ -295,11 +296,36 @@ impl AtValue {
     }
 }
 
+/// `bytes` as a big-endian number of 1 to 4 bytes, if it is below 65 536 (what the driver's own
+/// queries need: every register it reads is 8 or 16 bits; 16-bit arithmetic is half the AVR
+/// code of 32-bit). Always inlined: its one firmware caller is `at_dyn` (18 B less AVR flash
+/// than out of line).
+#[inline(always)]
+fn be_u16(bytes: &[u8]) -> Option<u16> {
+    if !(1..=4).contains(&bytes.len()) {
+        return None;
+    }
+    let mut v = 0u16;
+    for &b in bytes {
+        if v > 0xFF {
+            return None;
+        }
+        v = (v << 8) | u16::from(b);
+    }
+    Some(v)
+}
+
 /// `bytes` as a big-endian number of 1 to 4 bytes.
 fn be_u32(bytes: &[u8]) -> Option<u32> {
     (1..=4)
         .contains(&bytes.len())
         .then(|| bytes.iter().fold(0u32, |v, &x| (v << 8) | x as u32))
+}
+
+/// A public wait's `timeout_ms` as the driver keeps it: 16 bits, at most 65 535 ms (on AVR
+/// 16-bit arithmetic is half the code of 32-bit).
+fn ms16(timeout_ms: u32) -> u16 {
+    timeout_ms.min(u16::MAX.into()) as u16
 }
 
 /// The settings [`Radio::read_config`] reads.
@@ -697,10 +723,15 @@ where
         }
     }
 
-    /// Milliseconds since `start` (wrapping). Inlined: the clock read behind it is a call
-    /// already (18 B less AVR flash).
-    fn elapsed(&mut self, start: u32) -> u32 {
-        self.clock.now_ms().wrapping_sub(start)
+    /// The clock's low 16 bits: the driver's waits take at most 65 535 ms ([`ms16`]) and look at
+    /// the clock without a long gap, and 16-bit arithmetic is half the AVR code.
+    fn now16(&mut self) -> u16 {
+        self.clock.now_ms() as u16
+    }
+
+    /// Milliseconds since `start` ([`Radio::now16`], wrapping).
+    fn elapsed(&mut self, start: u16) -> u16 {
+        self.now16().wrapping_sub(start)
     }
 
     /// Sends AT command `command` (with `parameter`; empty to query) in a 0x08 frame with a fresh
@@ -720,7 +751,7 @@ where
         let result = self.at_dyn(
             command,
             parameter,
-            timeout_ms,
+            ms16(timeout_ms),
             Some(&mut on_other),
             Some(&mut value),
         );
@@ -738,26 +769,32 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<(), Error> {
-        let result = self.at_dyn(command, parameter, timeout_ms, Some(&mut on_other), None);
+        let result = self.at_dyn(
+            command,
+            parameter,
+            ms16(timeout_ms),
+            Some(&mut on_other),
+            None,
+        );
         self.public(result.map(|_| ()))
     }
 
     /// [`Radio::at_command`] for every caller: the value is copied to `value` if given, and
-    /// returned as a number if it is one of 1 to 4 bytes (what [`AtValue::as_u32`] gives).
+    /// returned as a number if it is one of 1 to 4 bytes below 65 536 ([`be_u16`]).
     /// Without `on_other` (bring-up), other frames are dropped and counted in `dropped`.
     #[inline(never)]
     fn at_dyn(
         &mut self,
         command: [u8; 2],
         parameter: &[u8],
-        timeout_ms: u32,
+        timeout_ms: u16,
         mut on_other: Option<&mut dyn FnMut(RawFrame<'_>)>,
         value: Option<&mut AtValue>,
-    ) -> Result<Option<u32>, Failed> {
+    ) -> Result<Option<u16>, Failed> {
         let id = self.next_frame_id();
         let [c0, c1] = command;
         self.send_parts(&[AT_COMMAND, id, c0, c1], parameter)?;
-        let start = self.clock.now_ms();
+        let start = self.now16();
         loop {
             match self.next_frame() {
                 Next::Frame(len) => {
@@ -771,7 +808,7 @@ where
                             if let Some(value) = value {
                                 *value = AtValue::new(r.data);
                             }
-                            return Ok(be_u32(r.data));
+                            return Ok(be_u16(r.data));
                         }
                         Some(_) => count(&mut self.unexpected),
                         None if raw.frame_type() == AT_RESPONSE => count(&mut self.malformed),
@@ -799,16 +836,16 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<(), Error> {
-        let result = self.wait_tx_dyn(timeout_ms, &mut on_other);
+        let result = self.wait_tx_dyn(ms16(timeout_ms), &mut on_other);
         self.public(result)
     }
 
     fn wait_tx_dyn(
         &mut self,
-        timeout_ms: u32,
+        timeout_ms: u16,
         on_other: &mut dyn FnMut(RawFrame<'_>),
     ) -> Result<(), Failed> {
-        let start = self.clock.now_ms();
+        let start = self.now16();
         while self.tx_pending() {
             match self.next_frame() {
                 Next::Frame(len) => on_other(self.decoder.frame(len)),
@@ -833,9 +870,10 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<(), Error> {
+        let t = ms16(timeout_ms);
         let result = self
-            .wait_tx_dyn(timeout_ms, &mut on_other)
-            .and_then(|()| self.at_dyn(*b"CH", &[channel], timeout_ms, Some(&mut on_other), None));
+            .wait_tx_dyn(t, &mut on_other)
+            .and_then(|()| self.at_dyn(*b"CH", &[channel], t, Some(&mut on_other), None));
         self.public(result.map(|_| ()))
     }
 
@@ -845,7 +883,7 @@ where
         timeout_ms: u32,
         mut on_other: impl FnMut(RawFrame<'_>),
     ) -> Result<RadioConfig, Error> {
-        let result = self.read_config_dyn(timeout_ms, &mut on_other);
+        let result = self.read_config_dyn(ms16(timeout_ms), &mut on_other);
         self.public(result)
     }
 
@@ -853,10 +891,10 @@ where
     fn query(
         &mut self,
         command: [u8; 2],
-        max: u32,
-        timeout_ms: u32,
+        max: u16,
+        timeout_ms: u16,
         on_other: Option<&mut dyn FnMut(RawFrame<'_>)>,
-    ) -> Result<u32, Failed> {
+    ) -> Result<u16, Failed> {
         match self.at_dyn(command, &[], timeout_ms, on_other, None)? {
             Some(v) if v <= max => Ok(v),
             _ => Err(self.fail(Error::Unexpected { command })),
@@ -865,12 +903,12 @@ where
 
     fn read_config_dyn(
         &mut self,
-        timeout_ms: u32,
+        timeout_ms: u16,
         on_other: &mut dyn FnMut(RawFrame<'_>),
     ) -> Result<RadioConfig, Failed> {
         Ok(RadioConfig {
-            my: self.query(*b"MY", 0xFFFF, timeout_ms, Some(&mut *on_other))? as u16,
-            pan_id: self.query(*b"ID", 0xFFFF, timeout_ms, Some(&mut *on_other))? as u16,
+            my: self.query(*b"MY", 0xFFFF, timeout_ms, Some(&mut *on_other))?,
+            pan_id: self.query(*b"ID", 0xFFFF, timeout_ms, Some(&mut *on_other))?,
             channel: self.query(*b"CH", 0xFF, timeout_ms, Some(&mut *on_other))? as u8,
             ap: self.query(*b"AP", 0xFF, timeout_ms, Some(&mut *on_other))? as u8,
         })
@@ -920,10 +958,10 @@ where
     }
 
     /// Queries `AP` in API mode: the radio's mode if it answered.
-    fn query_ap(&mut self, timeout_ms: u16) -> Option<u32> {
+    fn query_ap(&mut self, timeout_ms: u16) -> Option<u16> {
         // Twice: a radio still starting up may miss the first.
         for _ in 0..2 {
-            if let Ok(ap) = self.at_dyn(*b"AP", &[], timeout_ms.into(), None, None) {
+            if let Ok(ap) = self.at_dyn(*b"AP", &[], timeout_ms, None, None) {
                 return ap;
             }
         }
@@ -991,7 +1029,7 @@ where
     /// (with the command-mode step) it is 178 B less AVR flash.
     fn bring_up_dyn(&mut self, cfg: &BringUpConfig) -> Result<BringUp, Failed> {
         let mode = self.mode();
-        let ap = u32::from(mode.ap());
+        let ap = u16::from(mode.ap());
         // Steps 1 and 3 are the same query: once before configuring, once after.
         let mut how = BringUp::AlreadyApi;
         loop {
@@ -1035,9 +1073,8 @@ where
     ) -> Result<(), Failed> {
         let bytes = value.to_be_bytes();
         let param = if wide { &bytes[..] } else { &bytes[1..] };
-        let timeout_ms = timeout_ms.into();
         self.at_dyn(command, param, timeout_ms, None, None)?;
-        if self.query(command, 0xFFFF, timeout_ms, None)? != u32::from(value) {
+        if self.query(command, 0xFFFF, timeout_ms, None)? != value {
             return Err(self.fail(Error::Unexpected { command }));
         }
         Ok(())
@@ -1097,5 +1134,32 @@ where
         } else {
             Error::NoResponse
         }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{be_u16, be_u32};
+
+    /// `be_u16` is `be_u32` where that fits in 16 bits, and `None` elsewhere: every length 0…5
+    /// over bytes that probe each position's zero/nonzero cases.
+    #[test]
+    fn be_u16_is_be_u32_below_65536() {
+        let probe = [0x00, 0x01, 0x7F, 0xFF];
+        let mut checked = 0;
+        for len in 0..=5u32 {
+            for mut k in 0..probe.len().pow(len) {
+                let mut buf = [0u8; 5];
+                for b in &mut buf[..len as usize] {
+                    *b = probe[k % probe.len()];
+                    k /= probe.len();
+                }
+                let bytes = &buf[..len as usize];
+                let want = be_u32(bytes).and_then(|v| u16::try_from(v).ok());
+                assert_eq!(be_u16(bytes), want, "{bytes:02X?}");
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 1 + 4 + 16 + 64 + 256 + 1024);
     }
 }

@@ -273,6 +273,19 @@ fn timeouts_work_across_clock_wraparound() {
     assert_eq!(m.borrow().now, (u32::MAX - 10).wrapping_add(50));
 }
 
+/// The driver times its waits in 16 bits: a longer timeout waits 65 535 ms, the longest there is.
+#[test]
+fn timeouts_above_16_bits_wait_65535_ms() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().now = u32::MAX - 10;
+    m.borrow_mut().expect(None, Reply::Silent);
+    let t0 = m.borrow().now;
+    let r = radio.at_command(*b"CH", &[], 100_000, |_| {});
+    assert_eq!(r, Err(Error::Timeout { command: *b"CH" }));
+    let took = m.borrow().now.wrapping_sub(t0);
+    assert!((65_535..=65_537).contains(&took), "took {took} ms");
+}
+
 #[test]
 fn at_error_status_is_a_typed_error() {
     let (m, mut radio) = setup(2, 57600, Mode::Escaped);

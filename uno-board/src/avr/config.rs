@@ -3,7 +3,7 @@
 
 use loc_proto::config::{stored, Config, Stored, MAX_LEN};
 use loc_proto::line::{BootLine, ConfigSource};
-use loc_proto::provision::{answer, ProvisionParser, Reply, PROVISION_WINDOW_MS, WRITE_FAILED};
+use loc_proto::provision::{ProvisionParser, Reply, PROVISION_WINDOW_MS, WRITE_FAILED};
 use loc_proto::{xbee_channel, Role};
 use xbee_api::driver::BringUpConfig;
 
@@ -57,11 +57,10 @@ fn serve(
 ) -> bool {
     let mut stored_one = false;
     while let Some(byte) = serial.try_read() {
-        let Some(outcome) = parser.push(byte) else {
+        let Some(mut reply) = parser.reply(byte, role) else {
             continue;
         };
-        let (mut reply, config) = answer(outcome, role);
-        if config.is_some() {
+        if reply == Reply::Ack {
             // The frame's own config bytes (checked by the parser), written and read back.
             let bytes = parser.config_bytes();
             let ok = eeprom.write(0, bytes).is_ok()

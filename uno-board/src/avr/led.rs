@@ -44,10 +44,10 @@ impl Led {
         for _ in 0..n {
             self.on();
             avr_device::asm::wdr();
-            delay_ms(on_ms as u32);
+            delay_ms(on_ms);
             self.off();
             avr_device::asm::wdr();
-            delay_ms(off_ms as u32);
+            delay_ms(off_ms);
         }
     }
 

@@ -54,12 +54,15 @@ pub fn now_us() -> u32 {
 }
 
 /// Waits at least `ms` milliseconds, sleeping in idle mode between ticks. Interrupts must be
-/// enabled (they are after `Board::take`). Does not feed the watchdog.
-pub fn delay_ms(ms: u32) {
-    let start = now_ms();
+/// enabled (they are after `Board::take`). Does not feed the watchdog. 16 bits (the clock's low
+/// 16 bits, up to 65 534 ms): half the AVR code of 32-bit arithmetic.
+pub fn delay_ms(ms: u16) {
+    // 65 535 would wait forever: no 16-bit difference exceeds it.
+    let ms = ms.min(u16::MAX - 1);
+    let start = now_ms() as u16;
     // `now_ms` advances at the next tick, so `> ms` ticks guarantees at least `ms` full
     // milliseconds even if we start just before a tick.
-    while now_ms().wrapping_sub(start) <= ms {
+    while (now_ms() as u16).wrapping_sub(start) <= ms {
         super::power::sleep_idle();
     }
 }
