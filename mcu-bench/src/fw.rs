@@ -13,7 +13,17 @@ fn mark(serial: &mut Serial, b: u8) {
     serial.flush_blocking();
 }
 
-fn write_u32(serial: &mut Serial, v: u32) {
+/// One step of the check firmwares' xorshift32 generator (their random inputs).
+#[inline(always)]
+pub fn xorshift(r: &mut u32) -> u32 {
+    *r ^= *r << 13;
+    *r ^= *r >> 17;
+    *r ^= *r << 5;
+    *r
+}
+
+/// `v` in decimal on `serial`.
+pub fn write_u32(serial: &mut Serial, v: u32) {
     let mut buf = [0u8; 10];
     let (mut n, mut k) = (v, buf.len());
     loop {
@@ -96,12 +106,7 @@ fn kernel_inputs(i: u32, r: &mut u32) -> (u32, bool, i32, i32) {
         0xFFFF_FFFF,
         2500,
     ];
-    let mut next = || {
-        *r ^= *r << 13;
-        *r ^= *r >> 17;
-        *r ^= *r << 5;
-        *r
-    };
+    let mut next = || xorshift(r);
     if (i as usize) < EDGES.len() * 4 {
         let lo = EDGES[i as usize / 4];
         let rho = [0, -(20 << 20), i32::MIN, i32::MAX][i as usize % 4];
@@ -129,12 +134,7 @@ fn kernel_inputs(i: u32, r: &mut u32) -> (u32, bool, i32, i32) {
 /// still agree).
 fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::ColumnJob) -> usize {
     use loc_core::fixed::{AnchorTerm, I24};
-    let mut next = || {
-        *r ^= *r << 13;
-        *r ^= *r >> 17;
-        *r ^= *r << 5;
-        *r
-    };
+    let mut next = || xorshift(r);
     let (a, b) = (next(), next());
     let rows = 1 + (a % 11) as usize;
     job.seg_base = loc_core::fixed::log2_segment_base();
@@ -252,12 +252,7 @@ fn column_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
 /// skipped row) or anything.
 fn posterior_inputs(r: &mut u32, sums: &mut [u32; 11]) -> (usize, u8, loc_core::fixed::Posterior) {
     use loc_core::fixed::{Posterior, Weights};
-    let mut next = || {
-        *r ^= *r << 13;
-        *r ^= *r >> 17;
-        *r ^= *r << 5;
-        *r
-    };
+    let mut next = || xorshift(r);
     let (a, b, c) = (next(), next(), next());
     let rows = 1 + (a % 11) as usize;
     let wts = match b % 8 {
@@ -362,12 +357,7 @@ fn weights_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
     use loc_core::fixed::{TermKernel, Weights};
     let (mut bad, n) = (0u32, black_box(5_000u32));
     for _ in 0..n {
-        let mut next = || {
-            *r ^= *r << 13;
-            *r ^= *r >> 17;
-            *r ^= *r << 5;
-            *r
-        };
+        let mut next = || xorshift(r);
         let (a, b) = (next(), next());
         let k26 = b >> (a % 32);
         let sigma = match (a >> 8) % 8 {
@@ -405,12 +395,7 @@ fn div_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
     use loc_core::fixed::TermKernel;
     let (mut bad, n) = (0u32, black_box(5_000u32));
     for _ in 0..n {
-        let mut next = || {
-            *r ^= *r << 13;
-            *r ^= *r >> 17;
-            *r ^= *r << 5;
-            *r
-        };
+        let mut next = || xorshift(r);
         let (x, y, z) = (next(), next(), next());
         let a = x >> (z % 32);
         let b = ((y >> 1) >> ((z >> 8) % 31)).max(1);
@@ -440,12 +425,7 @@ fn mul_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
     use loc_core::fixed::TermKernel;
     let (mut bad, n) = (0u32, black_box(5_000u32));
     for i in 0..n {
-        let mut next = || {
-            *r ^= *r << 13;
-            *r ^= *r >> 17;
-            *r ^= *r << 5;
-            *r
-        };
+        let mut next = || xorshift(r);
         let (x, y, z) = (next(), next(), next());
         let (a, b) = match i {
             0 => (u32::MAX, u32::MAX),
@@ -482,12 +462,7 @@ fn move_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
     let mut jw = ColumnJob::EMPTY;
     let mut jg = ColumnJob::EMPTY;
     for i in 0..n {
-        let mut next = || {
-            *r ^= *r << 13;
-            *r ^= *r >> 17;
-            *r ^= *r << 5;
-            *r
-        };
+        let mut next = || xorshift(r);
         let (x, y) = (next(), next());
         (jw.xstep, jw.ystep) = match i % 8 {
             0 => (0, 0),
@@ -551,12 +526,7 @@ fn place_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
     let mut jw = ColumnJob::EMPTY;
     let mut jg = ColumnJob::EMPTY;
     for i in 0..black_box(700u32) {
-        let mut next = || {
-            *r ^= *r << 13;
-            *r ^= *r >> 17;
-            *r ^= *r << 5;
-            *r
-        };
+        let mut next = || xorshift(r);
         let (x, y) = (next(), next());
         (jw.xstep, jw.ystep) = match i % 8 {
             0 => (0, 0),

@@ -33,7 +33,8 @@ mod avr {
         distance_x, portable_ar1_update, portable_push, Ar1, Bounds, CalStats, FitJob, FitKernel,
         ParamMode, PathLoss, PointCm, PortableFit, ALPHA, DB,
     };
-    use uno_board::{AvrFit, Board, Serial};
+    use mcu_bench::fw::{write_u32, xorshift};
+    use uno_board::{AvrFit, Board};
 
     /// Sums drawn, four jobs each (those with no samples and something to fit are skipped:
     /// `FitJob::new` refuses them): over 10 000 jobs.
@@ -44,10 +45,7 @@ mod avr {
 
     impl Rng {
         fn next(&mut self) -> u32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 17;
-            self.0 ^= self.0 << 5;
-            self.0
+            xorshift(&mut self.0)
         }
 
         fn below(&mut self, n: u32) -> u32 {
@@ -62,20 +60,6 @@ mod avr {
         fn pick<T: Copy>(&mut self, v: &[T]) -> T {
             v[self.below(v.len() as u32) as usize]
         }
-    }
-
-    fn write_u32(serial: &mut Serial, v: u32) {
-        let mut buf = [0u8; 10];
-        let (mut n, mut k) = (v, buf.len());
-        loop {
-            k -= 1;
-            buf[k] = b'0' + (n % 10) as u8;
-            n /= 10;
-            if n == 0 {
-                break;
-            }
-        }
-        serial.write_bytes(&buf[k..]);
     }
 
     /// [`CalStats::push_pair`] as a firmware with one copy of the sums' code has it.
