@@ -7,5 +7,7 @@ bash scripts/setup.sh
 # The firmware must build for the Uno; simavr-based tests run the ELFs (the node firmwares, and
 # the MCU estimate benchmark's for tests/tests/mcu_bench.rs).
 cargo fw
+# They link with --relax: check that the linker changed only calls and jumps (see the script).
+scripts/relax-check
 cargo fw-bench
 cargo test --workspace "$@"
