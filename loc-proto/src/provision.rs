@@ -29,8 +29,11 @@
 //! frame rescans the bytes it had taken for that frame, so the next good frame is never lost.
 
 pub use crate::config::WRONG_ROLE;
-use crate::config::{Config, MAX_LEN, MIN_LEN};
-use crate::error::{crc16, Error};
+use crate::config::{read_into, Config, MAX_LEN, MIN_LEN};
+use crate::error::{crc16, Error, Field};
+
+/// The code of [`Error::BadValue`].
+const BAD_VALUE: u8 = Error::BadValue { field: Field::Role }.code();
 use crate::Role;
 
 /// NAK code: the config was valid but reading the EEPROM back after writing it gave other bytes
@@ -124,37 +127,52 @@ enum Step {
     Done,
 }
 
-/// What the first `n` bytes of `b` are. Fixed indices into the whole buffer, `u8` lengths: on
-/// AVR each bounds-checked slice costs dozens of bytes of flash.
-fn step(b: &[u8; MAX_FRAME], n: u8) -> Step {
+/// The parser's buffer: a whole frame, rounded up to a power of two so that an index masked
+/// with `BUF - 1` needs no bounds check (on AVR each costs dozens of bytes of flash).
+const BUF: usize = 32;
+const _: () = assert!(MAX_FRAME <= BUF && BUF.is_power_of_two());
+
+/// The byte at `i` of `b` (masked into the buffer; callers stay below `MAX_FRAME`).
+#[inline(always)]
+fn at(b: &[u8; BUF], i: u8) -> u8 {
+    b[i as usize & (BUF - 1)]
+}
+
+/// What the first `n` bytes of `b` are. `u8` lengths and masked indices: half the code of
+/// `usize` ones on AVR, and no panic paths.
+fn step(b: &[u8; BUF], n: u8) -> Step {
+    // The delimiter, then the version.
     let mut i = 0;
-    while i < DELIMITER.len() {
-        if i >= n as usize {
+    while i < 4 {
+        if i >= n {
             return Step::More;
         }
-        if b[i] != DELIMITER[i] {
-            return Step::Skip;
+        let want = if i < 3 {
+            DELIMITER[i as usize]
+        } else {
+            VERSION
+        };
+        if at(b, i) != want {
+            return if i < 3 {
+                Step::Skip
+            } else {
+                Step::Fail(Error::BadVersion { found: at(b, 3) })
+            };
         }
         i += 1;
-    }
-    if n < 4 {
-        return Step::More;
-    }
-    if b[3] != VERSION {
-        return Step::Fail(Error::BadVersion { found: b[3] });
     }
     if n < 5 {
         return Step::More;
     }
-    let l = b[4];
+    let l = at(b, 4);
     if !(MIN_LEN as u8..=MAX_LEN as u8).contains(&l) {
         return Step::Fail(Error::BadLength);
     }
     if n < l + 7 {
         return Step::More;
     }
-    let end = 5 + l as usize;
-    if crc16(&b[3..end]) != u16::from_be_bytes([b[end], b[end + 1]]) {
+    // The CRC follows its bytes big endian: the CRC over both is 0 exactly when it matches.
+    if crc16(&b[3..l as usize + 7]) != 0 {
         return Step::Fail(Error::BadCrc);
     }
     Step::Done
@@ -163,7 +181,7 @@ fn step(b: &[u8; MAX_FRAME], n: u8) -> Step {
 /// Finds provisioning frames in a byte stream, one byte at a time, in a 29-byte buffer.
 #[derive(Clone, Debug)]
 pub struct ProvisionParser {
-    buf: [u8; MAX_FRAME],
+    buf: [u8; BUF],
     n: u8,
     errors: u16,
 }
@@ -178,7 +196,7 @@ impl ProvisionParser {
     /// A parser that has seen nothing.
     pub const fn new() -> Self {
         ProvisionParser {
-            buf: [0; MAX_FRAME],
+            buf: [0; BUF],
             n: 0,
             errors: 0,
         }
@@ -209,17 +227,26 @@ impl ProvisionParser {
 
     /// [`ProvisionParser::push`] and [`answer`] in one: the reply a node of `role` owes at the
     /// end of a recognised frame (on [`Reply::Ack`] the config to store is
-    /// [`ProvisionParser::config_bytes`]). The node's path: no [`Config`] is handed back, so on
-    /// AVR none is copied through memory.
+    /// [`ProvisionParser::config_bytes`]).
     pub fn reply(&mut self, byte: u8, role: Role) -> Option<Reply> {
+        let mut scratch = Config::DEFAULT;
+        self.reply_into(byte, role, &mut scratch)
+    }
+
+    /// [`ProvisionParser::reply`], the node's path: the frame's config is decoded by
+    /// [`read_into`] (the decoder the node reads its EEPROM with), into `scratch` on
+    /// [`Reply::Ack`] (left alone otherwise).
+    pub fn reply_into(&mut self, byte: u8, role: Role, scratch: &mut Config) -> Option<Reply> {
         Some(match self.frame(byte)? {
             Err(e) => Reply::Nak(e.code()),
-            Ok(()) => match Config::from_bytes(self.config_bytes()) {
-                Ok(c) if c.role == role => Reply::Ack,
-                Ok(_) => Reply::Nak(WRONG_ROLE),
-                Err(e) => {
-                    self.count_invalid(&e);
-                    Reply::Nak(e.code())
+            Ok(()) => match read_into(self.config_bytes(), role, scratch) {
+                0 => Reply::Ack,
+                code => {
+                    // Only a bad field gets here with the code of a bad value.
+                    if code == BAD_VALUE {
+                        self.errors = self.errors.saturating_add(1);
+                    }
+                    Reply::Nak(code)
                 }
             },
         })
@@ -241,7 +268,7 @@ impl ProvisionParser {
             // Cannot happen (a frame is complete at MAX_FRAME bytes), but stay in bounds.
             n = 0;
         }
-        self.buf[n as usize] = byte;
+        self.buf[n as usize & (BUF - 1)] = byte;
         n += 1;
         let mut failed = None;
         let out = loop {
@@ -256,13 +283,19 @@ impl ProvisionParser {
                         failed = Some(e);
                         self.errors = self.errors.saturating_add(1);
                     }
-                    // Resynchronise: the next frame may start inside what was buffered.
+                    // Resynchronise: the next frame may start inside what was buffered, at the
+                    // next delimiter byte after the first.
                     let mut next = 1;
-                    while next < n && self.buf[next as usize] != DELIMITER[0] {
+                    while next < n && at(&self.buf, next) != DELIMITER[0] {
                         next += 1;
                     }
-                    self.buf.copy_within(next as usize..n as usize, 0);
-                    n -= next;
+                    let mut kept = 0;
+                    while next < n {
+                        self.buf[kept as usize & (BUF - 1)] = at(&self.buf, next);
+                        kept += 1;
+                        next += 1;
+                    }
+                    n = kept;
                     if n == 0 {
                         break failed.map(Err);
                     }

@@ -42,6 +42,19 @@ impl Eeprom {
         });
     }
 
+    /// Writes `data` from `addr` like [`Eeprom::write`] and reads each byte back: `false` if one
+    /// did not keep its value (a worn-out cell) or the range is not in the EEPROM.
+    pub fn write_verified(&mut self, addr: u16, data: &[u8]) -> bool {
+        let mut ok = eeprom_range(addr, data.len()).is_ok();
+        if ok {
+            for (a, &b) in (addr..).zip(data.iter()) {
+                self.write_at(a, b);
+                ok &= self.read_at(a) == b;
+            }
+        }
+        ok
+    }
+
     /// Reads the byte at `addr`.
     pub fn read_byte(&self, addr: u16) -> Result<u8, EepromError> {
         eeprom_range(addr, 1)?;
