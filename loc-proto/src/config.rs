@@ -155,15 +155,18 @@ impl Config {
     }
 }
 
-/// [`Config::from_bytes`] as a node of `role` needs it: `0` and the config in `out` for a valid
-/// config of `role`; otherwise the code ([`Error::code`], or [`WRONG_ROLE`] for a valid config
-/// of another role) with `out` untouched. The firmware's one config decoder (the EEPROM at boot
-/// and every provisioning frame): the answer is one byte in a register and every error return a
-/// constant, where a `Result<Config, Error>` comes back through memory on AVR.
-pub fn read_into(buf: &[u8], role: Role, out: &mut Config) -> u8 {
+/// [`Config::from_bytes`] as a node of `role` needs it: `0` for a valid config of `role`, and
+/// the config in `out` (`None`: only checked); otherwise the code ([`Error::code`], or
+/// [`WRONG_ROLE`] for a valid config of another role) with `out` untouched. The firmware's one
+/// config decoder (the EEPROM at boot and every provisioning frame): the answer is one byte in a
+/// register and every error return a constant, where a `Result<Config, Error>` comes back
+/// through memory on AVR.
+pub fn read_into(buf: &[u8], role: Role, out: Option<&mut Config>) -> u8 {
     match decode(buf) {
         Ok(c) if c.role == role => {
-            *out = c;
+            if let Some(out) = out {
+                *out = c;
+            }
             0
         }
         Ok(_) => WRONG_ROLE,
@@ -286,7 +289,7 @@ pub fn stored(bytes: &[u8], role: Role) -> Stored {
         return Stored::Erased;
     }
     let mut c = Config::DEFAULT;
-    match read_into(bytes, role, &mut c) {
+    match read_into(bytes, role, Some(&mut c)) {
         0 => Stored::Valid(c),
         code => Stored::Invalid(code),
     }

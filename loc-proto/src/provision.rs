@@ -31,10 +31,10 @@
 pub use crate::config::WRONG_ROLE;
 use crate::config::{read_into, Config, MAX_LEN, MIN_LEN};
 use crate::error::{crc16, Error, Field};
+use crate::Role;
 
 /// The code of [`Error::BadValue`].
 const BAD_VALUE: u8 = Error::BadValue { field: Field::Role }.code();
-use crate::Role;
 
 /// NAK code: the config was valid but reading the EEPROM back after writing it gave other bytes
 /// (a worn-out or failing EEPROM).
@@ -227,19 +227,12 @@ impl ProvisionParser {
 
     /// [`ProvisionParser::push`] and [`answer`] in one: the reply a node of `role` owes at the
     /// end of a recognised frame (on [`Reply::Ack`] the config to store is
-    /// [`ProvisionParser::config_bytes`]).
+    /// [`ProvisionParser::config_bytes`]). The node's path: the frame's config is checked by
+    /// [`read_into`] (the decoder the node reads its EEPROM with), and no [`Config`] is built.
     pub fn reply(&mut self, byte: u8, role: Role) -> Option<Reply> {
-        let mut scratch = Config::DEFAULT;
-        self.reply_into(byte, role, &mut scratch)
-    }
-
-    /// [`ProvisionParser::reply`], the node's path: the frame's config is decoded by
-    /// [`read_into`] (the decoder the node reads its EEPROM with), into `scratch` on
-    /// [`Reply::Ack`] (left alone otherwise).
-    pub fn reply_into(&mut self, byte: u8, role: Role, scratch: &mut Config) -> Option<Reply> {
         Some(match self.frame(byte)? {
             Err(e) => Reply::Nak(e.code()),
-            Ok(()) => match read_into(self.config_bytes(), role, scratch) {
+            Ok(()) => match read_into(self.config_bytes(), role, None) {
                 0 => Reply::Ack,
                 code => {
                     // Only a bad field gets here with the code of a bad value.
