@@ -99,14 +99,18 @@ pub fn load_config(serial: &mut Serial, eeprom: &mut Eeprom, led: &mut Led, conf
                 code = read_into(&block, role, Some(config));
                 ConfigSource::Eeprom
             };
+            // One line either way (one round of the code per error line).
+            let id = config.id;
+            let line = if code == 0 {
+                BootLine::Config { role, source, id }
+            } else {
+                BootLine::ConfigError { role, code }
+            };
+            write_line(serial, &line);
             if code == 0 {
                 led.off();
-                let id = config.id;
-                write_line(serial, &BootLine::Config { role, source, id });
                 return;
             }
-            // One round of the code per line.
-            write_line(serial, &BootLine::ConfigError { role, code });
             phase = 0;
         }
         let last = phase == 2 * code;
