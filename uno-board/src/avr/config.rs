@@ -35,14 +35,15 @@ fn answer(serial: &mut Serial, reply: Reply, role: Role) {
     }
 }
 
-/// The config a node runs with: `config` holds the firmware's built-in one on entry, and the
-/// one to run with on return.
+/// The config a `role` node runs with: `config` holds the firmware's built-in one on entry (of
+/// `role`), and the one to run with on return. (`role` apart, a constant: with the one call of
+/// each firmware the role folds into the code.)
 ///
 /// 1. For [`PROVISION_WINDOW_MS`] after the call (made right after the boot line), answers
-///    provisioning frames on the UART: a valid config of the node's role is written to EEPROM
+///    provisioning frames on the UART: a valid config of `role` is written to EEPROM
 ///    (address 0), read back, and acknowledged (`HLA`, then `hoploc <role> provisioned`), which
 ///    ends the window early; anything else gets its NAK.
-/// 2. Then reads the EEPROM: a valid config of the role is used (`hoploc <role> config eeprom
+/// 2. Then reads the EEPROM: a valid config of `role` is used (`hoploc <role> config eeprom
 ///    id <id>`); an erased one means the built-in one (`hoploc <role> config built-in id <id>`).
 /// 3. Anything else (corrupt, another role, another layout version) is never run with: the node
 ///    writes `hoploc <role> config error <code>`, blinks `code` on the LED, and goes on answering
@@ -58,8 +59,13 @@ fn answer(serial: &mut Serial, reply: Reply, role: Role) {
 /// The watchdog must be off (it is after `Board::take`). Never inlined: its buffers (the
 /// parser's, the EEPROM block) leave the stack before the node's main loop runs.
 #[inline(never)]
-pub fn load_config(serial: &mut Serial, eeprom: &mut Eeprom, led: &mut Led, config: &mut Config) {
-    let role = config.role;
+pub fn load_config(
+    serial: &mut Serial,
+    eeprom: &mut Eeprom,
+    led: &mut Led,
+    role: Role,
+    config: &mut Config,
+) {
     let mut parser = ProvisionParser::new();
     // The error shown (0: none yet, the window) and its blink phase: 0…2·code, on 200 ms
     // (even), off 300 ms (odd), the last off 1.5 s.
@@ -90,14 +96,17 @@ pub fn load_config(serial: &mut Serial, eeprom: &mut Eeprom, led: &mut Led, conf
             // The window is over, a config was stored, or a round of the code: what the
             // EEPROM holds now. Erased (first byte 0xFF) means the built-in config, which
             // `config` still holds (it is only written with a valid one).
-            let mut block = [0; MAX_LEN];
-            let _ = eeprom.read(0, &mut block);
-            let source = if block[0] == 0xFF {
-                code = 0;
-                ConfigSource::BuiltIn
-            } else {
-                code = read_into(&block, role, Some(config));
-                ConfigSource::Eeprom
+            // (The block's scope ends here: its stack slot is reused by the line's writer.)
+            let source = {
+                let mut block = [0; MAX_LEN];
+                let _ = eeprom.read(0, &mut block);
+                if block[0] == 0xFF {
+                    code = 0;
+                    ConfigSource::BuiltIn
+                } else {
+                    code = read_into(&block, role, Some(config));
+                    ConfigSource::Eeprom
+                }
             };
             // One line either way (one round of the code per error line).
             let id = config.id;
