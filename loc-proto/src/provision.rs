@@ -213,8 +213,9 @@ impl ProvisionParser {
     /// `Some(Ok(_))` for (what to write to EEPROM, without encoding it again); meaningless after
     /// any other result or once the next byte is pushed.
     pub fn config_bytes(&self) -> &[u8] {
-        let l = self.buf[4] as usize;
-        self.buf.get(5..5 + l).unwrap_or(&[])
+        // Clamped into the buffer (no panic path); a frame's L is at most MAX_LEN.
+        let l = (self.buf[4] as usize).min(BUF - 5);
+        &self.buf[5..5 + l]
     }
 
     /// Feeds one byte. Returns `Some(Ok(config))` at the end of a good frame, `Some(Err(_))` when a
@@ -266,11 +267,9 @@ impl ProvisionParser {
     /// not, is [`ProvisionParser::config_bytes`]), `Some(Err(_))` when a frame turns out broken,
     /// `None` otherwise.
     fn frame(&mut self, byte: u8) -> Option<Result<(), Error>> {
+        // `n` < MAX_FRAME here (a frame is complete at MAX_FRAME bytes); the masked indices
+        // would keep any other value in bounds too.
         let mut n = self.n;
-        if n as usize >= MAX_FRAME {
-            // Cannot happen (a frame is complete at MAX_FRAME bytes), but stay in bounds.
-            n = 0;
-        }
         self.buf[n as usize & (BUF - 1)] = byte;
         n += 1;
         let mut failed = None;

@@ -67,10 +67,9 @@ pub fn load_config(
     config: &mut Config,
 ) {
     let mut parser = ProvisionParser::new();
-    // The error shown (0: none yet, the window) and its blink phase: 0…2·code, on 200 ms
-    // (even), off 300 ms (odd), the last off 1.5 s.
-    let mut code = 0u8;
-    let mut phase = 0u8;
+    // The blink phases left of a round of an error code: 2·code…0, on 200 ms (even), off
+    // 300 ms (odd), the last (0) off 1.5 s. 0 in the window.
+    let mut left = 0u8;
     let mut ms = PROVISION_WINDOW_MS;
     let mut start = now_ms() as u16;
     loop {
@@ -90,22 +89,20 @@ pub fn load_config(
             sleep_unless(rx_pending);
             continue;
         }
-        if !stored && phase < 2 * code {
-            phase += 1;
+        if !stored && left != 0 {
+            left -= 1;
         } else {
             // The window is over, a config was stored, or a round of the code: what the
             // EEPROM holds now. Erased (first byte 0xFF) means the built-in config, which
             // `config` still holds (it is only written with a valid one).
             // (The block's scope ends here: its stack slot is reused by the line's writer.)
-            let source = {
+            let (code, source) = {
                 let mut block = [0; MAX_LEN];
                 let _ = eeprom.read(0, &mut block);
                 if block[0] == 0xFF {
-                    code = 0;
-                    ConfigSource::BuiltIn
+                    (0, ConfigSource::BuiltIn)
                 } else {
-                    code = read_into(&block, role, Some(config));
-                    ConfigSource::Eeprom
+                    (read_into(&block, role, Some(config)), ConfigSource::Eeprom)
                 }
             };
             // One line either way (one round of the code per error line).
@@ -120,12 +117,11 @@ pub fn load_config(
                 led.off();
                 return;
             }
-            phase = 0;
+            left = 2 * code;
         }
-        let last = phase == 2 * code;
-        let on = !last && phase & 1 == 0;
+        let on = left != 0 && left & 1 == 0;
         led.set(on);
-        ms = if last {
+        ms = if left == 0 {
             1500
         } else if on {
             200
