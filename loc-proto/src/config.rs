@@ -576,6 +576,36 @@ mod tests {
         }
     }
 
+    /// The node's decoder answers as `from_bytes` and the role check do, on every value of every
+    /// byte (CRC fixed up, so the field checks are reached), for each role; `out` only changes
+    /// on success, and `None` only checks.
+    #[test]
+    fn read_into_is_from_bytes_then_the_role() {
+        for i in 0..18 {
+            for v in 0..=255u8 {
+                let b = patched(i, v);
+                let want = Config::from_bytes(&b);
+                for role in Role::ALL {
+                    let sentinel = Config::default_for(Role::Sink);
+                    let mut out = sentinel;
+                    let code = read_into(&b, role, Some(&mut out));
+                    let expect = match want {
+                        Ok(c) if c.role == role => 0,
+                        Ok(_) => WRONG_ROLE,
+                        Err(e) => e.code(),
+                    };
+                    assert_eq!(code, expect, "byte {i} = {v} {role:?}");
+                    assert_eq!(read_into(&b, role, None), expect);
+                    if code == 0 {
+                        assert_eq!(Ok(out), want);
+                    } else {
+                        assert_eq!(out, sentinel, "byte {i} = {v} {role:?}");
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn decode_errors() {
         let field = |f| Err(Error::BadValue { field: f });
