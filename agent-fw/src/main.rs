@@ -41,7 +41,8 @@ fn main() -> ! {
         ..
     } = board;
     write_line(&mut serial, &BootLine::Boot { role: Role::Agent });
-    let config = load_config(&mut serial, &mut eeprom, &mut led, &built_in::BUILT_IN);
+    let mut config = built_in::BUILT_IN;
+    load_config(&mut serial, &mut eeprom, &mut led, Role::Agent, &mut config);
     let channels = config.channels;
     let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
     bring_up_radio(&mut radio, &mut led, Role::Agent, &radio_config(&config));

@@ -40,7 +40,14 @@ fn main() -> ! {
         ..
     } = board;
     write_line(&mut serial, &BootLine::Boot { role: Role::Anchor });
-    let config = load_config(&mut serial, &mut eeprom, &mut led, &built_in::BUILT_IN);
+    let mut config = built_in::BUILT_IN;
+    load_config(
+        &mut serial,
+        &mut eeprom,
+        &mut led,
+        Role::Anchor,
+        &mut config,
+    );
     let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
     bring_up_radio(&mut radio, &mut led, Role::Anchor, &radio_config(&config));
     let Ok(sched) = Schedule::for_config(&config) else {

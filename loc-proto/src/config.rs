@@ -109,27 +109,16 @@ impl Config {
         18 + self.channels.len()
     }
 
-    /// Checks every field (the channel list is valid by construction). Always inlined: in
-    /// [`Config::from_bytes`] (the firmware's only caller) its checks and error returns merge
-    /// with the decoder's (70 B less AVR flash).
-    #[inline(always)]
+    /// Checks every field (the channel list is valid by construction).
     pub fn validate(&self) -> Result<(), Error> {
-        if !(3..=MAX_ANCHORS as u8).contains(&self.anchors) {
-            return Err(bad(Field::Anchors));
-        }
-        if self.id == 0 || (self.role == Role::Anchor && self.id > self.anchors) {
-            return Err(bad(Field::NodeId));
-        }
-        if !(MIN_SLOT_MS..=MAX_SLOT_MS).contains(&self.slot_ms) {
-            return Err(bad(Field::SlotLength));
-        }
-        if !(1..=MAX_CHANNEL).contains(&self.sink_channel) {
-            return Err(bad(Field::SinkChannel));
-        }
-        if self.pan_id == 0xFFFF {
-            return Err(bad(Field::PanId));
-        }
-        Ok(())
+        check_fields(
+            self.role,
+            self.id,
+            self.anchors,
+            self.slot_ms,
+            self.sink_channel,
+            self.pan_id,
+        )
     }
 
     /// Writes the config (with its CRC) into `buf`; returns the bytes written ([`Config::size`]).
@@ -162,54 +151,110 @@ impl Config {
     /// Reads and validates a config from the start of `buf`; bytes after its length are
     /// ignored (so a whole [`MAX_LEN`]-byte EEPROM block can be passed).
     pub fn from_bytes(buf: &[u8]) -> Result<Config, Error> {
-        let [magic, version, len, ..] = *buf else {
-            return Err(Error::TooShort);
-        };
-        if magic != MAGIC {
-            return Err(Error::BadMagic);
-        }
-        if version != VERSION {
-            return Err(Error::BadVersion { found: version });
-        }
-        let len = len as usize;
-        if !(MIN_LEN..=MAX_LEN).contains(&len) {
-            return Err(Error::BadLength);
-        }
-        let Some(block) = buf.get(..len) else {
-            return Err(Error::TooShort);
-        };
-        // The CRC follows the body big endian, so the CRC over the whole block is 0 exactly
-        // when it matches (one call, no comparison of the stored bytes).
-        if crc16(block) != 0 {
-            return Err(Error::BadCrc);
-        }
-        // Fixed offsets (the length is checked): no reader, so the firmware's decoder stays
-        // small (it runs on every node at boot).
-        let Some(&[_, _, _, role, id, anchors, x0, x1, y0, y1, s0, s1, sink_channel, p0, p1, c]) =
-            block.first_chunk::<16>()
-        else {
-            return Err(Error::TooShort);
-        };
-        let c = c as usize;
-        if c + 18 != len {
-            return Err(Error::BadLength);
-        }
-        let cfg = Config {
-            role: role_of(role)?,
-            id,
-            anchors,
-            position: Position {
-                x: i16::from_le_bytes([x0, x1]),
-                y: i16::from_le_bytes([y0, y1]),
-            },
-            slot_ms: u16::from_le_bytes([s0, s1]),
-            channels: ChannelList::new(&block[16..len - 2])?,
-            sink_channel,
-            pan_id: u16::from_le_bytes([p0, p1]),
-        };
-        cfg.validate()?;
-        Ok(cfg)
+        decode(buf)
     }
+}
+
+/// [`Config::from_bytes`] as a node of `role` needs it: `0` for a valid config of `role`, and
+/// the config in `out` (`None`: only checked); otherwise the code ([`Error::code`], or
+/// [`WRONG_ROLE`] for a valid config of another role) with `out` untouched. The firmware's one
+/// config decoder (the EEPROM at boot and every provisioning frame): the answer is one byte in a
+/// register and every error return a constant, where a `Result<Config, Error>` comes back
+/// through memory on AVR.
+pub fn read_into(buf: &[u8], role: Role, out: Option<&mut Config>) -> u8 {
+    match decode(buf) {
+        Ok(c) if c.role == role => {
+            if let Some(out) = out {
+                *out = c;
+            }
+            0
+        }
+        Ok(_) => WRONG_ROLE,
+        Err(e) => e.code(),
+    }
+}
+
+/// The decoder behind [`Config::from_bytes`] and [`read_into`]. Always inlined: in
+/// [`read_into`] its errors fold to their codes (the field of a bad value is never built).
+#[inline(always)]
+fn decode(buf: &[u8]) -> Result<Config, Error> {
+    let [magic, version, len, ..] = *buf else {
+        return Err(Error::TooShort);
+    };
+    if magic != MAGIC {
+        return Err(Error::BadMagic);
+    }
+    if version != VERSION {
+        return Err(Error::BadVersion { found: version });
+    }
+    // u8 lengths and offsets: half the code of usize ones on AVR.
+    if !(MIN_LEN as u8..=MAX_LEN as u8).contains(&len) {
+        return Err(Error::BadLength);
+    }
+    let Some(block) = buf.get(..len as usize) else {
+        return Err(Error::TooShort);
+    };
+    // The CRC follows the body big endian, so the CRC over the whole block is 0 exactly
+    // when it matches (one call, no comparison of the stored bytes).
+    if crc16(block) != 0 {
+        return Err(Error::BadCrc);
+    }
+    // Fixed offsets (the length is checked): no reader, and every check reads the block in
+    // place before the config is built from it.
+    let Some(b) = block.first_chunk::<16>() else {
+        return Err(Error::TooShort);
+    };
+    // C + 18 = len (a C that would wrap around is ≥ 238, never a length's).
+    if b[15].wrapping_add(18) != len {
+        return Err(Error::BadLength);
+    }
+    let role = role_of(b[3])?;
+    let channels = ChannelList::new(&block[16..len as usize - 2])?;
+    let slot_ms = u16::from_le_bytes([b[10], b[11]]);
+    let pan_id = u16::from_le_bytes([b[13], b[14]]);
+    check_fields(role, b[4], b[5], slot_ms, b[12], pan_id)?;
+    Ok(Config {
+        role,
+        id: b[4],
+        anchors: b[5],
+        position: Position {
+            x: i16::from_le_bytes([b[6], b[7]]),
+            y: i16::from_le_bytes([b[8], b[9]]),
+        },
+        slot_ms,
+        channels,
+        sink_channel: b[12],
+        pan_id,
+    })
+}
+
+/// The checks of [`Config::validate`] on the field values (the channel list is checked by
+/// [`ChannelList::new`]). Always inlined: in the decoder they read the stored bytes in place.
+#[inline(always)]
+fn check_fields(
+    role: Role,
+    id: u8,
+    anchors: u8,
+    slot_ms: u16,
+    sink_channel: u8,
+    pan_id: u16,
+) -> Result<(), Error> {
+    if !(3..=MAX_ANCHORS as u8).contains(&anchors) {
+        return Err(bad(Field::Anchors));
+    }
+    if id == 0 || (role == Role::Anchor && id > anchors) {
+        return Err(bad(Field::NodeId));
+    }
+    if !(MIN_SLOT_MS..=MAX_SLOT_MS).contains(&slot_ms) {
+        return Err(bad(Field::SlotLength));
+    }
+    if !(1..=MAX_CHANNEL).contains(&sink_channel) {
+        return Err(bad(Field::SinkChannel));
+    }
+    if pan_id == 0xFFFF {
+        return Err(bad(Field::PanId));
+    }
+    Ok(())
 }
 
 impl Config {
@@ -243,10 +288,10 @@ pub fn stored(bytes: &[u8], role: Role) -> Stored {
     if bytes.first() == Some(&0xFF) {
         return Stored::Erased;
     }
-    match Config::from_bytes(bytes) {
-        Ok(c) if c.role == role => Stored::Valid(c),
-        Ok(_) => Stored::Invalid(WRONG_ROLE),
-        Err(e) => Stored::Invalid(e.code()),
+    let mut c = Config::DEFAULT;
+    match read_into(bytes, role, Some(&mut c)) {
+        0 => Stored::Valid(c),
+        code => Stored::Invalid(code),
     }
 }
 
@@ -528,6 +573,36 @@ mod tests {
                 Err(Error::BadCrc)
             };
             assert_eq!(Config::from_bytes(&b[..n]), want, "crc {v:#06x}");
+        }
+    }
+
+    /// The node's decoder answers as `from_bytes` and the role check do, on every value of every
+    /// byte (CRC fixed up, so the field checks are reached), for each role; `out` only changes
+    /// on success, and `None` only checks.
+    #[test]
+    fn read_into_is_from_bytes_then_the_role() {
+        for i in 0..18 {
+            for v in 0..=255u8 {
+                let b = patched(i, v);
+                let want = Config::from_bytes(&b);
+                for role in Role::ALL {
+                    let sentinel = Config::default_for(Role::Sink);
+                    let mut out = sentinel;
+                    let code = read_into(&b, role, Some(&mut out));
+                    let expect = match want {
+                        Ok(c) if c.role == role => 0,
+                        Ok(_) => WRONG_ROLE,
+                        Err(e) => e.code(),
+                    };
+                    assert_eq!(code, expect, "byte {i} = {v} {role:?}");
+                    assert_eq!(read_into(&b, role, None), expect);
+                    if code == 0 {
+                        assert_eq!(Ok(out), want);
+                    } else {
+                        assert_eq!(out, sentinel, "byte {i} = {v} {role:?}");
+                    }
+                }
+            }
         }
     }
 

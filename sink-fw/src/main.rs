@@ -44,7 +44,8 @@ fn main() -> ! {
         ..
     } = board;
     write_line(&mut serial, &BootLine::Boot { role: Role::Sink });
-    let config = load_config(&mut serial, &mut eeprom, &mut led, &built_in::BUILT_IN);
+    let mut config = built_in::BUILT_IN;
+    load_config(&mut serial, &mut eeprom, &mut led, Role::Sink, &mut config);
     let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
     bring_up_radio(&mut radio, &mut led, Role::Sink, &radio_config(&config));
     watchdog.start(WdtTimeout::S1);

@@ -1,7 +1,7 @@
 //! The node config at boot: a provisioning window on the UART, then the config in EEPROM or the
 //! firmware's built-in one (`loc_proto::config` says which; `loc_proto::provision` the frame).
 
-use loc_proto::config::{stored, Config, Stored, MAX_LEN};
+use loc_proto::config::{read_into, Config, MAX_LEN};
 use loc_proto::line::{BootLine, ConfigSource};
 use loc_proto::provision::{ProvisionParser, Reply, PROVISION_WINDOW_MS, WRITE_FAILED};
 use loc_proto::{xbee_channel, Role};
@@ -25,134 +25,109 @@ pub fn radio_config(config: &Config) -> BringUpConfig {
     }
 }
 
-/// [`serve`] for `ms` milliseconds, sleeping (idle) between received bytes and ticks: the window
-/// costs no busy CPU (nor, in simavr, emulation time). Returns whether a config was stored.
-/// The clock's low 16 bits are enough for waits of at most [`PROVISION_WINDOW_MS`] (and 16-bit
-/// arithmetic is half the code of 32-bit on AVR).
-fn serve_for(
-    serial: &mut Serial,
-    eeprom: &mut Eeprom,
-    parser: &mut ProvisionParser,
-    role: Role,
-    ms: u16,
-) -> bool {
-    let start = now_ms() as u16;
-    while (now_ms() as u16).wrapping_sub(start) < ms {
-        if serve(serial, eeprom, parser, role) {
-            return true;
-        }
-        sleep_unless(rx_pending);
+/// Writes `reply`, then `\r\n` (the lines that follow start on their own in a terminal), then
+/// after an ACK `hoploc <role> provisioned`.
+fn answer(serial: &mut Serial, reply: Reply, role: Role) {
+    let [h, l, kind, code] = reply.bytes();
+    serial.write_bytes(&[h, l, kind, code, b'\r', b'\n']);
+    if reply == Reply::Ack {
+        write_line(serial, &BootLine::Provisioned { role });
     }
-    false
 }
 
-/// Answers every provisioning frame received so far: a valid config of `role` is written to
-/// EEPROM (address 0), read back, and acknowledged (`HLA`, then `hoploc <role> provisioned`);
-/// anything else gets its NAK. Returns whether a config was stored.
-fn serve(
-    serial: &mut Serial,
-    eeprom: &mut Eeprom,
-    parser: &mut ProvisionParser,
-    role: Role,
-) -> bool {
-    let mut stored_one = false;
-    while let Some(byte) = serial.try_read() {
-        let Some(mut reply) = parser.reply(byte, role) else {
-            continue;
-        };
-        if reply == Reply::Ack {
-            // The frame's own config bytes (checked by the parser), written and read back.
-            let bytes = parser.config_bytes();
-            let ok = eeprom.write(0, bytes).is_ok()
-                && (0..).zip(bytes).all(|(a, &b)| eeprom.read_byte(a) == Ok(b));
-            if !ok {
-                reply = Reply::Nak(WRITE_FAILED);
-            }
-        }
-        serial.write_bytes(&reply.bytes());
-        // Ends the reply's terminal line: the lines that follow start on their own.
-        serial.write_byte(b'\r');
-        serial.write_byte(b'\n');
-        if reply == Reply::Ack {
-            write_line(serial, &BootLine::Provisioned { role });
-            stored_one = true;
-        }
-    }
-    stored_one
-}
-
-/// The config a `role` node runs with.
+/// The config a `role` node runs with: `config` holds the firmware's built-in one on entry (of
+/// `role`), and the one to run with on return. (`role` apart, a constant: with the one call of
+/// each firmware the role folds into the code.)
 ///
 /// 1. For [`PROVISION_WINDOW_MS`] after the call (made right after the boot line), answers
-///    provisioning frames on the UART (a stored one ends the window early).
-/// 2. Then reads the EEPROM: a valid config of `role` is used (`hoploc <role> config eeprom id
-///    <id>`); an erased one means `built_in` (`hoploc <role> config built-in id <id>`).
+///    provisioning frames on the UART: a valid config of `role` is written to EEPROM
+///    (address 0), read back, and acknowledged (`HLA`, then `hoploc <role> provisioned`), which
+///    ends the window early; anything else gets its NAK.
+/// 2. Then reads the EEPROM: a valid config of `role` is used (`hoploc <role> config eeprom
+///    id <id>`); an erased one means the built-in one (`hoploc <role> config built-in id <id>`).
 /// 3. Anything else (corrupt, another role, another layout version) is never run with: the node
 ///    writes `hoploc <role> config error <code>`, blinks `code` on the LED, and goes on answering
 ///    provisioning frames (so `hoploc provision` can fix it), repeating line and code, until one
 ///    is stored; then back to 2.
 ///
+/// One loop, one place that answers frames and one that waits: the window, each blink phase
+/// and the pause after a round are waits of `ms` milliseconds, sleeping (idle) between received
+/// bytes and ticks, so they cost no busy CPU (nor, in simavr, emulation time). The clock's low
+/// 16 bits are enough for waits of at most [`PROVISION_WINDOW_MS`] (and 16-bit arithmetic is
+/// half the code of 32-bit on AVR).
+///
 /// The watchdog must be off (it is after `Board::take`). Never inlined: its buffers (the
-/// parser's 29 bytes, the EEPROM block) leave the stack before the node's main loop runs.
+/// parser's, the EEPROM block) leave the stack before the node's main loop runs.
 #[inline(never)]
 pub fn load_config(
     serial: &mut Serial,
     eeprom: &mut Eeprom,
     led: &mut Led,
-    built_in: &Config,
-) -> Config {
-    let role = built_in.role;
+    role: Role,
+    config: &mut Config,
+) {
     let mut parser = ProvisionParser::new();
-    serve_for(serial, eeprom, &mut parser, role, PROVISION_WINDOW_MS);
+    // The blink phases left of a round of an error code: 2·code…0, on 200 ms (even), off
+    // 300 ms (odd), the last (0) off 1.5 s. 0 in the window.
+    let mut left = 0u8;
+    let mut ms = PROVISION_WINDOW_MS;
+    let mut start = now_ms() as u16;
     loop {
-        let (config, source) = match read_stored(eeprom, role) {
-            Stored::Valid(c) => (c, ConfigSource::Eeprom),
-            Stored::Erased => (*built_in, ConfigSource::BuiltIn),
-            Stored::Invalid(code) => {
-                // One round of the code per line, answering frames all along.
-                'wait: loop {
-                    write_line(serial, &BootLine::ConfigError { role, code });
-                    // Phases 0…2·code: on 200 ms (even), off 300 ms (odd), the last off 1.5 s.
-                    let mut phase = 0u8;
-                    loop {
-                        let last = phase == 2 * code;
-                        let on = !last && phase & 1 == 0;
-                        led.set(on);
-                        let ms = if last {
-                            1500
-                        } else if on {
-                            200
-                        } else {
-                            300
-                        };
-                        if serve_for(serial, eeprom, &mut parser, role, ms) {
-                            led.off();
-                            break 'wait;
-                        }
-                        if last {
-                            break;
-                        }
-                        phase += 1;
-                    }
-                }
+        let mut stored = false;
+        while let Some(byte) = serial.try_read() {
+            let Some(mut reply) = parser.reply(byte, role) else {
                 continue;
+            };
+            // The frame's own config bytes (checked by the parser), written and read back.
+            if reply == Reply::Ack && !eeprom.write_verified(0, parser.config_bytes()) {
+                reply = Reply::Nak(WRITE_FAILED);
             }
+            answer(serial, reply, role);
+            stored |= reply == Reply::Ack;
+        }
+        if !stored && (now_ms() as u16).wrapping_sub(start) < ms {
+            sleep_unless(rx_pending);
+            continue;
+        }
+        if !stored && left != 0 {
+            left -= 1;
+        } else {
+            // The window is over, a config was stored, or a round of the code: what the
+            // EEPROM holds now. Erased (first byte 0xFF) means the built-in config, which
+            // `config` still holds (it is only written with a valid one).
+            // (The block's scope ends here: its stack slot is reused by the line's writer.)
+            let (code, source) = {
+                let mut block = [0; MAX_LEN];
+                let _ = eeprom.read(0, &mut block);
+                if block[0] == 0xFF {
+                    (0, ConfigSource::BuiltIn)
+                } else {
+                    (read_into(&block, role, Some(config)), ConfigSource::Eeprom)
+                }
+            };
+            // One line either way (one round of the code per error line).
+            let id = config.id;
+            let line = if code == 0 {
+                BootLine::Config { role, source, id }
+            } else {
+                BootLine::ConfigError { role, code }
+            };
+            write_line(serial, &line);
+            if code == 0 {
+                led.off();
+                return;
+            }
+            left = 2 * code;
+        }
+        let on = left != 0 && left & 1 == 0;
+        led.set(on);
+        ms = if left == 0 {
+            1500
+        } else if on {
+            200
+        } else {
+            300
         };
-        write_line(
-            serial,
-            &BootLine::Config {
-                role,
-                source,
-                id: config.id,
-            },
-        );
-        return config;
+        start = now_ms() as u16;
     }
-}
-
-/// What the EEPROM holds for a node of `role` ([`stored`]).
-fn read_stored(eeprom: &Eeprom, role: Role) -> Stored {
-    let mut block = [0xFF; MAX_LEN];
-    let _ = eeprom.read(0, &mut block);
-    stored(&block, role)
 }

@@ -27,9 +27,13 @@ impl Eeprom {
     }
 
     fn write_at(&mut self, addr: u16, value: u8) {
-        if self.read_at(addr) == value {
-            return;
+        if self.read_at(addr) != value {
+            self.program(addr, value);
         }
+    }
+
+    /// Writes `value` at `addr` (erase + write), unconditionally.
+    fn program(&mut self, addr: u16, value: u8) {
         // The watchdog may be running: each write is bounded (~3.4 ms), so progress is not a hang.
         avr_device::asm::wdr();
         self.wait_ready();
@@ -40,6 +44,26 @@ impl Eeprom {
             // EEPE (bit 1), with interrupts off. EEPM1:0 are 0 (erase + write). EECR is I/O 0x1F.
             unsafe { asm!("sbi 0x1F, 2", "sbi 0x1F, 1", options(nostack)) };
         });
+    }
+
+    /// Writes `data` from `addr` like [`Eeprom::write`] (only the bytes that change) and reads
+    /// each byte back: `false` if one did not take its value (a worn-out cell) or the range is
+    /// not in the EEPROM. One read per byte, and one more after a write: one read site.
+    pub fn write_verified(&mut self, addr: u16, data: &[u8]) -> bool {
+        if eeprom_range(addr, data.len()).is_err() {
+            return false;
+        }
+        for (a, &b) in (addr..).zip(data.iter()) {
+            let mut written = false;
+            while self.read_at(a) != b {
+                if written {
+                    return false;
+                }
+                self.program(a, b);
+                written = true;
+            }
+        }
+        true
     }
 
     /// Reads the byte at `addr`.
