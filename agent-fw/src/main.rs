@@ -43,7 +43,7 @@ fn main() -> ! {
     write_line(&mut serial, &BootLine::Boot { role: Role::Agent });
     let config = load_config(&mut serial, &mut eeprom, &mut led, &built_in::BUILT_IN);
     let channels = config.channels;
-    let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
+    let mut radio = Radio::new(serial, SysClock, xbee_api::Ap2);
     bring_up_radio(&mut radio, &mut led, Role::Agent, &radio_config(&config));
     let Ok(sched) = Schedule::for_config(&config) else {
         reset()

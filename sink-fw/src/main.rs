@@ -45,7 +45,7 @@ fn main() -> ! {
     } = board;
     write_line(&mut serial, &BootLine::Boot { role: Role::Sink });
     let config = load_config(&mut serial, &mut eeprom, &mut led, &built_in::BUILT_IN);
-    let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
+    let mut radio = Radio::new(serial, SysClock, xbee_api::Ap2);
     bring_up_radio(&mut radio, &mut led, Role::Sink, &radio_config(&config));
     watchdog.start(WdtTimeout::S1);
     // The radio by reference: passed by value, it was copied into a second 178-byte stack slot.

@@ -10,7 +10,8 @@ use core::fmt;
 
 use crate::frame::ty;
 use crate::{
-    AtStatus, Frame, Mode, ParseError, Rssi, TxStatus, ESCAPE, ESCAPE_XOR, MAX_FRAME_DATA, START,
+    ApiMode, AtStatus, Frame, Mode, ParseError, Rssi, TxStatus, ESCAPE, ESCAPE_XOR, MAX_FRAME_DATA,
+    START,
 };
 
 /// Length bytes + frame data + checksum, plus one byte of input queue.
@@ -217,6 +218,10 @@ pub(crate) fn count(counter: &mut u32) {
 
 /// Byte-at-a-time API frame decoder: bounded buffer, no allocation, never panics.
 ///
+/// `M` is the API mode: a [`Mode`] chosen at run time (the default), or [`crate::Ap2`], API mode
+/// 2 fixed at compile time, for firmware that only ever talks AP=2 and so does not link the
+/// AP=1 re-reading.
+///
 /// ```
 /// use xbee_api::{Decoder, Frame, Mode};
 /// let mut dec = Decoder::new(Mode::Escaped);
@@ -235,8 +240,8 @@ pub(crate) fn count(counter: &mut u32) {
 // `repr(C)`, small fields first: on AVR a field within 63 bytes of the struct's start is one
 // `ldd`/`std` instruction away, one further out needs its address computed first.
 #[repr(C)]
-pub struct Decoder {
-    mode: Mode,
+pub struct Decoder<M = Mode> {
+    mode: M,
     /// `buf[..cur]`: raw (unescaped) bytes of the current frame after its start delimiter;
     /// `buf[ps..pe]`: input not yet processed. Always `cur <= ps <= pe <= BUF`. The indices are
     /// `u8` (`BUF` < 256): the ATmega328P is an 8-bit machine, where each `usize` (16-bit)
@@ -256,9 +261,9 @@ pub struct Decoder {
     counts: [u32; 5],
 }
 
-impl Decoder {
+impl<M: ApiMode> Decoder<M> {
     /// A decoder for the given API mode.
-    pub const fn new(mode: Mode) -> Self {
+    pub const fn new(mode: M) -> Self {
         Decoder {
             mode,
             buf: [0; BUF],
@@ -275,15 +280,15 @@ impl Decoder {
     }
 
     /// The API mode this decoder reads.
+    #[inline]
     pub fn mode(&self) -> Mode {
-        self.mode
+        self.mode.mode()
     }
 
-    /// Switches the API mode, dropping any partial frame.
-    pub fn set_mode(&mut self, mode: Mode) {
+    /// Drops any partial frame and queued input (the counters stay).
+    pub fn reset(&mut self) {
         // Field by field rather than `*self = Decoder::new(mode)`: the buffer's old bytes are
         // never read again, and not clearing it saves the copy.
-        self.mode = mode;
         self.cur = 0;
         self.ps = 0;
         self.pe = 0;
@@ -356,6 +361,38 @@ impl Decoder {
         Step::Nothing
     }
 
+    /// The driver's way in: one byte, and what it did. In AP=2 a broken frame is never re-read,
+    /// so the input queue is not needed and the byte goes straight to `step` (the queue stays
+    /// empty, at `cur`); in AP=1 it is queued behind bytes a failure may have queued for
+    /// re-reading, and the queue is processed as [`Decoder::poll_len`] does.
+    pub(crate) fn input(&mut self, b: u8) -> Step {
+        if self.mode() == Mode::Escaped {
+            let step = self.step(b);
+            self.ps = self.cur;
+            self.pe = self.cur;
+            step
+        } else {
+            // Cannot fail: the driver processes the queue before every byte.
+            let _ = self.push(b);
+            self.poll_len()
+        }
+    }
+
+    /// What is waiting before the driver's next byte: the idle report ([`Decoder::idle`]) and,
+    /// in AP=1, bytes a failure queued for re-reading. A decoder fed only through
+    /// [`Decoder::input`] never has queued bytes in AP=2, so there only the report is looked at.
+    pub(crate) fn pending(&mut self) -> Step {
+        if self.mode() == Mode::Escaped {
+            if core::mem::take(&mut self.queued) {
+                Step::Error
+            } else {
+                Step::Nothing
+            }
+        } else {
+            self.poll_len()
+        }
+    }
+
     /// The error [`Decoder::poll_len`] last reported.
     pub(crate) fn error(&self) -> DecodeError {
         self.error
@@ -390,7 +427,7 @@ impl Decoder {
 
     #[inline(never)]
     fn step(&mut self, b: u8) -> Step {
-        if b == START && (!self.in_frame || self.mode == Mode::Escaped) {
+        if b == START && (!self.in_frame || self.mode() == Mode::Escaped) {
             let step = if self.in_frame {
                 self.error = DecodeError::Truncated { received: self.cur };
                 self.fail(TRUNCATED)
@@ -412,7 +449,7 @@ impl Decoder {
             count(&mut self.counts[GARBAGE_BYTES]);
             return Step::Nothing;
         }
-        let b = if self.mode == Mode::Escaped {
+        let b = if self.mode() == Mode::Escaped {
             if self.escaped {
                 self.escaped = false;
                 b ^ ESCAPE_XOR
@@ -467,7 +504,7 @@ impl Decoder {
         }
         self.in_frame = false;
         self.escaped = false;
-        if self.mode == Mode::Api {
+        if self.mode() == Mode::Api {
             // `u8` indices and a plain scan: half the AVR code of `usize` and `position`.
             let (cur, ps, pe) = (self.cur, self.ps, self.pe);
             let mut k = 0;
@@ -489,5 +526,13 @@ impl Decoder {
             self.pe = 0;
         }
         Step::Error
+    }
+}
+
+impl Decoder<Mode> {
+    /// Switches the API mode, dropping any partial frame.
+    pub fn set_mode(&mut self, mode: Mode) {
+        self.mode = mode;
+        self.reset();
     }
 }

@@ -72,8 +72,8 @@ use crate::decode::{count, Step};
 use crate::frame::ty::{AT as AT_COMMAND, AT_RESPONSE, TX16, TX64};
 use crate::frame::Header;
 use crate::{
-    needs_escape, AtStatus, DecodeError, Decoder, DecoderStats, Frame, Mode, RawFrame, ESCAPE,
-    ESCAPE_XOR, MAX_FRAME_DATA, MAX_RF_PAYLOAD, START,
+    needs_escape, ApiMode, AtStatus, DecodeError, Decoder, DecoderStats, Frame, Mode, RawFrame,
+    ESCAPE, ESCAPE_XOR, MAX_FRAME_DATA, MAX_RF_PAYLOAD, START,
 };
 
 /// A free-running millisecond clock. It may wrap: the driver only ever compares
@@ -405,10 +405,11 @@ pub struct DriverStats {
     pub serial_errors: u32,
 }
 
-/// An XBee 802.15.4 radio on serial port `S`, timed by clock `C`.
+/// An XBee 802.15.4 radio on serial port `S`, timed by clock `C`, in API mode `M`: a [`Mode`]
+/// (the default; [`Radio::set_mode`] can change it) or [`crate::Ap2`], fixed at compile time.
 // `repr(C)`, small fields first, the decoder's buffer and the counters last: see `Decoder`.
 #[repr(C)]
-pub struct Radio<S, C> {
+pub struct Radio<S, C, M = Mode> {
     /// What went wrong, when an inner step returned [`Failed`].
     error: Error,
     /// Last frame id handed out (0 before the first).
@@ -423,7 +424,7 @@ pub struct Radio<S, C> {
     last_rx_ms: u16,
     serial: S,
     clock: C,
-    decoder: Decoder,
+    decoder: Decoder<M>,
     unexpected: u32,
     malformed: u32,
     dropped: u32,
@@ -452,9 +453,9 @@ enum Next {
     Serial,
 }
 
-impl<S, C> Radio<S, C> {
+impl<S, C, M: ApiMode> Radio<S, C, M> {
     /// A driver for a radio in API mode `mode` (the mode [`Radio::bring_up`] will also set).
-    pub fn new(serial: S, clock: C, mode: Mode) -> Self {
+    pub fn new(serial: S, clock: C, mode: M) -> Self {
         Radio {
             serial,
             clock,
@@ -486,11 +487,6 @@ impl<S, C> Radio<S, C> {
     /// The API mode frames are written and read in.
     pub fn mode(&self) -> Mode {
         self.decoder.mode()
-    }
-
-    /// Switches the API mode (after the radio's `AP` was changed), dropping any partial frame.
-    pub fn set_mode(&mut self, mode: Mode) {
-        self.decoder.set_mode(mode);
     }
 
     /// The counters so far.
@@ -551,6 +547,13 @@ impl<S, C> Radio<S, C> {
     }
 }
 
+impl<S, C> Radio<S, C, Mode> {
+    /// Switches the API mode (after the radio's `AP` was changed), dropping any partial frame.
+    pub fn set_mode(&mut self, mode: Mode) {
+        self.decoder.set_mode(mode);
+    }
+}
+
 /// Clears the slot of a TX status frame's id.
 fn note_tx_status(pending: &mut [u8; TRACKED], raw: RawFrame<'_>) {
     if let Some((id, _)) = raw.tx_status() {
@@ -560,10 +563,11 @@ fn note_tx_status(pending: &mut [u8; TRACKED], raw: RawFrame<'_>) {
     }
 }
 
-impl<S, C> Radio<S, C>
+impl<S, C, M> Radio<S, C, M>
 where
     S: Read<u8> + Write<u8>,
     C: Clock,
+    M: ApiMode,
 {
     /// Writes `frame`, encoded in the radio's mode. A TX64/TX16 request with a nonzero frame id
     /// is remembered until its TX status arrives (see [`Radio::wait_tx_status`]).
@@ -678,8 +682,10 @@ where
     #[inline(never)]
     fn next_frame(&mut self) -> Next {
         let mut budget = POLL_BUDGET;
+        // What is left from before: an idle report, or (AP=1) bytes queued for re-reading.
+        let mut step = self.decoder.pending();
         loop {
-            match self.decoder.poll_len() {
+            match step {
                 Step::Frame(len) => {
                     note_tx_status(&mut self.pending_tx, self.decoder.frame(len));
                     return Next::Frame(len);
@@ -694,32 +700,33 @@ where
                 return Next::Idle;
             };
             budget = left;
-            match self.serial.read() {
+            step = match self.serial.read() {
                 Ok(b) => {
-                    // Cannot fail: the decoder was polled to `Step::Nothing` just above.
-                    let _ = self.decoder.push(b);
                     self.rx_since_check = true;
+                    self.decoder.input(b)
                 }
                 Err(nb::Error::WouldBlock) => {
                     let now = self.clock.now_ms() as u16;
                     if core::mem::take(&mut self.rx_since_check) {
                         self.last_rx_ms = now;
-                    } else if self.decoder.in_frame()
-                        && now.wrapping_sub(self.last_rx_ms) >= IDLE_MS as u16
-                    {
-                        // The rest of the frame is not coming: let the decoder report it and,
-                        // in AP=1, re-read a frame that started inside it.
-                        self.decoder.idle();
-                        continue;
+                        return Next::Idle;
                     }
-                    return Next::Idle;
+                    if !self.decoder.in_frame()
+                        || now.wrapping_sub(self.last_rx_ms) < IDLE_MS as u16
+                    {
+                        return Next::Idle;
+                    }
+                    // The rest of the frame is not coming: let the decoder report it and, in
+                    // AP=1, re-read a frame that started inside it.
+                    self.decoder.idle();
+                    self.decoder.pending()
                 }
                 Err(nb::Error::Other(e)) => {
                     count(&mut self.serial_errors);
                     self.error = Error::Serial(e.kind());
                     return Next::Serial;
                 }
-            }
+            };
         }
     }
 
@@ -1000,10 +1007,11 @@ enum Reply {
     Silent,
 }
 
-impl<S, C> Radio<S, C>
+impl<S, C, M> Radio<S, C, M>
 where
     S: Read<u8> + Write<u8> + SetBaud,
     C: Clock,
+    M: ApiMode,
 {
     /// Radio bring-up: makes sure the radio talks API mode [`Radio::mode`] at 57600 baud, then
     /// sets `MY`, `ID` and `CH` as `config` asks and reads them back.
@@ -1028,13 +1036,12 @@ where
     /// [`Radio::bring_up`]'s body. Not forced out of line: it has one caller, and inlined
     /// (with the command-mode step) it is 178 B less AVR flash.
     fn bring_up_dyn(&mut self, cfg: &BringUpConfig) -> Result<BringUp, Failed> {
-        let mode = self.mode();
-        let ap = u16::from(mode.ap());
+        let ap = u16::from(self.mode().ap());
         // Steps 1 and 3 are the same query: once before configuring, once after.
         let mut how = BringUp::AlreadyApi;
         loop {
             self.serial.set_baud(BAUD);
-            self.decoder.set_mode(mode);
+            self.decoder.reset();
             let answer = self.query_ap(cfg.timeout_ms);
             if answer == Some(ap) {
                 break;

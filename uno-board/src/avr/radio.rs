@@ -4,12 +4,13 @@
 use loc_proto::line::{BootLine, RadioFound};
 use loc_proto::Role;
 use xbee_api::driver::{BringUp, BringUpConfig, Radio};
+use xbee_api::Ap2;
 
 use super::{Led, Serial, SysClock};
 use crate::DEFAULT_BAUD;
 
 /// The radio driver of a node: API mode 2 over USART0, timed by the 1 ms tick.
-pub type NodeRadio = Radio<Serial, SysClock>;
+pub type NodeRadio = Radio<Serial, SysClock, Ap2>;
 
 /// Writes a boot line on the UART at 57600 (the USB serial reads it; a radio in API mode ignores
 /// it, a line never holds 0x7E). Always inlined, as [`BootLine::write`]: each caller keeps its line's few calls.
