@@ -105,20 +105,56 @@ impl<F: FnMut() -> u32> Clock for FnClock<F> {
 pub trait SetBaud {
     /// Switches the UART to `baud` bit/s, 8N1.
     fn set_baud(&mut self, baud: u32);
+
+    /// Switches the UART to the rate of the XBee's `BD` value `bd` ([`baud_of_bd`]); the driver
+    /// calls only this. By default [`SetBaud::set_baud`] of that rate; a UART can override it
+    /// with a table of its divisors (on the AVR: no 32-bit division).
+    fn set_bd(&mut self, bd: u8) {
+        self.set_baud(baud_of_bd(bd));
+    }
 }
 
 impl<B: SetBaud + ?Sized> SetBaud for &mut B {
     fn set_baud(&mut self, baud: u32) {
         (**self).set_baud(baud)
     }
+    fn set_bd(&mut self, bd: u8) {
+        (**self).set_bd(bd)
+    }
+}
+
+/// The rate of the XBee's `BD` value `bd`: 1200 · 2^`bd` bit/s for 0…5, then 57600 and 115200
+/// (a larger `bd` gives 115200).
+pub const fn baud_of_bd(bd: u8) -> u32 {
+    match bd {
+        0..=5 => 1200 << bd,
+        6 => 57_600,
+        _ => 115_200,
+    }
 }
 
 /// The baud rate hoploc runs the radio at (`BD=6`).
 pub const BAUD: u32 = 57_600;
 
+/// The `BD` value of [`BAUD`].
+pub const BD: u8 = 6;
+
 /// The rates [`Radio::bring_up`] tries, in order: the target first, then the XBee factory default
 /// (9600, `BD=3`), then the other common rates.
 pub const BAUD_RATES: [u32; 5] = [57_600, 9_600, 115_200, 38_400, 19_200];
+
+/// The `BD` values of [`BAUD_RATES`], in the same order: what the driver passes to
+/// [`SetBaud::set_bd`] (a byte per rate rather than a 32-bit number).
+pub const BAUD_CODES: [u8; 5] = [6, 3, 7, 5, 4];
+
+const _: () = {
+    let mut i = 0;
+    while i < BAUD_RATES.len() {
+        assert!(baud_of_bd(BAUD_CODES[i]) == BAUD_RATES[i]);
+        i += 1;
+    }
+    assert!(baud_of_bd(BD) == BAUD);
+};
 
 /// How long a frame may stall mid-way before the driver tells the decoder the line went idle
 /// ([`Decoder::idle`]). The radio sends a frame's bytes back to back, so a gap this long means
@@ -1040,7 +1076,7 @@ where
         // Steps 1 and 3 are the same query: once before configuring, once after.
         let mut how = BringUp::AlreadyApi;
         loop {
-            self.serial.set_baud(BAUD);
+            self.serial.set_bd(BD);
             self.decoder.reset();
             let answer = self.query_ap(cfg.timeout_ms);
             if answer == Some(ap) {
@@ -1092,8 +1128,8 @@ where
     fn configure_in_command_mode(&mut self, cfg: &BringUpConfig) -> Result<u32, Failed> {
         let mut heard = false;
         // By reference: iterating the array by value copies it to the stack first.
-        for &baud in BAUD_RATES.iter() {
-            self.serial.set_baud(baud);
+        for &bd in BAUD_CODES.iter() {
+            self.serial.set_bd(bd);
             heard |= self.quiet(cfg.guard_ms);
             for &b in b"+++" {
                 self.write_byte(b)?;
@@ -1134,7 +1170,7 @@ where
                     }
                 }
             }
-            return Ok(baud);
+            return Ok(baud_of_bd(bd));
         }
         Err(self.fail(if heard {
             Error::Garbage
@@ -1146,7 +1182,16 @@ where
 
 #[cfg(test)]
 mod tests {
-    use super::{be_u16, be_u32};
+    use super::{baud_of_bd, be_u16, be_u32};
+
+    /// `BD` 0…7 are the XBee 802.15.4's rates (its manual's table).
+    #[test]
+    fn baud_of_bd_is_the_xbee_table() {
+        let table = [1200, 2400, 4800, 9600, 19_200, 38_400, 57_600, 115_200];
+        for (bd, &baud) in (0u8..).zip(table.iter()) {
+            assert_eq!(baud_of_bd(bd), baud);
+        }
+    }
 
     /// `be_u16` is `be_u32` where that fits in 16 bits, and `None` elsewhere: every length 0…5
     /// over bytes that probe each position's zero/nonzero cases.

@@ -7,7 +7,6 @@ use xbee_api::driver::{BringUp, BringUpConfig, Radio};
 use xbee_api::Ap2;
 
 use super::{Led, Serial, SysClock};
-use crate::DEFAULT_BAUD;
 
 /// The radio driver of a node: API mode 2 over USART0, timed by the 1 ms tick.
 pub type NodeRadio = Radio<Serial, SysClock, Ap2>;
@@ -40,7 +39,7 @@ pub fn bring_up_radio(radio: &mut NodeRadio, led: &mut Led, role: Role, config: 
         let result = radio.bring_up(config);
         led.off();
         // A failed search leaves the UART at the last rate it tried; lines go out at 57600.
-        let _ = radio.serial_mut().set_baud(DEFAULT_BAUD);
+        let _ = radio.serial_mut().set_bd(xbee_api::driver::BD);
         match result {
             Ok(how) => {
                 let found = match how {
