@@ -253,6 +253,9 @@ pub struct Decoder<M = Mode> {
     escaped: bool,
     /// `error` is still to be reported (set by [`Decoder::idle`]).
     queued: bool,
+    /// The sum of the current frame's bytes after the length (data and checksum), wrapping:
+    /// kept as they arrive, so a complete frame is checked without a second pass.
+    sum: u8,
     garbage: u16,
     /// The last stream error.
     error: DecodeError,
@@ -274,6 +277,7 @@ impl<M: ApiMode> Decoder<M> {
             escaped: false,
             garbage: 0,
             queued: false,
+            sum: 0,
             error: DecodeError::Garbage { bytes: 0 },
             counts: [0; 5],
         }
@@ -442,6 +446,7 @@ impl<M: ApiMode> Decoder<M> {
             self.in_frame = true;
             self.escaped = false;
             self.cur = 0;
+            self.sum = 0;
             return step;
         }
         if !self.in_frame {
@@ -472,6 +477,9 @@ impl<M: ApiMode> Decoder<M> {
         if self.cur < 2 {
             return Step::Nothing;
         }
+        if self.cur > 2 {
+            self.sum = self.sum.wrapping_add(b);
+        }
         let length = u16::from_be_bytes([self.buf[0], self.buf[1]]);
         if self.cur == 2 && (length == 0 || length as usize > MAX_FRAME_DATA) {
             self.error = DecodeError::BadLength { length };
@@ -482,11 +490,9 @@ impl<M: ApiMode> Decoder<M> {
         if self.cur < len + 3 {
             return Step::Nothing;
         }
-        let (received, computed) = match self.buf.get(2..3 + len as usize) {
-            Some([data @ .., received]) => (*received, crate::checksum(data)),
-            _ => (0, 1), // Unreachable (see above); counted as a bad checksum.
-        };
-        if computed != received {
+        // Data and checksum sum to 0xFF in a good frame; `b` is the checksum byte.
+        if self.sum != 0xFF {
+            let (received, computed) = (b, 0xFF - self.sum.wrapping_sub(b));
             self.error = DecodeError::BadChecksum { computed, received };
             return self.fail(BAD_CHECKSUM);
         }
