@@ -477,16 +477,17 @@ impl<M: ApiMode> Decoder<M> {
         if self.cur < 2 {
             return Step::Nothing;
         }
-        if self.cur > 2 {
-            self.sum = self.sum.wrapping_add(b);
+        if self.cur == 2 {
+            let length = u16::from_be_bytes([self.buf[0], self.buf[1]]);
+            if length == 0 || length as usize > MAX_FRAME_DATA {
+                self.error = DecodeError::BadLength { length };
+                return self.fail(BAD_LENGTH);
+            }
+            return Step::Nothing;
         }
-        let length = u16::from_be_bytes([self.buf[0], self.buf[1]]);
-        if self.cur == 2 && (length == 0 || length as usize > MAX_FRAME_DATA) {
-            self.error = DecodeError::BadLength { length };
-            return self.fail(BAD_LENGTH);
-        }
-        // `length` is 1..=MAX_FRAME_DATA from here on (checked when `cur` was 2).
-        let len = length as u8;
+        self.sum = self.sum.wrapping_add(b);
+        // The length is 1..=MAX_FRAME_DATA (checked when `cur` was 2): its low byte.
+        let len = self.buf[1];
         if self.cur < len + 3 {
             return Step::Nothing;
         }
