@@ -467,12 +467,9 @@ impl<M: ApiMode> Decoder<M> {
         } else {
             b
         };
-        let Some(slot) = self.buf.get_mut(self.cur as usize) else {
-            // Unreachable: the length check below bounds `cur`. Resynchronise anyway.
-            self.error = DecodeError::BadLength { length: 0 };
-            return self.fail(BAD_LENGTH);
-        };
-        *slot = b;
+        // `cur` is at most MAX_FRAME_DATA + 2 here (the length check below ends every frame by
+        // then); the `min` only spares the bounds check its panic path.
+        self.buf[(self.cur as usize).min(BUF - 1)] = b;
         self.cur += 1;
         if self.cur < 2 {
             return Step::Nothing;
