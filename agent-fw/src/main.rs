@@ -44,7 +44,7 @@ fn main() -> ! {
     let mut config = built_in::BUILT_IN;
     load_config(&mut serial, &mut eeprom, &mut led, Role::Agent, &mut config);
     let channels = config.channels;
-    let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
+    let mut radio = Radio::new(serial, SysClock, xbee_api::Ap2);
     bring_up_radio(&mut radio, &mut led, Role::Agent, &radio_config(&config));
     let Ok(sched) = Schedule::for_config(&config) else {
         reset()

@@ -48,7 +48,7 @@ fn main() -> ! {
         Role::Anchor,
         &mut config,
     );
-    let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
+    let mut radio = Radio::new(serial, SysClock, xbee_api::Ap2);
     bring_up_radio(&mut radio, &mut led, Role::Anchor, &radio_config(&config));
     let Ok(sched) = Schedule::for_config(&config) else {
         reset()

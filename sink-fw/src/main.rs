@@ -46,7 +46,7 @@ fn main() -> ! {
     write_line(&mut serial, &BootLine::Boot { role: Role::Sink });
     let mut config = built_in::BUILT_IN;
     load_config(&mut serial, &mut eeprom, &mut led, Role::Sink, &mut config);
-    let mut radio = Radio::new(serial, SysClock, xbee_api::Mode::Escaped);
+    let mut radio = Radio::new(serial, SysClock, xbee_api::Ap2);
     bring_up_radio(&mut radio, &mut led, Role::Sink, &radio_config(&config));
     watchdog.start(WdtTimeout::S1);
     // The radio by reference: passed by value, it was copied into a second 178-byte stack slot.

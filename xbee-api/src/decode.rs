@@ -10,7 +10,8 @@ use core::fmt;
 
 use crate::frame::ty;
 use crate::{
-    AtStatus, Frame, Mode, ParseError, Rssi, TxStatus, ESCAPE, ESCAPE_XOR, MAX_FRAME_DATA, START,
+    ApiMode, AtStatus, Frame, Mode, ParseError, Rssi, TxStatus, ESCAPE, ESCAPE_XOR, MAX_FRAME_DATA,
+    START,
 };
 
 /// Length bytes + frame data + checksum, plus one byte of input queue.
@@ -217,6 +218,10 @@ pub(crate) fn count(counter: &mut u32) {
 
 /// Byte-at-a-time API frame decoder: bounded buffer, no allocation, never panics.
 ///
+/// `M` is the API mode: a [`Mode`] chosen at run time (the default), or [`crate::Ap2`], API mode
+/// 2 fixed at compile time, for firmware that only ever talks AP=2 and so does not link the
+/// AP=1 re-reading.
+///
 /// ```
 /// use xbee_api::{Decoder, Frame, Mode};
 /// let mut dec = Decoder::new(Mode::Escaped);
@@ -235,8 +240,8 @@ pub(crate) fn count(counter: &mut u32) {
 // `repr(C)`, small fields first: on AVR a field within 63 bytes of the struct's start is one
 // `ldd`/`std` instruction away, one further out needs its address computed first.
 #[repr(C)]
-pub struct Decoder {
-    mode: Mode,
+pub struct Decoder<M = Mode> {
+    mode: M,
     /// `buf[..cur]`: raw (unescaped) bytes of the current frame after its start delimiter;
     /// `buf[ps..pe]`: input not yet processed. Always `cur <= ps <= pe <= BUF`. The indices are
     /// `u8` (`BUF` < 256): the ATmega328P is an 8-bit machine, where each `usize` (16-bit)
@@ -248,6 +253,9 @@ pub struct Decoder {
     escaped: bool,
     /// `error` is still to be reported (set by [`Decoder::idle`]).
     queued: bool,
+    /// The sum of the current frame's bytes after the length (data and checksum), wrapping:
+    /// kept as they arrive, so a complete frame is checked without a second pass.
+    sum: u8,
     garbage: u16,
     /// The last stream error.
     error: DecodeError,
@@ -256,9 +264,9 @@ pub struct Decoder {
     counts: [u32; 5],
 }
 
-impl Decoder {
+impl<M: ApiMode> Decoder<M> {
     /// A decoder for the given API mode.
-    pub const fn new(mode: Mode) -> Self {
+    pub const fn new(mode: M) -> Self {
         Decoder {
             mode,
             buf: [0; BUF],
@@ -269,21 +277,22 @@ impl Decoder {
             escaped: false,
             garbage: 0,
             queued: false,
+            sum: 0,
             error: DecodeError::Garbage { bytes: 0 },
             counts: [0; 5],
         }
     }
 
     /// The API mode this decoder reads.
+    #[inline]
     pub fn mode(&self) -> Mode {
-        self.mode
+        self.mode.mode()
     }
 
-    /// Switches the API mode, dropping any partial frame.
-    pub fn set_mode(&mut self, mode: Mode) {
+    /// Drops any partial frame and queued input (the counters stay).
+    pub fn reset(&mut self) {
         // Field by field rather than `*self = Decoder::new(mode)`: the buffer's old bytes are
         // never read again, and not clearing it saves the copy.
-        self.mode = mode;
         self.cur = 0;
         self.ps = 0;
         self.pe = 0;
@@ -356,6 +365,38 @@ impl Decoder {
         Step::Nothing
     }
 
+    /// The driver's way in: one byte, and what it did. In AP=2 a broken frame is never re-read,
+    /// so the input queue is not needed and the byte goes straight to `step` (the queue stays
+    /// empty, at `cur`); in AP=1 it is queued behind bytes a failure may have queued for
+    /// re-reading, and the queue is processed as [`Decoder::poll_len`] does.
+    pub(crate) fn input(&mut self, b: u8) -> Step {
+        if self.mode() == Mode::Escaped {
+            let step = self.step(b);
+            self.ps = self.cur;
+            self.pe = self.cur;
+            step
+        } else {
+            // Cannot fail: the driver processes the queue before every byte.
+            let _ = self.push(b);
+            self.poll_len()
+        }
+    }
+
+    /// What is waiting before the driver's next byte: the idle report ([`Decoder::idle`]) and,
+    /// in AP=1, bytes a failure queued for re-reading. A decoder fed only through
+    /// [`Decoder::input`] never has queued bytes in AP=2, so there only the report is looked at.
+    pub(crate) fn pending(&mut self) -> Step {
+        if self.mode() == Mode::Escaped {
+            if core::mem::take(&mut self.queued) {
+                Step::Error
+            } else {
+                Step::Nothing
+            }
+        } else {
+            self.poll_len()
+        }
+    }
+
     /// The error [`Decoder::poll_len`] last reported.
     pub(crate) fn error(&self) -> DecodeError {
         self.error
@@ -390,7 +431,7 @@ impl Decoder {
 
     #[inline(never)]
     fn step(&mut self, b: u8) -> Step {
-        if b == START && (!self.in_frame || self.mode == Mode::Escaped) {
+        if b == START && (!self.in_frame || self.mode() == Mode::Escaped) {
             let step = if self.in_frame {
                 self.error = DecodeError::Truncated { received: self.cur };
                 self.fail(TRUNCATED)
@@ -405,6 +446,7 @@ impl Decoder {
             self.in_frame = true;
             self.escaped = false;
             self.cur = 0;
+            self.sum = 0;
             return step;
         }
         if !self.in_frame {
@@ -412,7 +454,7 @@ impl Decoder {
             count(&mut self.counts[GARBAGE_BYTES]);
             return Step::Nothing;
         }
-        let b = if self.mode == Mode::Escaped {
+        let b = if self.mode() == Mode::Escaped {
             if self.escaped {
                 self.escaped = false;
                 b ^ ESCAPE_XOR
@@ -425,31 +467,30 @@ impl Decoder {
         } else {
             b
         };
-        let Some(slot) = self.buf.get_mut(self.cur as usize) else {
-            // Unreachable: the length check below bounds `cur`. Resynchronise anyway.
-            self.error = DecodeError::BadLength { length: 0 };
-            return self.fail(BAD_LENGTH);
-        };
-        *slot = b;
+        // `cur` is at most MAX_FRAME_DATA + 2 here (the length check below ends every frame by
+        // then); the `min` only spares the bounds check its panic path.
+        self.buf[(self.cur as usize).min(BUF - 1)] = b;
         self.cur += 1;
         if self.cur < 2 {
             return Step::Nothing;
         }
-        let length = u16::from_be_bytes([self.buf[0], self.buf[1]]);
-        if self.cur == 2 && (length == 0 || length as usize > MAX_FRAME_DATA) {
-            self.error = DecodeError::BadLength { length };
-            return self.fail(BAD_LENGTH);
+        if self.cur == 2 {
+            let length = u16::from_be_bytes([self.buf[0], self.buf[1]]);
+            if length == 0 || length as usize > MAX_FRAME_DATA {
+                self.error = DecodeError::BadLength { length };
+                return self.fail(BAD_LENGTH);
+            }
+            return Step::Nothing;
         }
-        // `length` is 1..=MAX_FRAME_DATA from here on (checked when `cur` was 2).
-        let len = length as u8;
+        self.sum = self.sum.wrapping_add(b);
+        // The length is 1..=MAX_FRAME_DATA (checked when `cur` was 2): its low byte.
+        let len = self.buf[1];
         if self.cur < len + 3 {
             return Step::Nothing;
         }
-        let (received, computed) = match self.buf.get(2..3 + len as usize) {
-            Some([data @ .., received]) => (*received, crate::checksum(data)),
-            _ => (0, 1), // Unreachable (see above); counted as a bad checksum.
-        };
-        if computed != received {
+        // Data and checksum sum to 0xFF in a good frame; `b` is the checksum byte.
+        if self.sum != 0xFF {
+            let (received, computed) = (b, 0xFF - self.sum.wrapping_sub(b));
             self.error = DecodeError::BadChecksum { computed, received };
             return self.fail(BAD_CHECKSUM);
         }
@@ -467,7 +508,7 @@ impl Decoder {
         }
         self.in_frame = false;
         self.escaped = false;
-        if self.mode == Mode::Api {
+        if self.mode() == Mode::Api {
             // `u8` indices and a plain scan: half the AVR code of `usize` and `position`.
             let (cur, ps, pe) = (self.cur, self.ps, self.pe);
             let mut k = 0;
@@ -489,5 +530,13 @@ impl Decoder {
             self.pe = 0;
         }
         Step::Error
+    }
+}
+
+impl Decoder<Mode> {
+    /// Switches the API mode, dropping any partial frame.
+    pub fn set_mode(&mut self, mode: Mode) {
+        self.mode = mode;
+        self.reset();
     }
 }

@@ -72,8 +72,8 @@ use crate::decode::{count, Step};
 use crate::frame::ty::{AT as AT_COMMAND, AT_RESPONSE, TX16, TX64};
 use crate::frame::Header;
 use crate::{
-    needs_escape, AtStatus, DecodeError, Decoder, DecoderStats, Frame, Mode, RawFrame, ESCAPE,
-    ESCAPE_XOR, MAX_FRAME_DATA, MAX_RF_PAYLOAD, START,
+    needs_escape, ApiMode, AtStatus, DecodeError, Decoder, DecoderStats, Frame, Mode, RawFrame,
+    ESCAPE, ESCAPE_XOR, MAX_FRAME_DATA, MAX_RF_PAYLOAD, START,
 };
 
 /// A free-running millisecond clock. It may wrap: the driver only ever compares
@@ -105,20 +105,56 @@ impl<F: FnMut() -> u32> Clock for FnClock<F> {
 pub trait SetBaud {
     /// Switches the UART to `baud` bit/s, 8N1.
     fn set_baud(&mut self, baud: u32);
+
+    /// Switches the UART to the rate of the XBee's `BD` value `bd` ([`baud_of_bd`]); the driver
+    /// calls only this. By default [`SetBaud::set_baud`] of that rate; a UART can override it
+    /// with a table of its divisors (on the AVR: no 32-bit division).
+    fn set_bd(&mut self, bd: u8) {
+        self.set_baud(baud_of_bd(bd));
+    }
 }
 
 impl<B: SetBaud + ?Sized> SetBaud for &mut B {
     fn set_baud(&mut self, baud: u32) {
         (**self).set_baud(baud)
     }
+    fn set_bd(&mut self, bd: u8) {
+        (**self).set_bd(bd)
+    }
+}
+
+/// The rate of the XBee's `BD` value `bd`: 1200 · 2^`bd` bit/s for 0…5, then 57600 and 115200
+/// (a larger `bd` gives 115200).
+pub const fn baud_of_bd(bd: u8) -> u32 {
+    match bd {
+        0..=5 => 1200 << bd,
+        6 => 57_600,
+        _ => 115_200,
+    }
 }
 
 /// The baud rate hoploc runs the radio at (`BD=6`).
 pub const BAUD: u32 = 57_600;
 
+/// The `BD` value of [`BAUD`].
+pub const BD: u8 = 6;
+
 /// The rates [`Radio::bring_up`] tries, in order: the target first, then the XBee factory default
 /// (9600, `BD=3`), then the other common rates.
 pub const BAUD_RATES: [u32; 5] = [57_600, 9_600, 115_200, 38_400, 19_200];
+
+/// The `BD` values of [`BAUD_RATES`], in the same order: what the driver passes to
+/// [`SetBaud::set_bd`] (a byte per rate rather than a 32-bit number).
+pub const BAUD_CODES: [u8; 5] = [6, 3, 7, 5, 4];
+
+const _: () = {
+    let mut i = 0;
+    while i < BAUD_RATES.len() {
+        assert!(baud_of_bd(BAUD_CODES[i]) == BAUD_RATES[i]);
+        i += 1;
+    }
+    assert!(baud_of_bd(BD) == BAUD);
+};
 
 /// How long a frame may stall mid-way before the driver tells the decoder the line went idle
 /// ([`Decoder::idle`]). The radio sends a frame's bytes back to back, so a gap this long means
@@ -405,10 +441,11 @@ pub struct DriverStats {
     pub serial_errors: u32,
 }
 
-/// An XBee 802.15.4 radio on serial port `S`, timed by clock `C`.
+/// An XBee 802.15.4 radio on serial port `S`, timed by clock `C`, in API mode `M`: a [`Mode`]
+/// (the default; [`Radio::set_mode`] can change it) or [`crate::Ap2`], fixed at compile time.
 // `repr(C)`, small fields first, the decoder's buffer and the counters last: see `Decoder`.
 #[repr(C)]
-pub struct Radio<S, C> {
+pub struct Radio<S, C, M = Mode> {
     /// What went wrong, when an inner step returned [`Failed`].
     error: Error,
     /// Last frame id handed out (0 before the first).
@@ -423,7 +460,7 @@ pub struct Radio<S, C> {
     last_rx_ms: u16,
     serial: S,
     clock: C,
-    decoder: Decoder,
+    decoder: Decoder<M>,
     unexpected: u32,
     malformed: u32,
     dropped: u32,
@@ -452,9 +489,9 @@ enum Next {
     Serial,
 }
 
-impl<S, C> Radio<S, C> {
+impl<S, C, M: ApiMode> Radio<S, C, M> {
     /// A driver for a radio in API mode `mode` (the mode [`Radio::bring_up`] will also set).
-    pub fn new(serial: S, clock: C, mode: Mode) -> Self {
+    pub fn new(serial: S, clock: C, mode: M) -> Self {
         Radio {
             serial,
             clock,
@@ -486,11 +523,6 @@ impl<S, C> Radio<S, C> {
     /// The API mode frames are written and read in.
     pub fn mode(&self) -> Mode {
         self.decoder.mode()
-    }
-
-    /// Switches the API mode (after the radio's `AP` was changed), dropping any partial frame.
-    pub fn set_mode(&mut self, mode: Mode) {
-        self.decoder.set_mode(mode);
     }
 
     /// The counters so far.
@@ -551,6 +583,13 @@ impl<S, C> Radio<S, C> {
     }
 }
 
+impl<S, C> Radio<S, C, Mode> {
+    /// Switches the API mode (after the radio's `AP` was changed), dropping any partial frame.
+    pub fn set_mode(&mut self, mode: Mode) {
+        self.decoder.set_mode(mode);
+    }
+}
+
 /// Clears the slot of a TX status frame's id.
 fn note_tx_status(pending: &mut [u8; TRACKED], raw: RawFrame<'_>) {
     if let Some((id, _)) = raw.tx_status() {
@@ -560,10 +599,11 @@ fn note_tx_status(pending: &mut [u8; TRACKED], raw: RawFrame<'_>) {
     }
 }
 
-impl<S, C> Radio<S, C>
+impl<S, C, M> Radio<S, C, M>
 where
     S: Read<u8> + Write<u8>,
     C: Clock,
+    M: ApiMode,
 {
     /// Writes `frame`, encoded in the radio's mode. A TX64/TX16 request with a nonzero frame id
     /// is remembered until its TX status arrives (see [`Radio::wait_tx_status`]).
@@ -576,16 +616,15 @@ where
     /// Writes one byte, waiting at most [`WRITE_TIMEOUT_MS`] for the UART to take it.
     #[inline(never)]
     fn write_byte(&mut self, b: u8) -> Result<(), Failed> {
-        let mut start = None;
+        // The clock read once per byte even when the UART takes it at once: simpler code than
+        // reading it only once the UART is busy, and a byte takes 174 µs on the line anyway.
+        let start = self.now16();
         loop {
             match self.serial.write(b) {
                 Ok(()) => return Ok(()),
                 Err(nb::Error::Other(e)) => return Err(self.fail(Error::Serial(e.kind()))),
                 Err(nb::Error::WouldBlock) => {
-                    // The clock's low 16 bits: this loop looks at it without a gap, and 16-bit
-                    // arithmetic is half the AVR code.
-                    let now = self.clock.now_ms() as u16;
-                    if now.wrapping_sub(*start.get_or_insert(now)) >= WRITE_TIMEOUT_MS as u16 {
+                    if self.elapsed(start) >= WRITE_TIMEOUT_MS as u16 {
                         return Err(self.fail(Error::WriteTimeout));
                     }
                 }
@@ -678,8 +717,10 @@ where
     #[inline(never)]
     fn next_frame(&mut self) -> Next {
         let mut budget = POLL_BUDGET;
+        // What is left from before: an idle report, or (AP=1) bytes queued for re-reading.
+        let mut step = self.decoder.pending();
         loop {
-            match self.decoder.poll_len() {
+            match step {
                 Step::Frame(len) => {
                     note_tx_status(&mut self.pending_tx, self.decoder.frame(len));
                     return Next::Frame(len);
@@ -694,32 +735,33 @@ where
                 return Next::Idle;
             };
             budget = left;
-            match self.serial.read() {
+            step = match self.serial.read() {
                 Ok(b) => {
-                    // Cannot fail: the decoder was polled to `Step::Nothing` just above.
-                    let _ = self.decoder.push(b);
                     self.rx_since_check = true;
+                    self.decoder.input(b)
                 }
                 Err(nb::Error::WouldBlock) => {
                     let now = self.clock.now_ms() as u16;
                     if core::mem::take(&mut self.rx_since_check) {
                         self.last_rx_ms = now;
-                    } else if self.decoder.in_frame()
-                        && now.wrapping_sub(self.last_rx_ms) >= IDLE_MS as u16
-                    {
-                        // The rest of the frame is not coming: let the decoder report it and,
-                        // in AP=1, re-read a frame that started inside it.
-                        self.decoder.idle();
-                        continue;
+                        return Next::Idle;
                     }
-                    return Next::Idle;
+                    if !self.decoder.in_frame()
+                        || now.wrapping_sub(self.last_rx_ms) < IDLE_MS as u16
+                    {
+                        return Next::Idle;
+                    }
+                    // The rest of the frame is not coming: let the decoder report it and, in
+                    // AP=1, re-read a frame that started inside it.
+                    self.decoder.idle();
+                    self.decoder.pending()
                 }
                 Err(nb::Error::Other(e)) => {
                     count(&mut self.serial_errors);
                     self.error = Error::Serial(e.kind());
                     return Next::Serial;
                 }
-            }
+            };
         }
     }
 
@@ -1000,10 +1042,11 @@ enum Reply {
     Silent,
 }
 
-impl<S, C> Radio<S, C>
+impl<S, C, M> Radio<S, C, M>
 where
     S: Read<u8> + Write<u8> + SetBaud,
     C: Clock,
+    M: ApiMode,
 {
     /// Radio bring-up: makes sure the radio talks API mode [`Radio::mode`] at 57600 baud, then
     /// sets `MY`, `ID` and `CH` as `config` asks and reads them back.
@@ -1028,13 +1071,12 @@ where
     /// [`Radio::bring_up`]'s body. Not forced out of line: it has one caller, and inlined
     /// (with the command-mode step) it is 178 B less AVR flash.
     fn bring_up_dyn(&mut self, cfg: &BringUpConfig) -> Result<BringUp, Failed> {
-        let mode = self.mode();
-        let ap = u16::from(mode.ap());
+        let ap = u16::from(self.mode().ap());
         // Steps 1 and 3 are the same query: once before configuring, once after.
         let mut how = BringUp::AlreadyApi;
         loop {
-            self.serial.set_baud(BAUD);
-            self.decoder.set_mode(mode);
+            self.serial.set_bd(BD);
+            self.decoder.reset();
             let answer = self.query_ap(cfg.timeout_ms);
             if answer == Some(ap) {
                 break;
@@ -1085,8 +1127,8 @@ where
     fn configure_in_command_mode(&mut self, cfg: &BringUpConfig) -> Result<u32, Failed> {
         let mut heard = false;
         // By reference: iterating the array by value copies it to the stack first.
-        for &baud in BAUD_RATES.iter() {
-            self.serial.set_baud(baud);
+        for &bd in BAUD_CODES.iter() {
+            self.serial.set_bd(bd);
             heard |= self.quiet(cfg.guard_ms);
             for &b in b"+++" {
                 self.write_byte(b)?;
@@ -1127,7 +1169,7 @@ where
                     }
                 }
             }
-            return Ok(baud);
+            return Ok(baud_of_bd(bd));
         }
         Err(self.fail(if heard {
             Error::Garbage
@@ -1139,7 +1181,16 @@ where
 
 #[cfg(test)]
 mod tests {
-    use super::{be_u16, be_u32};
+    use super::{baud_of_bd, be_u16, be_u32};
+
+    /// `BD` 0…7 are the XBee 802.15.4's rates (its manual's table).
+    #[test]
+    fn baud_of_bd_is_the_xbee_table() {
+        let table = [1200, 2400, 4800, 9600, 19_200, 38_400, 57_600, 115_200];
+        for (bd, &baud) in (0u8..).zip(table.iter()) {
+            assert_eq!(baud_of_bd(bd), baud);
+        }
+    }
 
     /// `be_u16` is `be_u32` where that fits in 16 bits, and `None` elsewhere: every length 0…5
     /// over bytes that probe each position's zero/nonzero cases.

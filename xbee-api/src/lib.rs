@@ -71,6 +71,33 @@ impl Mode {
     }
 }
 
+/// The API mode of a [`Decoder`] or [`driver::Radio`]: a [`Mode`] chosen at run time, or
+/// [`Ap2`], fixed at compile time.
+pub trait ApiMode: Copy {
+    /// The mode.
+    fn mode(self) -> Mode;
+}
+
+impl ApiMode for Mode {
+    #[inline]
+    fn mode(self) -> Mode {
+        self
+    }
+}
+
+/// API mode 2 (escaped), fixed at compile time: a decoder or radio of this mode has no mode
+/// to look up and no AP=1 code (the re-reading of a broken frame's bytes). On the AVR that is
+/// a few hundred bytes less flash for a node, which only ever talks AP=2.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Ap2;
+
+impl ApiMode for Ap2 {
+    #[inline]
+    fn mode(self) -> Mode {
+        Mode::Escaped
+    }
+}
+
 /// True for bytes that API mode 2 escapes.
 #[inline]
 pub const fn needs_escape(b: u8) -> bool {

@@ -228,3 +228,41 @@ fn fixed_size_frames_with_trailing_bytes_are_rejected_not_truncated() {
     }
     assert!(Frame::parse(&[0x8A, 0x00]).is_ok());
 }
+
+/// A bad checksum reports the checksum of the data as received and the checksum byte as
+/// received, whichever byte after the length was changed (the decoder sums as bytes arrive).
+#[test]
+fn bad_checksum_reports_what_was_received() {
+    let data = [0x81, 0x12, 0x34, 0x28, 0x00, 0x7E, 0x7D, 0x11, 0x13, 0x55];
+    for mode in MODES {
+        for at in 0..=data.len() {
+            for flip in [0x01, 0x80, 0x5A] {
+                let mut frame = data.to_vec();
+                frame.push(xbee_api::checksum(&data));
+                frame[at] ^= flip;
+                let (received, body) = frame.split_last().unwrap();
+                // The stream as the radio would send it: escaped (AP=2), then a good frame.
+                let mut s = vec![xbee_api::START, 0, data.len() as u8];
+                for &b in &frame {
+                    if mode == Mode::Escaped && xbee_api::needs_escape(b) {
+                        s.extend([xbee_api::ESCAPE, b ^ xbee_api::ESCAPE_XOR]);
+                    } else {
+                        s.push(b);
+                    }
+                }
+                s.extend_from_slice(AT_MY);
+                let (frames, errors) = run(mode, &s);
+                // (In AP=1 the bytes after the data's 0x7E are then re-read: more errors.)
+                assert_eq!(
+                    errors.first(),
+                    Some(&DecodeError::BadChecksum {
+                        computed: xbee_api::checksum(body),
+                        received: *received,
+                    }),
+                    "{mode:?} byte {at} ^ {flip:#04x}"
+                );
+                assert_eq!(frames.len(), 1, "{mode:?} byte {at} ^ {flip:#04x}");
+            }
+        }
+    }
+}

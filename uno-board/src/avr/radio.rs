@@ -4,12 +4,12 @@
 use loc_proto::line::{BootLine, RadioFound};
 use loc_proto::Role;
 use xbee_api::driver::{BringUp, BringUpConfig, Radio};
+use xbee_api::Ap2;
 
 use super::{Led, Serial, SysClock};
-use crate::DEFAULT_BAUD;
 
 /// The radio driver of a node: API mode 2 over USART0, timed by the 1 ms tick.
-pub type NodeRadio = Radio<Serial, SysClock>;
+pub type NodeRadio = Radio<Serial, SysClock, Ap2>;
 
 /// Writes a boot line on the UART at 57600 (the USB serial reads it; a radio in API mode ignores
 /// it, a line never holds 0x7E). Always inlined, as [`BootLine::write`]: each caller keeps its line's few calls.
@@ -39,7 +39,7 @@ pub fn bring_up_radio(radio: &mut NodeRadio, led: &mut Led, role: Role, config: 
         let result = radio.bring_up(config);
         led.off();
         // A failed search leaves the UART at the last rate it tried; lines go out at 57600.
-        let _ = radio.serial_mut().set_baud(DEFAULT_BAUD);
+        let _ = radio.serial_mut().set_bd(xbee_api::driver::BD);
         match result {
             Ok(how) => {
                 let found = match how {

@@ -139,17 +139,34 @@ impl Serial {
         }
     }
 
-    /// Changes the bit rate (e.g. 9600…115200 during radio bring-up): waits until the bytes
-    /// already written have left, then switches. Received bytes are kept; call
-    /// [`clear_rx`](Self::clear_rx) to drop what arrived at the old rate. Never inlined: its
-    /// 32-bit division would be copied into every caller (radio bring-up has three).
-    #[inline(never)]
+    /// Changes the bit rate: waits until the bytes already written have left, then switches.
+    /// Received bytes are kept; call [`clear_rx`](Self::clear_rx) to drop what arrived at the
+    /// old rate. Radio bring-up uses [`set_bd`](Self::set_bd), without this one's 32-bit
+    /// division.
     pub fn set_baud(&mut self, baud: u32) -> Result<(), BaudError> {
         let ubrr = baud::ubrr_u2x(baud::F_CPU, baud).ok_or(BaudError::Unreachable)?;
-        self.flush_blocking();
-        // U2X0 is already set (by `init`); only the divisor changes.
-        self.usart.ubrr0().write(|w| w.set(ubrr));
+        self.set_ubrr(ubrr);
         Ok(())
+    }
+
+    /// [`set_baud`](Self::set_baud) for the rate of the XBee's `BD` value `bd`
+    /// ([`xbee_api::driver::baud_of_bd`]): 3…7, 9600…115200 bit/s (the rates of [`baud`]),
+    /// whose divisors, below 256, come from a 5-byte table worked out at compile time.
+    /// Out of line: radio bring-up calls it from three places.
+    #[inline(never)]
+    pub fn set_bd(&mut self, bd: u8) -> Result<(), BaudError> {
+        let ubrr = UBRR_OF_BD
+            .get(bd.wrapping_sub(BD_FIRST) as usize)
+            .ok_or(BaudError::Unreachable)?;
+        self.set_ubrr(u16::from(*ubrr));
+        Ok(())
+    }
+
+    /// Waits until the bytes written have left, then writes UBRR0 (U2X0 is already set, by
+    /// `init`).
+    fn set_ubrr(&mut self, ubrr: u16) {
+        self.flush_blocking();
+        self.usart.ubrr0().write(|w| w.set(ubrr));
     }
 
     /// Drops every byte waiting in the RX ring.
@@ -230,6 +247,22 @@ impl Serial {
     }
 }
 
+/// The first `BD` value of [`UBRR_OF_BD`] (9600 bit/s).
+const BD_FIRST: u8 = 3;
+
+/// UBRR0 (double speed) for the XBee's `BD` values 3…7: 207, 103, 51, 34, 16.
+const UBRR_OF_BD: [u8; 5] = {
+    let mut t = [0; 5];
+    let mut i = 0;
+    while i < t.len() {
+        let ubrr = ubrr_or_panic(xbee_api::driver::baud_of_bd(BD_FIRST + i as u8));
+        assert!(ubrr < 256);
+        t[i] = ubrr as u8;
+        i += 1;
+    }
+    t
+};
+
 /// Evaluated at compile time for the default rate.
 const fn ubrr_or_panic(baud: u32) -> u16 {
     match baud::ubrr_u2x(baud::F_CPU, baud) {
@@ -276,5 +309,10 @@ impl xbee_api::driver::SetBaud for Serial {
     /// (9600…115200) is reachable; an unreachable one leaves the rate unchanged.
     fn set_baud(&mut self, baud: u32) {
         let _ = Serial::set_baud(self, baud);
+    }
+
+    /// Through [`Serial::set_bd`]: no 32-bit division.
+    fn set_bd(&mut self, bd: u8) {
+        let _ = Serial::set_bd(self, bd);
     }
 }
