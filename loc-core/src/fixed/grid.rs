@@ -171,10 +171,13 @@ struct Grid<K> {
     rows: u8,
     /// Evaluations (the host's multi-start, exhaustive and full MMSE searches count here).
     evals: u16,
+    /// Observations and the sum of their weights (the estimate's `anchors`, `total_weight`).
+    anchors: u8,
+    weight: u8,
     /// `|K|` in Q.26 (`K = 5·α·log10 2`); below `2^10` the cost is flat (`job.n = 0`).
     k26: u32,
-    /// P0, Q.16 dB (sane).
-    p0: i32,
+    /// The cost if flat (α = 0): `Σ w·(z − P0)²`, Q.8 dB², saturating.
+    flat_cost: u32,
     job: ColumnJob,
     sums: [u32; ROWS],
     kernel: PhantomData<K>,
@@ -187,8 +190,10 @@ impl<K: TermKernel> Grid<K> {
         j0: 0,
         rows: 0,
         evals: 0,
+        anchors: 0,
+        weight: 0,
         k26: 0,
-        p0: 0,
+        flat_cost: 0,
         job: ColumnJob::EMPTY,
         sums: [0; ROWS],
         kernel: PhantomData,
@@ -215,15 +220,22 @@ impl<K: TermKernel> Grid<K> {
             K::div_shl(1 << 30, k26 >> 1, 25)
         };
         let g = self;
-        (g.k26, g.p0) = (k26, model.p0);
+        g.k26 = k26;
         // The fine steps in lattice units: `W`, `H` (cm).
         (g.job.xstep, g.job.ystep) = (area.width, area.height);
         g.job.seg_base = log2_segment_base();
         g.job.n = 0;
         for o in obs.as_slice() {
             let d = o.z.wrapping_sub(model.p0);
+            let ad = d.unsigned_abs();
+            // The flat cost: Q.4 dB residuals (< 2^14) squared into Q.8 dB², w ≤ 4. (Here, not
+            // where it is used: one loop over the observations.)
+            let q = (ad >> 12).min(0x3FFF);
+            g.flat_cost = g.flat_cost.saturating_add(q * q * (o.weight & 7) as u32);
+            g.anchors += 1;
+            g.weight = g.weight.wrapping_add(o.weight);
             // |z − P0| Q.16 (< 2^26) as Q.22, × 2^30/K → Q.20.
-            let r = K::mul_hi(d.unsigned_abs().min((1 << 26) - 1) << 6, inv_k).min(1 << 30) as i32;
+            let r = K::mul_hi(ad.min((1 << 26) - 1) << 6, inv_k).min(1 << 30) as i32;
             let r = if (d < 0) != (model.alpha < 0) { -r } else { r };
             // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32. Strongest
             // anchor first: its term grows fastest away from the winner, so evaluations stop
@@ -513,13 +525,7 @@ impl<K: TermKernel> Grid<K> {
         out: &mut Estimate,
     ) {
         let cost = if self.flat() {
-            // α = 0: `Σ w·(z − P0)²`, Q.4 dB residuals (< 2^14) squared into Q.8 dB², w ≤ 4.
-            let mut s = 0u32;
-            for o in obs.as_slice() {
-                let r = (o.z.wrapping_sub(self.p0).unsigned_abs() >> 12).min(0x3FFF);
-                s = s.saturating_add(r * r * (o.weight & 7) as u32);
-            }
-            s
+            self.flat_cost
         } else {
             // C = K²·C': K² Q.20 (< 2^32) × C' Q.20 → Q.8.
             K::mul_hi(best.cost, K::mul_hi(self.k26, self.k26))
@@ -528,8 +534,8 @@ impl<K: TermKernel> Grid<K> {
         out.pos.y = to_mm(area.height, best.j, 0);
         out.lattice = (best.i, best.j);
         out.min_cost = cost.saturating_add(obs.const_cost);
-        out.anchors = obs.len() as u8;
-        out.total_weight = obs.total_weight();
+        out.anchors = self.anchors;
+        out.total_weight = self.weight;
         out.evaluations = evals;
     }
 
