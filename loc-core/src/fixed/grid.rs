@@ -23,12 +23,12 @@
 //! loop inlined into its one caller (a frame fewer).
 
 use super::kernel::{
-    log2_segment_base, AnchorTerm, ColumnJob, Placement, Portable, Posterior, TermKernel, Weights,
+    log2_segment_base, ColumnJob, Placement, Portable, Posterior, TermKernel, Weights,
 };
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
 use crate::grid::{Search, COARSE_DIVS, FINE_DIVS};
-use crate::{LocError, MAX_ANCHORS};
+use crate::LocError;
 use core::marker::PhantomData;
 
 const RATIO: usize = FINE_DIVS / COARSE_DIVS;
@@ -105,20 +105,6 @@ impl Estimate {
         total_weight: 0,
         evaluations: 0,
     };
-}
-
-/// The coarse index `c ≤ 10` of the weighted mean `s/sw` (lattice units) along a side of `side`
-/// cm: `(c − ½)·5·side < s/sw ≤ (c + ½)·5·side`, found by steps (no division).
-#[inline(never)]
-fn snap(s: i32, side: u16, sw: i32) -> u8 {
-    // t < 5·2^16·2^8 < 2^27, so v ≤ 21·t < 2^31.
-    let t = RATIO as i32 * side as i32 * sw;
-    let (mut c, mut v) = (0, t);
-    while c < C8 && v < 2 * s {
-        c += 1;
-        v += 2 * t;
-    }
-    c
 }
 
 /// A lattice point (fine indices) and its cost.
@@ -258,31 +244,6 @@ impl<K: TermKernel> Grid<K> {
         self.job.n == 0
     }
 
-    /// A coarse point (coarse indices) near the likely winner: the anchors' centroid weighted
-    /// by `1/d̂² = 2^ρ` (to a power of two, the strongest anchor's 32 down to 1), rounded to the
-    /// coarse grid. Only a starting bound for [`Grid::coarse`]; any point would be correct.
-    /// (The window must be at the origin.)
-    fn guess(&self) -> (u8, u8) {
-        let a = &self.job.anchors[..(self.job.n as usize).min(MAX_ANCHORS)];
-        // The sort key (ρ before the shift's correction).
-        let key = |t: &AnchorTerm| t.rho - ((t.shift as i32) << 21);
-        let top = a.first().map_or(0, key);
-        // Σw ≤ 2^8; |Σw·x| < 2^29 (|x| < 2^21 lattice units).
-        let (mut sw, mut sx, mut sy) = (0i32, 0i32, 0i32);
-        for t in a {
-            // w = 2^(5 − ⌊ρ_top − ρ⌋), or 0 (ρ is sorted, largest first).
-            let down = top.wrapping_sub(key(t)) as u32 >> 20;
-            if down > 5 {
-                break;
-            }
-            let up = 5 - down;
-            sw += 1 << up;
-            sx -= t.dx0.get() << up;
-            sy -= t.dy0.get() << up;
-        }
-        (snap(sx, self.job.xstep, sw), snap(sy, self.job.ystep, sw))
-    }
-
     /// Moves the window to first column `i0`, first row `j0`, `rows` rows `stride` fine rows
     /// apart.
     #[inline(never)]
@@ -330,11 +291,12 @@ impl<K: TermKernel> Grid<K> {
     }
 
     /// The thesis' coarse stage: the 11 × 11 coarse grid, with the reference's outcome (`i`
-    /// outer, strict `<`). The coarse point nearest [`Grid::guess`] is evaluated first: its cost
+    /// outer, strict `<`). The coarse point nearest [`TermKernel::guess`] (the anchors' weighted
+    /// centroid) is evaluated first: its cost
     /// bounds every column's evaluations from the start. ([`COARSE_EVALS`] evaluations.)
     #[inline(never)]
     fn coarse(&mut self) -> LatticeMin {
-        let (gi, gj) = self.guess();
+        let (gi, gj) = K::guess(&self.job);
         self.coarse_from(gi, gj)
     }
 
