@@ -38,6 +38,12 @@ const ROWS: usize = 2 * RATIO + 1;
 const STARTS: usize = 4;
 /// Most cost evaluations [`Search::MultiStart`] may spend: the thesis search's worst case.
 const BUDGET: usize = (COARSE_DIVS + 1) * (COARSE_DIVS + 1) + ROWS * ROWS;
+/// [`COARSE_DIVS`], [`FINE_DIVS`], [`RATIO`] as `u8` (the searches' indices).
+const C8: u8 = COARSE_DIVS as u8;
+const F8: u8 = FINE_DIVS as u8;
+const R8: u8 = RATIO as u8;
+/// Evaluations of the coarse stage: the guessed point, then the 11 × 11 coarse points.
+const COARSE_EVALS: u16 = 1 + (C8 as u16 + 1) * (C8 as u16 + 1);
 /// "No cost yet" (every real cost is below it).
 const INF: u32 = u32::MAX;
 /// Largest real cost.
@@ -101,25 +107,11 @@ impl Estimate {
     };
 }
 
-/// The coarse index `c ≤ 10` of the weighted mean `s/sw` (lattice units) along a side of `side`
-/// cm: `(c − ½)·5·side < s/sw ≤ (c + ½)·5·side`, found by steps (no division).
-#[inline(never)]
-fn snap(s: i32, side: i32, sw: i32) -> usize {
-    // t < 5·2^16·2^8 < 2^27, so v ≤ 21·t < 2^31.
-    let t = RATIO as i32 * side * sw;
-    let (mut c, mut v) = (0, t);
-    while c < COARSE_DIVS && v < 2 * s {
-        c += 1;
-        v += 2 * t;
-    }
-    c
-}
-
-/// A lattice point and its cost.
+/// A lattice point (fine indices) and its cost.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct LatticeMin {
-    i: usize,
-    j: usize,
+    i: u8,
+    j: u8,
     cost: u32,
 }
 
@@ -132,28 +124,46 @@ impl LatticeMin {
 
     /// Takes `(i, j)` if `c` is strictly smaller (ties keep the earlier point).
     #[inline]
-    fn offer(&mut self, i: usize, j: usize, c: u32) {
+    fn offer(&mut self, i: u8, j: u8, c: u32) {
         if c < self.cost {
             *self = LatticeMin { i, j, cost: c };
         }
     }
 }
 
+/// Cost evaluations of the thesis search with coarse winner `(i, j)` (fine indices):
+/// `[MLE, windowed MMSE]`. The coarse stage spends 122 (the guess and the 121
+/// coarse points); the window is `5·n − 4` columns by `5·m − 4` rows, `n`, `m` the coarse
+/// columns and rows in it (3 inside, 2 at a side), and the MLE skips its `n·m` coarse points.
+/// (Counted once here, not in the loops: a counter in the search loops costs flash on AVR.)
+fn window_evals(i: u8, j: u8) -> [u16; 2] {
+    let coarse_in = |c: u8| 1 + u8::from(c > 0) + u8::from(c < F8);
+    let (n, m) = (coarse_in(i), coarse_in(j));
+    let all = COARSE_EVALS + (5 * n - 4) as u16 * (5 * m - 4) as u16;
+    [all - (n * m) as u16, all]
+}
+
 /// One estimate's search: the position-independent part of the cost (in the kernel's job: per
 /// anchor `ρ`, weight, shift, offsets from the current window's origin), one column of sums, the
-/// evaluations spent (240 bytes on AVR, most of the sink's search stack). `repr(C)`, the scalars and the job's header first: AVR
-/// reaches 63 bytes from a pointer in one instruction, farther fields cost pointer arithmetic.
+/// evaluations spent by the host's searches (240 bytes on AVR, most of the sink's search
+/// stack). `repr(C)`, the scalars and the job's header first: AVR reaches 63 bytes from a
+/// pointer in one instruction, farther fields cost pointer arithmetic. Indices are `u8` (≤ 50):
+/// on AVR every `usize` is a register pair.
 #[repr(C)]
 struct Grid<K> {
     /// The current window's first column and row (fine indices) and its rows.
-    i0: usize,
-    j0: usize,
-    rows: usize,
-    evals: usize,
+    i0: u8,
+    j0: u8,
+    rows: u8,
+    /// Evaluations (the host's multi-start, exhaustive and full MMSE searches count here).
+    evals: u16,
+    /// Observations and the sum of their weights (the estimate's `anchors`, `total_weight`).
+    anchors: u8,
+    weight: u8,
     /// `|K|` in Q.26 (`K = 5·α·log10 2`); below `2^10` the cost is flat (`job.n = 0`).
     k26: u32,
-    /// P0, Q.16 dB (sane).
-    p0: i32,
+    /// The cost if flat (α = 0): `Σ w·(z − P0)²`, Q.8 dB², saturating.
+    flat_cost: u32,
     job: ColumnJob,
     sums: [u32; ROWS],
     kernel: PhantomData<K>,
@@ -166,8 +176,10 @@ impl<K: TermKernel> Grid<K> {
         j0: 0,
         rows: 0,
         evals: 0,
+        anchors: 0,
+        weight: 0,
         k26: 0,
-        p0: 0,
+        flat_cost: 0,
         job: ColumnJob::EMPTY,
         sums: [0; ROWS],
         kernel: PhantomData,
@@ -194,15 +206,22 @@ impl<K: TermKernel> Grid<K> {
             K::div_shl(1 << 30, k26 >> 1, 25)
         };
         let g = self;
-        (g.k26, g.p0) = (k26, model.p0);
+        g.k26 = k26;
         // The fine steps in lattice units: `W`, `H` (cm).
         (g.job.xstep, g.job.ystep) = (area.width, area.height);
         g.job.seg_base = log2_segment_base();
         g.job.n = 0;
         for o in obs.as_slice() {
             let d = o.z.wrapping_sub(model.p0);
+            let ad = d.unsigned_abs();
+            // The flat cost: Q.4 dB residuals (< 2^14) squared into Q.8 dB², w ≤ 4. (Here, not
+            // where it is used: one loop over the observations.)
+            let q = (ad >> 12).min(0x3FFF);
+            g.flat_cost = g.flat_cost.saturating_add(q * q * (o.weight & 7) as u32);
+            g.anchors += 1;
+            g.weight = g.weight.wrapping_add(o.weight);
             // |z − P0| Q.16 (< 2^26) as Q.22, × 2^30/K → Q.20.
-            let r = K::mul_hi(d.unsigned_abs().min((1 << 26) - 1) << 6, inv_k).min(1 << 30) as i32;
+            let r = K::mul_hi(ad.min((1 << 26) - 1) << 6, inv_k).min(1 << 30) as i32;
             let r = if (d < 0) != (model.alpha < 0) { -r } else { r };
             // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32. Strongest
             // anchor first: its term grows fastest away from the winner, so evaluations stop
@@ -221,56 +240,28 @@ impl<K: TermKernel> Grid<K> {
         }
     }
 
-    /// The fine column step in lattice units: `W` (cm).
-    fn width(&self) -> i32 {
-        self.job.xstep as i32
-    }
-
-    /// The fine row step in lattice units: `H` (cm).
-    fn height(&self) -> i32 {
-        self.job.ystep as i32
-    }
-
     fn flat(&self) -> bool {
         self.job.n == 0
-    }
-
-    /// A coarse point (coarse indices) near the likely winner: the anchors' centroid weighted
-    /// by `1/d̂² = 2^ρ` (to a power of two, the strongest anchor's 32 down to 1), rounded to the
-    /// coarse grid. Only a starting bound for [`Grid::coarse`]; any point would be correct.
-    /// (The window must be at the origin.)
-    fn guess(&self) -> (usize, usize) {
-        let a = &self.job.anchors[..self.job.n as usize];
-        let rho = |k: usize| a[k].rho - ((a[k].shift as i32) << 21);
-        // Σw ≤ 2^8; |Σw·x| < 2^29 (|x| < 2^21 lattice units).
-        let (mut sw, mut sx, mut sy) = (0i32, 0i32, 0i32);
-        for (k, t) in a.iter().enumerate() {
-            // w = 2^(5 − ⌊ρ_top − ρ⌋), or 0 (ρ is sorted, largest first).
-            let down = rho(0).wrapping_sub(rho(k)) as u32 >> 20;
-            if down > 5 {
-                break;
-            }
-            let up = 5 - down;
-            sw += 1 << up;
-            sx -= t.dx0.get() << up;
-            sy -= t.dy0.get() << up;
-        }
-        (snap(sx, self.width(), sw), snap(sy, self.height(), sw))
     }
 
     /// Moves the window to first column `i0`, first row `j0`, `rows` rows `stride` fine rows
     /// apart.
     #[inline(never)]
-    fn window(&mut self, i0: usize, j0: usize, stride: usize, rows: usize) {
+    fn window(&mut self, i0: u8, j0: u8, stride: u8, rows: u8) {
         // (Indices ≤ 50: the steps fit an i8. |offsets| < 2^23 anywhere in the area: 24 bits
         // hold them.)
         K::move_window(
             &mut self.job,
-            (i0 as i8).wrapping_sub(self.i0 as i8),
-            (j0 as i8).wrapping_sub(self.j0 as i8),
+            i0.wrapping_sub(self.i0) as i8,
+            j0.wrapping_sub(self.j0) as i8,
         );
         (self.i0, self.j0, self.rows) = (i0, j0, rows);
-        self.job.stride = stride as u8;
+        self.job.stride = stride;
+    }
+
+    /// The window's sums in use.
+    fn sums(&self) -> &[u32] {
+        &self.sums[..(self.rows as usize).min(ROWS)]
     }
 
     /// The costs of column `i`'s rows into `sums` (rows whose bit is set in `skip` are not
@@ -278,47 +269,48 @@ impl<K: TermKernel> Grid<K> {
     /// it is then `≥ bound`, which is all a comparison with `bound` needs to know, and with no
     /// bound (`INF`) it is the cost saturated at [`COST_MAX`].
     #[inline(never)]
-    fn column(&mut self, i: usize, bound: u32, skip: u16) {
-        self.job.col = (i - self.i0) as u8;
+    fn column(&mut self, i: u8, bound: u32, skip: u16) {
+        self.job.col = i.wrapping_sub(self.i0);
         self.job.bound = bound.min(COST_MAX);
         self.job.skip = skip;
-        K::column(&mut self.sums[..self.rows], &mut self.job);
+        let rows = (self.rows as usize).min(ROWS);
+        K::column(&mut self.sums[..rows], &mut self.job);
     }
 
     /// Takes the last column's first smallest cost (column `i`) into `best` if it is below
     /// `bound` (which the column was evaluated with, or a smaller one).
     #[inline(never)]
-    fn take(&self, i: usize, bound: u32, best: &mut LatticeMin) {
+    fn take(&self, i: u8, bound: u32, best: &mut LatticeMin) {
         if self.job.min < bound {
             *best = LatticeMin {
                 i,
-                j: self.j0 + self.job.min_row as usize,
+                j: self.j0.wrapping_add(self.job.min_row),
                 cost: self.job.min,
             };
         }
     }
 
     /// The thesis' coarse stage: the 11 × 11 coarse grid, with the reference's outcome (`i`
-    /// outer, strict `<`). The coarse point nearest [`Grid::guess`] is evaluated first: its cost
-    /// bounds every column's evaluations from the start.
+    /// outer, strict `<`). The coarse point nearest [`TermKernel::guess`] (the anchors' weighted
+    /// centroid) is evaluated first: its cost
+    /// bounds every column's evaluations from the start. ([`COARSE_EVALS`] evaluations.)
     #[inline(never)]
     fn coarse(&mut self) -> LatticeMin {
-        let (gi, gj) = self.guess();
+        let (gi, gj) = K::guess(&self.job);
         self.coarse_from(gi, gj)
     }
 
     /// [`Grid::coarse`] starting from coarse point `(gi, gj)` (the same result from any).
-    fn coarse_from(&mut self, gi: usize, gj: usize) -> LatticeMin {
-        self.window(0, 0, RATIO, COARSE_DIVS + 1);
-        self.column(gi * RATIO, INF, !(1 << gj));
-        self.evals += 1;
+    fn coarse_from(&mut self, gi: u8, gj: u8) -> LatticeMin {
+        self.window(0, 0, R8, C8 + 1);
+        self.column(gi * R8, INF, !(1 << gj));
         let mut best = LatticeMin {
-            i: gi * RATIO,
-            j: gj * RATIO,
-            cost: self.sums[gj],
+            i: gi * R8,
+            j: gj * R8,
+            cost: self.sums[(gj as usize).min(ROWS - 1)],
         };
         let mut i = 0;
-        while i <= FINE_DIVS {
+        while i <= F8 {
             // Up to the best point's column a tie comes first in the reference's scan.
             let bound = if i <= best.i {
                 best.cost.saturating_add(1)
@@ -326,58 +318,55 @@ impl<K: TermKernel> Grid<K> {
                 best.cost
             };
             self.column(i, bound, 0);
-            self.evals += COARSE_DIVS + 1;
             self.take(i, bound, &mut best);
-            i += RATIO;
+            i += R8;
         }
         best
     }
 
     /// The thesis' fine window (± one coarse step, clipped) around the coarse winner `best`:
     /// the thesis MLE (strict `<` from it) into `best` (in place: a returned point is a stack
-    /// copy on AVR), and the evaluations it spends. Alone it skips
-    /// the window's coarse points (they cannot beat `start`); with `POST` it evaluates every
-    /// point up to the posterior's bound (or the MLE's, if larger) and adds it to `post`, and
-    /// the MLE is the same (a coarse point is never strictly below `start`). (Two copies: the
-    /// sink links only the one with `POST`, inlined into [`mle_and_mmse_window_into`]: a frame
-    /// fewer on the sink's deepest stack path.)
+    /// copy on AVR). Alone it skips the window's coarse points (they cannot beat `start`); with
+    /// `POST` it evaluates every point up to the posterior's bound (or the MLE's, if larger)
+    /// and adds it to `post`, and the MLE is the same (a coarse point is never strictly below
+    /// `start`). Evaluations: [`window_evals`]. (Two copies: the sink links only the one with
+    /// `POST`, inlined into [`Grid::both`].)
     #[inline(always)]
-    fn fine<const POST: bool>(&mut self, best: &mut LatticeMin, post: &mut Posterior) -> usize {
-        let (i0, j0) = (best.i.saturating_sub(RATIO), best.j.saturating_sub(RATIO));
-        let i1 = (best.i + RATIO).min(FINE_DIVS);
-        let rows = (best.j + RATIO).min(FINE_DIVS) - j0 + 1;
+    fn fine<const POST: bool>(&mut self, best: &mut LatticeMin, post: &mut Posterior) {
+        let (i0, j0) = (best.i.saturating_sub(R8), best.j.saturating_sub(R8));
+        let i1 = (best.i + R8).min(F8);
+        let rows = (best.j + R8).min(F8) - j0 + 1;
         self.window(i0, j0, 1, rows);
-        // The window's coarse rows (j a multiple of RATIO).
-        let (mut coarse, mut n_coarse) = (0u16, 0);
-        let mut r = (RATIO - j0 % RATIO) % RATIO;
-        while r < rows {
-            coarse |= 1 << r;
-            n_coarse += 1;
-            r += RATIO;
-        }
-        let mut mle_evals = self.evals;
-        for i in i0..=i1 {
-            let (mask, skipped) = if i % RATIO == 0 {
-                (coarse, n_coarse)
-            } else {
-                (0, 0)
-            };
-            mle_evals += rows - skipped;
+        // The window's coarse rows (j a multiple of RATIO; `j0` is one).
+        let coarse = if POST {
+            0
+        } else {
+            let mut coarse = 0u16;
+            let mut r = 0;
+            while r < rows {
+                coarse |= 1 << r;
+                r += R8;
+            }
+            coarse
+        };
+        let mut i = i0;
+        while i <= i1 {
             if POST {
                 self.column(i, post.bound().max(best.cost), 0);
-                self.evals += rows;
-                K::posterior(&self.sums[..rows], (i - i0) as u8, post);
+                K::posterior(self.sums(), i - i0, post);
             } else {
+                let mask = if i % R8 == 0 { coarse } else { 0 };
                 self.column(i, best.cost, mask);
-                self.evals += rows - skipped;
             }
             self.take(i, best.cost, best);
+            i += 1;
         }
-        mle_evals
     }
 
+    /// The thesis search; its evaluations into `evals`.
     fn thesis(&mut self) -> LatticeMin {
         let mut best = self.coarse();
+        self.evals = window_evals(best.i, best.j)[0];
         self.fine_mle(&mut best);
         best
     }
@@ -389,18 +378,18 @@ impl<K: TermKernel> Grid<K> {
     }
 
     fn multi_start(&mut self) -> LatticeMin {
-        self.window(0, 0, RATIO, COARSE_DIVS + 1);
+        self.window(0, 0, R8, C8 + 1);
         let mut top = [LatticeMin::NONE; STARTS];
-        for i in (0..=FINE_DIVS).step_by(RATIO) {
+        for i in (0..=F8).step_by(RATIO) {
             self.column(i, top[STARTS - 1].cost, 0);
-            for r in 0..=COARSE_DIVS {
+            for r in 0..=C8 {
                 self.evals += 1;
-                let c = self.sums[r];
+                let c = self.sums[r as usize];
                 if let Some(k) = top.iter().position(|t| c < t.cost) {
                     top.copy_within(k..STARTS - 1, k + 1);
                     top[k] = LatticeMin {
                         i,
-                        j: r * RATIO,
+                        j: r * R8,
                         cost: c,
                     };
                 }
@@ -419,12 +408,12 @@ impl<K: TermKernel> Grid<K> {
     /// (same scan order, same skipped points, same budget check before every evaluation).
     fn descend(&mut self, from: LatticeMin, spent: &mut usize) -> LatticeMin {
         let mut cur = from;
-        let mut prev: Option<(usize, usize)> = None;
+        let mut prev: Option<(u8, u8)> = None;
         loop {
             let mut next = cur;
             let (i0, j0) = (cur.i.saturating_sub(1), cur.j.saturating_sub(1));
-            let i1 = (cur.i + 1).min(FINE_DIVS);
-            let rows = (cur.j + 1).min(FINE_DIVS) - j0 + 1;
+            let i1 = (cur.i + 1).min(F8);
+            let rows = (cur.j + 1).min(F8) - j0 + 1;
             self.window(i0, j0, 1, rows);
             for i in i0..=i1 {
                 let (mut skip, mut candidates, mut over) = (0u16, 0, false);
@@ -448,7 +437,7 @@ impl<K: TermKernel> Grid<K> {
                         if skip & (1 << r) == 0 {
                             *spent += 1;
                             self.evals += 1;
-                            next.offer(i, j0 + r, self.sums[r]);
+                            next.offer(i, j0 + r, self.sums[r as usize]);
                         }
                     }
                 }
@@ -469,14 +458,14 @@ impl<K: TermKernel> Grid<K> {
     /// order, as in the reference's single scan.
     fn exhaustive(&mut self) -> LatticeMin {
         let mut best = LatticeMin::NONE;
-        for j0 in (0..=FINE_DIVS).step_by(ROWS) {
-            let rows = (j0 + ROWS - 1).min(FINE_DIVS) - j0 + 1;
+        for j0 in (0..=F8).step_by(ROWS) {
+            let rows = (j0 + ROWS as u8 - 1).min(F8) - j0 + 1;
             self.window(0, j0, 1, rows);
-            for i in 0..=FINE_DIVS {
+            for i in 0..=F8 {
                 self.column(i, best.cost.saturating_add(1), 0);
                 for r in 0..rows {
                     self.evals += 1;
-                    let (j, c) = (j0 + r, self.sums[r]);
+                    let (j, c) = (j0 + r, self.sums[r as usize]);
                     if c < best.cost || (c == best.cost && (i, j) < (best.i, best.j)) {
                         best = LatticeMin { i, j, cost: c };
                     }
@@ -486,47 +475,72 @@ impl<K: TermKernel> Grid<K> {
         best
     }
 
-    /// The estimate at `pos` (the lattice point of `best` if `None`) with `best`'s cost.
+    /// The estimate at `best`'s lattice point with its cost and `evals` into `out` (its
+    /// estimator left as it is; in place: a returned estimate is a stack copy on AVR).
+    #[inline(never)]
     fn finish(
         &self,
         obs: &Observations,
         area: AreaCm,
-        pos: Option<PointMm>,
-        best: LatticeMin,
-        estimator: Estimator,
-        evals: usize,
-    ) -> Estimate {
+        best: &LatticeMin,
+        evals: u16,
+        out: &mut Estimate,
+    ) {
         let cost = if self.flat() {
-            // α = 0: `Σ w·(z − P0)²`, Q.4 dB residuals (< 2^14) squared into Q.8 dB², w ≤ 4.
-            let mut s = 0u32;
-            for o in obs.as_slice() {
-                let r = (o.z.wrapping_sub(self.p0).unsigned_abs() >> 12).min(0x3FFF);
-                s = s.saturating_add(r * r * (o.weight & 7) as u32);
-            }
-            s
+            self.flat_cost
         } else {
             // C = K²·C': K² Q.20 (< 2^32) × C' Q.20 → Q.8.
             K::mul_hi(best.cost, K::mul_hi(self.k26, self.k26))
         };
-        Estimate {
-            pos: pos.unwrap_or(PointMm {
-                x: to_mm(area.width, best.i, 0),
-                y: to_mm(area.height, best.j, 0),
-            }),
-            lattice: (best.i as u8, best.j as u8),
-            min_cost: cost.saturating_add(obs.const_cost),
-            estimator,
-            anchors: obs.len() as u8,
-            total_weight: obs.total_weight(),
-            evaluations: evals as u16,
-        }
+        out.pos.x = to_mm(area.width, best.i, 0);
+        out.pos.y = to_mm(area.height, best.j, 0);
+        out.lattice = (best.i, best.j);
+        out.min_cost = cost.saturating_add(obs.const_cost);
+        out.anchors = self.anchors;
+        out.total_weight = self.weight;
+        out.evaluations = evals;
+    }
+
+    /// The estimate of `search` (the grid set up).
+    fn estimate(
+        &self,
+        obs: &Observations,
+        area: AreaCm,
+        best: &LatticeMin,
+        estimator: Estimator,
+    ) -> Estimate {
+        let mut e = Estimate::NONE;
+        self.finish(obs, area, best, self.evals, &mut e);
+        e.estimator = estimator;
+        e
+    }
+
+    /// The sink's search ([`mle_and_mmse_window_into`]) on the grid set up for `obs`: one
+    /// coarse stage, one pass over the fine window for both estimates. (Out of line, the grid
+    /// behind a pointer: in the caller's frame the 240-byte grid would put this function's
+    /// locals beyond AVR's 63-byte displacement, each access then costing 16 bytes of code.)
+    #[inline(never)]
+    fn both(&mut self, obs: &Observations, area: AreaCm, sigma: u16, out: &mut [Estimate; 2]) {
+        let mut best = self.coarse();
+        let evals = window_evals(best.i, best.j);
+        let mut post = Posterior::new(Weights::ZERO, best.cost);
+        K::weights(self.k26, sigma, &mut post.wts);
+        self.fine::<true>(&mut best, &mut post);
+        let [mle, mmse] = out;
+        self.finish(obs, area, &best, evals[0], mle);
+        mle.estimator = Estimator::Mle(Search::Thesis);
+        // The same lattice point and cost; its own position, estimator and evaluations.
+        *mmse = *mle;
+        post.mean::<K>(area, self.i0, self.j0, &mut mmse.pos);
+        mmse.estimator = Estimator::MmseWindow { sigma };
+        mmse.evaluations = evals[1];
     }
 }
 
 /// `side·(o + f/2^12)/5` rounded: fine index `o` plus a fraction (`f ≤ 10·2^12`) in mm along a
 /// side of `side` cm (as [`AreaCm::lattice_mm`] for `f = 0`): `8·side·(…)` in Q.3 is below 2^32.
 #[inline(never)]
-fn to_mm(side: u16, o: usize, f: u32) -> u32 {
+fn to_mm(side: u16, o: u8, f: u32) -> u32 {
     let side = side as u32;
     (side * o as u32 * 8 + ((side * f) >> 9) + 20) / 40
 }
@@ -564,13 +578,13 @@ pub fn mle_with<K: TermKernel>(
         Search::MultiStart => g.multi_start(),
         Search::Exhaustive => g.exhaustive(),
     };
-    Ok(g.finish(obs, area, None, m, Estimator::Mle(search), g.evals))
+    Ok(g.estimate(obs, area, &m, Estimator::Mle(search)))
 }
 
 impl Posterior {
     /// The posterior mean of a window whose first point is `(i0, j0)`, mm, into `pos` (left
     /// as it is if no weight; in place: a returned point is a stack copy on AVR).
-    fn mean<K: TermKernel>(&self, area: AreaCm, i0: usize, j0: usize, pos: &mut PointMm) {
+    fn mean<K: TermKernel>(&self, area: AreaCm, i0: u8, j0: u8, pos: &mut PointMm) {
         if self.s == 0 {
             return;
         }
@@ -582,7 +596,7 @@ impl Posterior {
 /// One coordinate of a posterior mean, mm: first index `o` plus the mean offset `Σw·k/Σw` (Q.12,
 /// ≤ 10 steps) along a side of `side` cm. (Out of line: one copy for both coordinates.)
 #[inline(never)]
-fn mean_mm<K: TermKernel>(side: u16, o: usize, swk: u32, sw: u32) -> u32 {
+fn mean_mm<K: TermKernel>(side: u16, o: u8, swk: u32, sw: u32) -> u32 {
     to_mm(side, o, K::div_shl(swk, sw, 12))
 }
 
@@ -618,16 +632,16 @@ pub fn mmse_with<K: TermKernel>(
     let mut cref = best.cost;
     // Σw (< 2^32), Σw·i and Σw·j (< 2^38), relative to `cref`.
     let (mut s, mut sx, mut sy) = (0u64, 0u64, 0u64);
-    for j0 in (0..=FINE_DIVS).step_by(ROWS) {
-        for i0 in (0..=FINE_DIVS).step_by(ROWS) {
-            let rows = (j0 + ROWS - 1).min(FINE_DIVS) - j0 + 1;
+    for j0 in (0..=F8).step_by(ROWS) {
+        for i0 in (0..=F8).step_by(ROWS) {
+            let rows = (j0 + ROWS as u8 - 1).min(F8) - j0 + 1;
             g.window(i0, j0, 1, rows);
             let mut post = Posterior::new(wts, cref);
-            for i in i0..=(i0 + ROWS - 1).min(FINE_DIVS) {
+            for i in i0..=(i0 + ROWS as u8 - 1).min(F8) {
                 // The smallest cost so far is the reference: costs below it are exact.
                 g.column(i, post.bound(), 0);
-                g.evals += rows;
-                K::posterior(&g.sums[..rows], (i - i0) as u8, &mut post);
+                g.evals += rows as u16;
+                K::posterior(g.sums(), i - i0, &mut post);
                 g.take(i, best.cost, &mut best);
             }
             if post.cref < cref {
@@ -642,15 +656,16 @@ pub fn mmse_with<K: TermKernel>(
             sy += post.sy as u64 + j0 as u64 * post.s as u64;
         }
     }
-    let pos = (s != 0).then(|| {
+    let mut e = g.estimate(obs, area, &best, Estimator::Mmse { sigma });
+    if s != 0 {
         // mm = 10·side·(Σw·i/Σw)/50, rounded.
         let f = |side: u16, v: u64| ((side as u64 * v + (5 * s) / 2) / (5 * s)) as u32;
-        PointMm {
+        e.pos = PointMm {
             x: f(area.width, sx),
             y: f(area.height, sy),
-        }
-    });
-    Ok(g.finish(obs, area, pos, best, Estimator::Mmse { sigma }, g.evals))
+        };
+    }
+    Ok(e)
 }
 
 /// Windowed posterior-mean position of `obs` under `model` within `area` with shadowing σ
@@ -714,24 +729,7 @@ pub fn mle_and_mmse_window_into<K: TermKernel>(
     check(obs)?;
     let mut g = Grid::<K>::EMPTY;
     g.setup(obs, model, area);
-    let mut best = g.coarse();
-    let mut post = Posterior::new(Weights::ZERO, best.cost);
-    K::weights(g.k26, sigma, &mut post.wts);
-    let mle_evals = g.fine::<true>(&mut best, &mut post);
-    let [mle, mmse] = out;
-    *mle = g.finish(
-        obs,
-        area,
-        None,
-        best,
-        Estimator::Mle(Search::Thesis),
-        mle_evals,
-    );
-    // The same lattice point and cost; its own position, estimator and evaluations.
-    *mmse = *mle;
-    post.mean::<K>(area, g.i0, g.j0, &mut mmse.pos);
-    mmse.estimator = Estimator::MmseWindow { sigma };
-    mmse.evaluations = g.evals as u16;
+    g.both(obs, area, sigma, out);
     Ok(())
 }
 
@@ -800,15 +798,35 @@ mod tests {
     fn plain_coarse(obs: &Observations, m: PathLoss, area: AreaCm) -> LatticeMin {
         let mut s = Grid::<Portable>::EMPTY;
         s.setup(obs, m, area);
-        s.window(0, 0, RATIO, COARSE_DIVS + 1);
+        s.window(0, 0, R8, C8 + 1);
         let mut best = LatticeMin::NONE;
-        for i in (0..=FINE_DIVS).step_by(RATIO) {
+        for i in (0..=F8).step_by(RATIO) {
             s.column(i, INF, 0);
-            for r in 0..=COARSE_DIVS {
-                best.offer(i, r * RATIO, s.sums[r]);
+            for r in 0..=C8 {
+                best.offer(i, r * R8, s.sums[r as usize]);
             }
         }
         best
+    }
+
+    /// [`window_evals`] counts what the reference's thesis search evaluates: the 122 of the
+    /// coarse stage, then every point of the clipped fine window (the MLE: less its coarse ones).
+    #[test]
+    fn the_window_evaluations_are_counted_points() {
+        for ci in 0..=C8 {
+            for cj in 0..=C8 {
+                let (i, j) = (ci * R8, cj * R8);
+                let (mut all, mut coarse) = (0u16, 0u16);
+                for wi in i.saturating_sub(R8)..=(i + R8).min(F8) {
+                    for wj in j.saturating_sub(R8)..=(j + R8).min(F8) {
+                        all += 1;
+                        coarse += u16::from(wi % R8 == 0 && wj % R8 == 0);
+                    }
+                }
+                let want = [COARSE_EVALS + all - coarse, COARSE_EVALS + all];
+                assert_eq!(window_evals(i, j), want, "({ci}, {cj})");
+            }
+        }
     }
 
     fn obs(anchors: &[(i16, i16, i32)]) -> Observations {
@@ -860,8 +878,8 @@ mod tests {
         for o in &cases {
             for &m in &models {
                 let want = plain_coarse(o, m, area);
-                for gi in 0..=COARSE_DIVS {
-                    for gj in 0..=COARSE_DIVS {
+                for gi in 0..=C8 {
+                    for gj in 0..=C8 {
                         let mut s = Grid::<Portable>::EMPTY;
                         s.setup(o, m, area);
                         assert_eq!(s.coarse_from(gi, gj), want, "start ({gi}, {gj})");
@@ -904,15 +922,15 @@ mod tests {
             let mut g = Grid::<Portable>::EMPTY;
             g.setup(&o, model, area);
             let c = g.coarse();
-            let (i0, j0) = (c.i.saturating_sub(RATIO), c.j.saturating_sub(RATIO));
-            let i1 = (c.i + RATIO).min(FINE_DIVS);
-            let rows = (c.j + RATIO).min(FINE_DIVS) - j0 + 1;
+            let (i0, j0) = (c.i.saturating_sub(R8), c.j.saturating_sub(R8));
+            let i1 = (c.i + R8).min(F8);
+            let rows = (c.j + R8).min(F8) - j0 + 1;
             g.window(i0, j0, 1, rows);
             let mut costs = Vec::new();
             for i in i0..=i1 {
                 g.column(i, INF, 0);
                 for r in 0..rows {
-                    costs.push((i, j0 + r, g.sums[r] as f64));
+                    costs.push((i, j0 + r, g.sums[r as usize] as f64));
                 }
             }
             let min = costs.iter().map(|c| c.2).fold(f64::MAX, f64::min);

@@ -87,6 +87,17 @@ pub trait TermKernel {
         portable_place(job, p)
     }
 
+    /// A search's coarse starting point (coarse indices, each ≤ 10) for `job` with its window
+    /// at the origin: exactly [`portable_guess`]`(job)` (the default). A kernel overrides it:
+    /// LLVM spends ≈ 550 bytes of AVR flash on it (variable shifts, 32-bit sums).
+    #[inline(always)]
+    fn guess(job: &ColumnJob) -> (u8, u8)
+    where
+        Self: Sized,
+    {
+        portable_guess(job)
+    }
+
     /// `⌊a·2^e / b⌋` for `1 ≤ b < 2^31` and `e ≤ 255`, saturating: exactly [`div_shl`]`(a, b,
     /// e)` (the default; the searches' one division).
     #[inline(always)]
@@ -494,6 +505,45 @@ pub fn portable_place(job: &mut ColumnJob, p: &Placement) {
     } else {
         4
     };
+}
+
+/// The reference of [`TermKernel::guess`]: the anchors' centroid weighted by `1/d̂² = 2^ρ` (to
+/// a power of two: the first anchor's 32, then halving per unit of sort key `ρ − 2^21·shift`
+/// below the first's, none from 6 units below on: the anchors are sorted by it, largest first),
+/// `(−Σw·dx0, −Σw·dy0)/Σw` in lattice units (the window at the origin), rounded to the coarse
+/// grid of steps `5·xstep`, `5·ystep` (no anchors: `(0, 0)`). A search's first bound; any
+/// point would give the same result.
+pub fn portable_guess(job: &ColumnJob) -> (u8, u8) {
+    let a = &job.anchors[..(job.n as usize).min(MAX_ANCHORS)];
+    let key = |t: &AnchorTerm| t.rho.wrapping_sub((t.shift as i32) << 21);
+    let top = a.first().map_or(0, key);
+    // Σw ≤ 2^8; |Σw·x| < 2^29 (|x| < 2^21 lattice units in a search; 24-bit offsets in general
+    // wrap like the assembly's 32-bit sums).
+    let (mut sw, mut sx, mut sy) = (0i32, 0i32, 0i32);
+    for t in a {
+        let down = top.wrapping_sub(key(t)) as u32 >> 20;
+        if down > 5 {
+            break;
+        }
+        let up = 5 - down;
+        sw += 1 << up;
+        sx = sx.wrapping_sub(t.dx0.get() << up);
+        sy = sy.wrapping_sub(t.dy0.get() << up);
+    }
+    (snap(sx, job.xstep, sw), snap(sy, job.ystep, sw))
+}
+
+/// The coarse index `c ≤ 10` of the weighted mean `s/sw` (lattice units) along a side of `side`
+/// cm: `(c − ½)·5·side < s/sw ≤ (c + ½)·5·side`, found by steps (no division; signed 32-bit
+/// comparisons of `2s` with `(2c + 1)·5·side·sw < 2^31`).
+fn snap(s: i32, side: u16, sw: i32) -> u8 {
+    let t = 5 * side as i32 * sw;
+    let (mut c, mut v) = (0, t);
+    while c < 10 && v < s.wrapping_mul(2) {
+        c += 1;
+        v += 2 * t;
+    }
+    c
 }
 
 /// The reference of [`TermKernel::move_window`]: `dx0 += di·xstep`, `dy0 += dj·ystep` for every

@@ -114,6 +114,12 @@ impl TermKernel for AvrTerm {
     fn place(job: &mut ColumnJob, p: &Placement) {
         place(job, p)
     }
+
+    #[inline(never)]
+    fn guess(job: &ColumnJob) -> (u8, u8) {
+        let g = guess(job);
+        (g as u8, (g >> 8) as u8)
+    }
 }
 
 /// `(ρ + max(log2 n, clamp))²` (Q.20, saturated) of `n` = r15:r12 plus `2^32·T` (the T flag),
@@ -1548,4 +1554,207 @@ pub fn place(job: &mut ColumnJob, p: &Placement) {
             out("r24") _, out("r25") _,
         );
     }
+}
+
+/// [`loc_core::fixed::portable_guess`]`(job)`, exactly, as `i | j << 8`: per anchor the sort key
+/// `ρ − 2^21·shift` against the first's (stop from 6 units below), the weight's exponent, the
+/// 24-bit offsets sign-extended and doubled with the weight, the 32-bit sums; then both
+/// coordinates' steps through one local subroutine (`t = 5·side·Σw` from four `mul`s, `c` up
+/// while `c < 10` and `v < 2s`, signed). ≈ 200 bytes for ≈ 550 of LLVM's.
+///
+/// Register plan: Z the anchor (the job's address on the stack), r21 anchors left, r5:r2 the
+/// first key, r9:r6 `Σw·x` (negated), r13:r10 `Σw·y` (negated), r15:r14 `Σw`, r19:r16 and
+/// r27:r24 the anchor's key, difference, `x` and `y`, r20 `w`, r22 its exponent. Subroutine 70:
+/// `c` (r24) of `s` = r19:r16, `side` = r21:r20, `Σw` = r15:r14 (r9:r2, r16–r19, r22–r25 and
+/// r0, r1 clobbered).
+pub fn guess(job: &ColumnJob) -> u16 {
+    let g: u16;
+    // SAFETY: reads the job (through Z, within the `&`); pushes and pops two bytes and calls a
+    // local subroutine; registers declared, r1 cleared at the end.
+    unsafe {
+        asm!(
+            "push r30",
+            "push r31",
+            "clr r6",
+            "clr r7",
+            "movw r8, r6",
+            "movw r10, r6",
+            "movw r12, r6",
+            "movw r14, r6",
+            "ldd r21, Z+4",
+            "cpi r21, {n1}",
+            "brlo 1f",
+            "ldi r21, {n}",
+            "1:",
+            "tst r21",
+            "brne 8f",
+            "rjmp 9f",
+            "8:",
+            "adiw r30, 22",
+            "set",
+            // ---- one anchor: key = ρ − (shift << 21) in r19:r16 ----
+            "2:",
+            "ldd r16, Z+14",
+            "ldd r17, Z+15",
+            "ldd r18, Z+16",
+            "ldd r19, Z+17",
+            "ldd r20, Z+19",
+            "mov r23, r20",
+            "lsr r23",
+            "lsr r23",
+            "lsr r23",
+            "swap r20",
+            "andi r20, 0xF0",
+            "lsl r20",
+            "sub r18, r20",
+            "sbc r19, r23",
+            // The first anchor's key is the top.
+            "brtc 3f",
+            "movw r2, r16",
+            "movw r4, r18",
+            "clt",
+            "3:",
+            // ---- down = (top − key) >> 20 (unsigned); stop from 6 ----
+            "movw r24, r2",
+            "movw r26, r4",
+            "sub r24, r16",
+            "sbc r25, r17",
+            "sbc r26, r18",
+            "sbc r27, r19",
+            "cpi r26, 0x60",
+            "cpc r27, r1",
+            "brlo 6f",
+            "rjmp 9f",
+            "6:",
+            "swap r26",
+            "andi r26, 0x0F",
+            "ldi r22, 5",
+            "sub r22, r26",
+            // ---- x = dx0 (r19:r16), y = dy0 (r27:r24), w = 1, all << up ----
+            "ldd r16, Z+4",
+            "ldd r17, Z+5",
+            "ldd r18, Z+6",
+            "clr r19",
+            "sbrc r18, 7",
+            "com r19",
+            "ldd r24, Z+7",
+            "ldd r25, Z+8",
+            "ldd r26, Z+9",
+            "clr r27",
+            "sbrc r26, 7",
+            "com r27",
+            "ldi r20, 1",
+            "rjmp 5f",
+            "4:",
+            "lsl r20",
+            "lsl r16",
+            "rol r17",
+            "rol r18",
+            "rol r19",
+            "lsl r24",
+            "rol r25",
+            "rol r26",
+            "rol r27",
+            "5:",
+            "subi r22, 1",
+            "brcc 4b",
+            // ---- Σw += w, Σx −= x, Σy −= y ----
+            "add r14, r20",
+            "adc r15, r1",
+            "sub r6, r16",
+            "sbc r7, r17",
+            "sbc r8, r18",
+            "sbc r9, r19",
+            "sub r10, r24",
+            "sbc r11, r25",
+            "sbc r12, r26",
+            "sbc r13, r27",
+            "adiw r30, 20",
+            "dec r21",
+            "breq 9f",
+            "rjmp 2b",
+            // ---- snap both coordinates ----
+            "9:",
+            "pop r31",
+            "pop r30",
+            "ldd r20, Z+14",
+            "ldd r21, Z+15",
+            "movw r16, r6",
+            "movw r18, r8",
+            "rcall 70f",
+            "ldd r20, Z+20",
+            "ldd r21, Z+21",
+            "mov r30, r24",
+            "movw r16, r10",
+            "movw r18, r12",
+            "rcall 70f",
+            "mov r25, r24",
+            "mov r24, r30",
+            "clr r1",
+            "rjmp 79f",
+            // ---- c of s = r19:r16 along side r21:r20, Σw r15:r14 ----
+            "70:",
+            // m = 5·Σw (≤ 1280) in r23:r22
+            "movw r22, r14",
+            "lsl r22",
+            "rol r23",
+            "lsl r22",
+            "rol r23",
+            "add r22, r14",
+            "adc r23, r15",
+            // t = side·m in r5:r2
+            "mul r20, r22",
+            "movw r2, r0",
+            "mul r21, r23",
+            "movw r4, r0",
+            "clr r25",
+            "mul r20, r23",
+            "add r3, r0",
+            "adc r4, r1",
+            "adc r5, r25",
+            "mul r21, r22",
+            "add r3, r0",
+            "adc r4, r1",
+            "adc r5, r25",
+            // 2s in r19:r16, v = t in r9:r6, c = 0
+            "lsl r16",
+            "rol r17",
+            "rol r18",
+            "rol r19",
+            "movw r6, r2",
+            "movw r8, r4",
+            "clr r24",
+            "71:",
+            "cpi r24, 10",
+            "brsh 72f",
+            "cp r6, r16",
+            "cpc r7, r17",
+            "cpc r8, r18",
+            "cpc r9, r19",
+            "brge 72f",
+            "inc r24",
+            "add r6, r2",
+            "adc r7, r3",
+            "adc r8, r4",
+            "adc r9, r5",
+            "add r6, r2",
+            "adc r7, r3",
+            "adc r8, r4",
+            "adc r9, r5",
+            "rjmp 71b",
+            "72:",
+            "ret",
+            "79:",
+            n = const loc_core::MAX_ANCHORS,
+            n1 = const loc_core::MAX_ANCHORS + 1,
+            inout("Z") job as *const ColumnJob => _,
+            out("r25r24") g,
+            out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
+            out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r12") _,
+            out("r13") _, out("r14") _, out("r15") _, out("r16") _, out("r17") _,
+            out("r18") _, out("r19") _, out("r20") _, out("r21") _, out("r22") _,
+            out("r23") _, out("X") _,
+        );
+    }
+    g
 }

@@ -1,0 +1,211 @@
+//! search-check: the sink's search with `uno_board::AvrTerm` against the portable one, on the
+//! MCU itself. First `AvrTerm::guess` (AVR assembly) against `loc_core::fixed::portable_guess`
+//! on 20 000 jobs: half set up as a search sets them up (random observations placed by
+//! `portable_place`: sorted keys, real shifts), half garbage (any `n`, keys in any order, any
+//! shift byte, any offsets and sides, 0 and the extremes among them); prints `badguess n xstep
+//! ystep portable avr` for its first mismatches, then `guess <checked> <mismatches>`. Then
+//! `mle_and_mmse_window_into` with `AvrTerm` against the same with `Portable` on 150 random
+//! searches (3 to 8 anchors inside and outside the area, rooms of 1 to 65 m and a corner-sized
+//! one, flat (α = 0, tiny), negative and thesis-like models, σ = 0, 1, 65 535 and random; every
+//! field of both estimates, errors included); prints `badsearch <trial>` for its first
+//! mismatches, then `search <checked> <mismatches>`, then `end`. `tests/tests/search_check.rs`
+//! runs it in simavr. Build: `cargo fw-bench`.
+#![cfg_attr(target_arch = "avr", no_std, no_main)]
+
+#[cfg(not(target_arch = "avr"))]
+fn main() {}
+
+#[cfg(target_arch = "avr")]
+uno_board::link_avr_libc!();
+
+#[cfg(target_arch = "avr")]
+#[uno_board::entry]
+fn main() -> ! {
+    use core::hint::black_box;
+    use loc_core::fixed::{ColumnJob, Placement, TermKernel, I24};
+    use mcu_bench::fw::{write_u32, xorshift};
+    let Some(board) = uno_board::Board::take() else {
+        uno_board::reset()
+    };
+    avr_device::interrupt::disable();
+    let mut serial = board.serial;
+    let mut r = 0x2545_F491u32;
+    let line = |serial: &mut uno_board::Serial, tag: &[u8], vals: &[u32]| {
+        serial.write_bytes(tag);
+        for &v in vals {
+            serial.write_byte(b' ');
+            write_u32(serial, v);
+        }
+        serial.write_byte(b'\n');
+    };
+    // ---- guess ----
+    let (mut bad, n) = (0u32, black_box(20_000u32));
+    let mut job = ColumnJob::EMPTY;
+    for i in 0..n {
+        let mut next = || xorshift(&mut r);
+        let (x, y) = (next(), next());
+        (job.xstep, job.ystep) = match i % 8 {
+            0 => (0, 0),
+            1 => (u16::MAX, u16::MAX),
+            2 => (1 + x as u16 % 300, 1 + y as u16 % 300),
+            _ => (100 + x as u16 % 6_400, 100 + y as u16 % 6_400),
+        };
+        if i % 2 == 0 {
+            // As a search sets it up.
+            job.n = 0;
+            for _ in 0..3 + next() % 6 {
+                let (px, py) = (next(), next());
+                let p = Placement {
+                    rho: match px % 4 {
+                        0 => (py as i32 >> 1) - (1 << 30),
+                        1 => -(25 << 20) + (py % (8 << 20)) as i32,
+                        _ => -(25 << 20) + (py % (40 << 20)) as i32,
+                    },
+                    x: match px % 5 {
+                        0 => (px >> 16) as i16,
+                        1 => 0,
+                        2 => job.xstep as i16,
+                        _ => ((px >> 16) % (job.xstep as u32 + 1)) as i16,
+                    },
+                    y: match py % 5 {
+                        0 => (py >> 16) as i16,
+                        1 => 0,
+                        2 => job.ystep as i16,
+                        _ => ((py >> 16) % (job.ystep as u32 + 1)) as i16,
+                    },
+                    weight: (px >> 8) as u8 % 5,
+                };
+                loc_core::fixed::portable_place(&mut job, &p);
+            }
+        } else {
+            job.n = match i % 7 {
+                0 => 0,
+                1 => 255,
+                _ => (x >> 8) as u8 % 10,
+            };
+            for t in job.anchors.iter_mut() {
+                t.dx0 = I24::new(next() as i32);
+                t.dy0 = I24::new(next() as i32);
+                let k = next();
+                // Keys close together (weights from 32 down) or anywhere.
+                t.rho = if k % 3 == 0 {
+                    k as i32
+                } else {
+                    (k % (8 << 20)) as i32
+                };
+                t.shift = (k >> 24) as u8 % if k % 5 == 0 { 255 } else { 8 };
+            }
+        }
+        let want = loc_core::fixed::portable_guess(black_box(&job));
+        let got = uno_board::AvrTerm::guess(black_box(&job));
+        if want != got {
+            bad += 1;
+            if bad <= 5 {
+                let v = [
+                    job.n as u32,
+                    job.xstep as u32,
+                    job.ystep as u32,
+                    (want.0 as u32) << 8 | want.1 as u32,
+                    (got.0 as u32) << 8 | got.1 as u32,
+                ];
+                line(&mut serial, b"badguess", &v);
+            }
+        }
+    }
+    line(&mut serial, b"guess", &[n, bad]);
+    // ---- the sink's whole search ----
+    let (mut bad, n) = (0u32, black_box(150u32));
+    for t in 0..n {
+        let search = search_inputs(t, &mut r);
+        let (obs, model, area, sigma) = black_box(search);
+        let mut want = [loc_core::fixed::Estimate::NONE; 2];
+        let mut got = want;
+        let w = loc_core::fixed::mle_and_mmse_window_into::<loc_core::fixed::Portable>(
+            &obs, model, area, sigma, &mut want,
+        );
+        let g = loc_core::fixed::mle_and_mmse_window_into::<uno_board::AvrTerm>(
+            &obs, model, area, sigma, &mut got,
+        );
+        if w != g || want != got {
+            bad += 1;
+            if bad <= 5 {
+                line(&mut serial, b"badsearch", &[t]);
+            }
+        }
+    }
+    line(&mut serial, b"search", &[n, bad]);
+    serial.write_bytes(b"end\n");
+    serial.flush_blocking();
+    loop {
+        avr_device::interrupt::disable();
+        avr_device::asm::sleep();
+    }
+}
+
+/// Search `t`'s inputs: observations, model, area, σ (Q.8 dB).
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+fn search_inputs(
+    t: u32,
+    r: &mut u32,
+) -> (
+    loc_core::fixed::Observations,
+    loc_core::fixed::PathLoss,
+    loc_core::fixed::AreaCm,
+    u16,
+) {
+    use loc_core::fixed::{AreaCm, Obs, Observations, PathLoss, PointCm, ALPHA, DB};
+    use mcu_bench::fw::xorshift;
+    let mut next = || xorshift(r);
+    let area = match t % 9 {
+        0 => AreaCm::new(100, 100),
+        1 => AreaCm::new(6_500, 6_500),
+        _ => AreaCm::new(100 + (next() % 3_000) as u16, 100 + (next() % 3_000) as u16),
+    };
+    let mut obs = Observations::new();
+    for k in 0..3 + next() % 6 {
+        let (x, y) = (next(), next());
+        let pos = match (t + k) % 6 {
+            // Area corners.
+            0 => PointCm::new(0, 0),
+            1 => PointCm::new(area.width as i16, area.height as i16),
+            // Outside.
+            2 => PointCm::new(-((x % 500) as i16), (y % 9_000) as i16),
+            _ => PointCm::new(
+                (x % (area.width as u32 + 1)) as i16,
+                (y % (area.height as u32 + 1)) as i16,
+            ),
+        };
+        obs.push(Obs {
+            pos,
+            z: -(30 * DB) - (next() % (60 * DB as u32)) as i32,
+            weight: 1 + (x >> 24) as u8 % 4,
+        });
+    }
+    obs.const_cost = next() % 1_000;
+    let model = match t % 6 {
+        0 => PathLoss {
+            p0: -40 * DB,
+            alpha: 0,
+        },
+        1 => PathLoss {
+            p0: -40 * DB,
+            alpha: 1 + (next() % 64) as i32,
+        },
+        2 => PathLoss {
+            p0: -((next() % (60 * DB as u32)) as i32),
+            alpha: -2 * ALPHA,
+        },
+        _ => PathLoss {
+            p0: -(30 * DB) - (next() % (30 * DB as u32)) as i32,
+            alpha: ALPHA + (next() % (4 * ALPHA as u32)) as i32,
+        },
+    };
+    let sigma = match t % 5 {
+        0 => 0,
+        1 => 1,
+        2 => u16::MAX,
+        _ => (next() % (8 << 8)) as u16,
+    };
+    (obs, model, area, sigma)
+}
