@@ -299,8 +299,11 @@ pub struct Sink<K> {
     area: Option<AreaCm>,
     params: OnlineParams,
     counters: Counters,
-    /// Next expected sequence per agent (index agent − 1).
-    next_seq: [Option<u16>; MAX_AGENTS],
+    /// Next expected sequence per agent (index agent − 1), valid where `seen`: all zeros at
+    /// first (no `Option` array to build field by field).
+    next_seq: [u16; MAX_AGENTS],
+    /// Whether agent `k + 1` has reported.
+    seen: [bool; MAX_AGENTS],
     kernel: PhantomData<K>,
 }
 
@@ -318,7 +321,8 @@ impl<K: TermKernel> Sink<K> {
                 PathLoss::THESIS,
             ),
             counters: Counters::default(),
-            next_seq: [None; MAX_AGENTS],
+            next_seq: [0; MAX_AGENTS],
+            seen: [false; MAX_AGENTS],
             kernel: PhantomData,
         }
     }
@@ -387,15 +391,17 @@ impl<K: TermKernel> Sink<K> {
     ) -> Result<Fix, LocError> {
         bump(&mut self.counters.frames);
         bump(&mut self.counters.reports);
-        if let Some(next) = self.next_seq.get_mut((agent as usize).wrapping_sub(1)) {
-            if let Some(want) = *next {
-                let gap = seq.wrapping_sub(want);
+        let k = agent.wrapping_sub(1) as usize;
+        if let (Some(next), Some(seen)) = (self.next_seq.get_mut(k), self.seen.get_mut(k)) {
+            if *seen {
+                let gap = seq.wrapping_sub(*next);
                 // A gap of more than half the sequence space is a late or repeated report.
                 if gap < 0x8000 {
                     self.counters.drops += gap as u32;
                 }
             }
-            *next = Some(seq.wrapping_add(1));
+            *seen = true;
+            *next = seq.wrapping_add(1);
         }
         // The least-squares fit directly (through `OnlineParams::update` the thesis' grid fit
         // would be linked in too), with the mode and bounds `Sink::new` gave `params` as
