@@ -36,7 +36,7 @@ use loc_proto::msg::{Position, Report, ReportView};
 type Fit = uno_board::AvrFit;
 #[cfg(not(target_arch = "avr"))]
 type Fit = loc_core::fixed::PortableFit;
-use loc_proto::sink_line::{Estimator, SinkLine, FLAG_FITTED};
+use loc_proto::sink_line::{Estimator, SinkLine, StatusOut, FLAG_FITTED};
 use loc_proto::Error;
 
 /// What a [`Report`] measured, for loc-core: anchor positions as the beacons gave them, the
@@ -278,6 +278,20 @@ pub fn no_fix_line(agent: u8, seq: u16, e: LocError) -> SinkLine {
 }
 
 impl Counters {
+    /// Writes [`Counters::line`]`(uptime_s)`, each counter read as it is written (the firmware:
+    /// through the built line all seven were loaded first; 56 B less AVR flash).
+    pub fn write_line(&self, uptime_s: u32, out: impl FnMut(u8)) {
+        let mut o = StatusOut::new(out);
+        o.num(uptime_s);
+        o.num(self.frames);
+        o.num(self.reports);
+        o.num(self.drops);
+        o.num(self.checksum_errors);
+        o.num(self.foreign);
+        o.num(self.fixes);
+        o.end();
+    }
+
     /// The `status` line at `uptime_s` seconds.
     pub fn line(&self, uptime_s: u32) -> SinkLine {
         SinkLine::Status {

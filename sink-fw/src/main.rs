@@ -142,7 +142,7 @@ fn fix_line(
 #[cfg(target_arch = "avr")]
 #[inline(never)]
 fn status(radio: &mut uno_board::NodeRadio, counters: &sink_fw::Counters, uptime_s: u32) {
-    counters.line(uptime_s).write(uart(radio));
+    counters.write_line(uptime_s, uart(radio));
 }
 
 /// The UART as a byte sink: the boot lines' one ([`uno_board::uart_out`]), so one copy of the
