@@ -25,7 +25,7 @@ use core::marker::PhantomData;
 use loc_core::fixed::{
     extended, fit_least_squares_with, mle_and_mmse_window_into, observations, AreaCm, Bounds,
     CalStats, Estimate, FitMethod, LocError, Measurements, Obs, Observations, OnlineParams,
-    ParamMode, PathLoss, PointCm, Refinement, TermKernel,
+    ParamMode, PathLoss, PointCm, Refinement, ReportBytes, ReportKernel, TermKernel,
 };
 use loc_proto::msg::{Position, Report, ReportView};
 
@@ -84,6 +84,8 @@ pub trait ReportData {
     /// The relayed byte anchor `i + 1` heard from `j + 1` on channel number `c`, 0 without the
     /// relay matrix.
     fn relay(&self, c: usize, i: usize, j: usize) -> u8;
+    /// [`report_inputs_into`].
+    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations);
 }
 
 impl ReportData for Report {
@@ -112,6 +114,9 @@ impl ReportData for Report {
             0
         }
     }
+    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations) {
+        inputs_by_accessors(self, stats, obs)
+    }
 }
 
 impl ReportData for ReportView<'_> {
@@ -136,6 +141,18 @@ impl ReportData for ReportView<'_> {
     }
     fn relay(&self, c: usize, i: usize, j: usize) -> u8 {
         ReportView::relay(self, c, i, j)
+    }
+    /// The report's bytes from the first position on, by [`ReportKernel::report_inputs`]
+    /// (one assembly routine on the AVR).
+    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations) {
+        let c = self.channels();
+        let r = ReportBytes {
+            bytes: self.bytes().get(9 + c..).unwrap_or(&[]),
+            anchors: self.anchors() as u8,
+            channels: c as u8,
+            relay: self.has_relay(),
+        };
+        Fit::report_inputs(&r, stats, obs)
     }
 }
 
@@ -471,13 +488,20 @@ pub fn report_inputs(r: &impl ReportData) -> (CalStats, Observations) {
 }
 
 /// [`report_inputs`] added to `stats` and `obs` (new ones: [`report_inputs`]'s result), in
-/// place: a returned pair is copied on the AVR.
+/// place: a returned pair is copied on the AVR. A [`ReportView`]'s straight from its bytes
+/// ([`ReportKernel`]: assembly on the AVR), a [`Report`]'s through its accessors.
 #[inline(never)]
 pub fn report_inputs_into(r: &impl ReportData, stats: &mut CalStats, obs: &mut Observations) {
+    r.inputs_into(stats, obs)
+}
+
+/// [`report_inputs_into`] by [`ReportData`]'s accessors: every anchor pair's relayed bytes
+/// (both directions) into `stats`, each anchor's Extended refinement into `obs`.
+fn inputs_by_accessors(r: &impl ReportData, stats: &mut CalStats, obs: &mut Observations) {
     let n = r.anchors();
     let c = r.channels();
     // Without the relay matrix every byte is 0 (not heard): no samples. The bytes as they are
-    // (0: not heard), the sums by `Fit` (assembly on the AVR).
+    // (0: not heard), the sums by `Fit`.
     for i in 0..n {
         for j in i + 1..n {
             let mut bytes = [0; 2 * loc_core::MAX_CHANNELS];

@@ -1,13 +1,17 @@
 //! Channel refinements on RSSI bytes ([`crate::refine`] in fixed point).
 
 use super::math::{log2_u32, log2_u33, log2_u64, m8, mul_shr};
+#[cfg(doc)]
+use super::params::FitKernel;
+use super::params::{CalStats, PortableFit};
 use super::tables::{decade, decibel};
 use super::{ChannelBytes, Measurements, PointCm, DB};
 use crate::refine::Refinement;
 use crate::{MAX_ANCHORS, MAX_CHANNELS};
 
-/// One observation of the position cost.
+/// One observation of the position cost. `repr(C)`: a [`ReportKernel`] in assembly writes it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[repr(C)]
 pub struct Obs {
     /// Anchor position.
     pub pos: PointCm,
@@ -17,8 +21,9 @@ pub struct Obs {
     pub weight: u8,
 }
 
-/// Up to [`MAX_ANCHORS`] observations.
+/// Up to [`MAX_ANCHORS`] observations. `repr(C)`: a [`ReportKernel`] in assembly writes it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[repr(C)]
 pub struct Observations {
     obs: [Obs; MAX_ANCHORS],
     len: usize,
@@ -222,6 +227,102 @@ pub fn extended(bytes: &[u8]) -> Option<(i32, u8, u32)> {
 #[inline(never)]
 fn div_round(num: u32, d: u32) -> u32 {
     (num + d / 2) / d
+}
+
+/// A report's measurement bytes as the radio message carries them (loc-proto's report from its
+/// first anchor position on): `anchors` positions (x, y: little-endian `i16`, cm), the agent's
+/// RSSI bytes channel by channel (`anchors` each), then, with `relay`, per channel and anchor
+/// `i` the bytes anchor `i` relayed of the other anchors `j ≠ i` (`anchors − 1` each). 0 bytes:
+/// not heard.
+#[derive(Clone, Copy, Debug)]
+pub struct ReportBytes<'a> {
+    /// The bytes, from the first position on (more are not read).
+    pub bytes: &'a [u8],
+    /// Anchors in use, at most [`MAX_ANCHORS`].
+    pub anchors: u8,
+    /// Channels in use, at most [`MAX_CHANNELS`].
+    pub channels: u8,
+    /// Whether the relay bytes are there.
+    pub relay: bool,
+}
+
+impl ReportBytes<'_> {
+    /// The bytes the layout takes; `None` beyond [`MAX_ANCHORS`] or [`MAX_CHANNELS`] or when
+    /// `bytes` is shorter (then a [`ReportKernel`] adds nothing).
+    pub fn size(&self) -> Option<usize> {
+        let (n, c) = (self.anchors as usize, self.channels as usize);
+        let rows = if self.relay { n } else { 1 };
+        let len = 4 * n + c * n * rows;
+        (n <= MAX_ANCHORS && c <= MAX_CHANNELS && self.bytes.len() >= len).then_some(len)
+    }
+}
+
+/// A report's calibration sums and observations straight from its bytes: what the sink does
+/// per report, [`portable_report_inputs`] here, one AVR assembly routine on the sink
+/// (`uno_board::AvrFit`); both leave exactly the same results (`report-check`).
+pub trait ReportKernel {
+    /// Adds `r`'s samples (every anchor pair `i < j`, both directions' relayed bytes, by
+    /// [`CalStats::push_pair_with`]) to `stats` and its anchors' Extended observations (by
+    /// [`extended`], the spreads to `const_cost`) to `obs`; nothing when `r` does not hold its
+    /// layout ([`ReportBytes::size`]).
+    fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observations);
+}
+
+impl ReportKernel for PortableFit {
+    fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observations) {
+        portable_report_inputs(r, stats, obs)
+    }
+}
+
+/// [`ReportKernel::report_inputs`]: every pair by [`CalStats::push_pair`] (what
+/// [`CalStats::push_pair_with`] adds, whatever the [`FitKernel`]), every anchor by [`extended`]
+/// (the definition the assembly one is checked against).
+pub fn portable_report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observations) {
+    if r.size().is_none() {
+        return;
+    }
+    let (n, c) = (r.anchors as usize, r.channels as usize);
+    let at = |k: usize| r.bytes.get(k).copied().unwrap_or(0);
+    let pos = |i: usize| {
+        let k = 4 * i;
+        PointCm::new(
+            i16::from_le_bytes([at(k), at(k + 1)]),
+            i16::from_le_bytes([at(k + 2), at(k + 3)]),
+        )
+    };
+    let (rssi, relay) = (4 * n, 4 * n + c * n);
+    if r.relay {
+        for i in 0..n {
+            for j in i + 1..n {
+                // Anchor i's bytes of j, then j's of i (0: not heard); row (ch, p) holds the
+                // anchors q ≠ p in order.
+                let mut bytes = [None; 2 * MAX_CHANNELS];
+                for (k, b) in bytes.iter_mut().enumerate() {
+                    let ch = k % MAX_CHANNELS;
+                    let (p, q) = if k < MAX_CHANNELS { (i, j) } else { (j, i) };
+                    if ch < c {
+                        let v = at(relay + (ch * n + p) * (n - 1) + q - usize::from(q > p));
+                        *b = (v != 0).then_some(v);
+                    }
+                }
+                stats.push_pair(pos(i), pos(j), &bytes);
+            }
+        }
+    }
+    for i in 0..n {
+        let mut bytes = [0u8; MAX_CHANNELS];
+        for (ch, v) in bytes[..c].iter_mut().enumerate() {
+            *v = at(rssi + ch * n + i);
+        }
+        if let Some((z, weight, spread)) = extended(&bytes[..c]) {
+            obs.const_cost = obs.const_cost.saturating_add(spread);
+            obs.push(Obs {
+                pos: pos(i),
+                z,
+                weight,
+            });
+        }
+    }
 }
 
 /// Observations of anchors at `anchors` with the agent's bytes `rssi` (same order; the shorter
