@@ -144,6 +144,7 @@ impl ReportData for ReportView<'_> {
     }
     /// The report's bytes from the first position on, by [`ReportKernel::report_inputs`]
     /// (one assembly routine on the AVR).
+    #[inline(always)]
     fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations) {
         let c = self.channels();
         let r = ReportBytes {
@@ -489,8 +490,9 @@ pub fn report_inputs(r: &impl ReportData) -> (CalStats, Observations) {
 
 /// [`report_inputs`] added to `stats` and `obs` (new ones: [`report_inputs`]'s result), in
 /// place: a returned pair is copied on the AVR. A [`ReportView`]'s straight from its bytes
-/// ([`ReportKernel`]: assembly on the AVR), a [`Report`]'s through its accessors.
-#[inline(never)]
+/// ([`ReportKernel`]: assembly on the AVR, inlined into [`Sink::on_report`], which saves the
+/// registers it clobbers anyway), a [`Report`]'s through its accessors.
+#[inline(always)]
 pub fn report_inputs_into(r: &impl ReportData, stats: &mut CalStats, obs: &mut Observations) {
     r.inputs_into(stats, obs)
 }

@@ -7,9 +7,11 @@
 //! `Observations`. It computes exactly [`loc_core::fixed::portable_report_inputs`], which
 //! `hoploc-tests` checks in simavr on random reports (`mcu-bench`'s `report-check`).
 //!
-//! Register plan: the [`Job`] in Y (r29:r28, pushed and restored), the loop counters and the
-//! pair's 8 bytes in it (the distance and push code clobber nearly every register); r1 is zero
-//! between `mul`s in the pair loop, r2 throughout the observations.
+//! Register plan: the job in Y (r29:r28, saved), 24 bytes the routine pushes: `pos` 0, `rssi` 2
+//! (the agent's bytes), `relay` 4 (null without them), `stats` 6, `obs` 8, the log2 table 10,
+//! `n` 12, `c` 13, the pair loop's `i` 14 and `j` 15, the pair's 8 bytes 16 (the distance and
+//! push code clobber nearly every register); r1 is zero between `mul`s in the pair loop, r2
+//! throughout the observations.
 
 use super::fit::{distance_x_asm, push_asm};
 use super::AvrFit;
@@ -17,40 +19,7 @@ use core::arch::asm;
 use core::mem::{offset_of, size_of};
 use loc_core::fixed::{log2_segment_base, CalStats, Obs, Observations, ReportBytes, ReportKernel};
 
-/// What the routine reads through Y (offsets asserted below).
-#[repr(C)]
-struct Job {
-    /// The first position.
-    pos: *const u8,
-    /// The agent's RSSI bytes (channel by channel).
-    rssi: *const u8,
-    /// The relayed bytes, null without them.
-    relay: *const u8,
-    stats: *mut CalStats,
-    obs: *mut Observations,
-    /// The distance code's log2 table.
-    log2: *const u8,
-    n: u8,
-    c: u8,
-    /// The pair loop's anchors.
-    i: u8,
-    j: u8,
-    /// The pair's bytes (`PairBytes`).
-    bytes: [u8; 8],
-}
-
 const _: () = {
-    assert!(offset_of!(Job, pos) == 0);
-    assert!(offset_of!(Job, rssi) == 2);
-    assert!(offset_of!(Job, relay) == 4);
-    assert!(offset_of!(Job, stats) == 6);
-    assert!(offset_of!(Job, obs) == 8);
-    assert!(offset_of!(Job, log2) == 10);
-    assert!(offset_of!(Job, n) == 12);
-    assert!(offset_of!(Job, c) == 13);
-    assert!(offset_of!(Job, i) == 14);
-    assert!(offset_of!(Job, j) == 15);
-    assert!(offset_of!(Job, bytes) == 16);
     // What the routine writes: an `Obs` is 9 bytes (pos 0, z 4, weight 8), `len` at 72,
     // `const_cost` at 74.
     assert!(size_of::<Obs>() == 9);
@@ -63,49 +32,94 @@ const _: () = {
 };
 
 impl ReportKernel for AvrFit {
-    #[inline(never)]
+    #[inline(always)]
     fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observations) {
         report_inputs(r, stats, obs)
     }
 }
 
-/// [`loc_core::fixed::portable_report_inputs`], exactly; see the module docs.
+/// [`loc_core::fixed::portable_report_inputs`], exactly; see the module docs. Inlined: the
+/// routine checks the layout and builds its [`Job`] on the stack itself (no Rust frame), and its
+/// caller saves the registers it clobbers anyway.
 #[inline(always)]
 pub fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observations) {
-    if r.size().is_none() {
-        return;
-    }
-    let (n, c) = (r.anchors, r.channels);
-    let pos = r.bytes.as_ptr();
-    let rssi = pos.wrapping_add(4 * n as usize);
-    let relay = if r.relay {
-        rssi.wrapping_add(c as usize * n as usize)
-    } else {
-        core::ptr::null()
-    };
-    let mut job = Job {
-        pos,
-        rssi,
-        relay,
-        stats,
-        obs,
-        log2: log2_segment_base(),
-        n,
-        c,
-        i: 0,
-        j: 0,
-        bytes: [0; 8],
-    };
-    // SAFETY: `size` checked that `r.bytes` holds the layout (n ≤ 8, c ≤ 4), so every byte read
-    // through `pos`, `rssi` and `relay` is within it; the routine writes the `CalStats` and
-    // `Observations` (whose offsets are asserted, `len` kept ≤ 8) and the job, reads 6 bytes of
-    // the log2 table with `lpm`, pushes and restores Y and otherwise writes only the declared
-    // registers, r0, r1 (left at 0), the flags and the stack below SP (its own calls).
+    let [l0, l1] = (r.bytes.len() as u16).to_le_bytes();
+    let [o0, o1] = (obs as *mut Observations as usize as u16).to_le_bytes();
+    let [t0, t1] = (log2_segment_base() as usize as u16).to_le_bytes();
+    // SAFETY: the routine first checks what `ReportBytes::size` checks (n ≤ 8, c ≤ 4, the slice
+    // holding the layout) and does nothing otherwise, so every byte read through `pos`, `rssi`
+    // and `relay` is within `r.bytes`; it writes the `CalStats` and `Observations` (whose
+    // offsets are asserted, `len` kept ≤ 8) and its job, which it pushes below SP and releases;
+    // it reads 6 bytes of the log2 table with `lpm`, saves and restores Y and otherwise writes
+    // only the declared registers, r0, r1 (left at 0), the flags and the stack below SP.
     unsafe {
         asm!(
-            "push r28",
+            // The layout: n ≤ 8, c ≤ 4, len ≥ 4n + c·n·(n with the relay bytes, else 1).
+            "cpi r22, 9",
+            "brsh 38f",
+            "cpi r23, 5",
+            "brsh 38f",
+            "mov r20, r22",
+            "tst r21",
+            "brne 36f",
+            "ldi r20, 1",
+            "36:",
+            "mul r22, r23",
+            "mul r0, r20",
+            "mov r20, r22",
+            "lsl r20",
+            "lsl r20",
+            "add r0, r20",
+            "clr r20",
+            "adc r1, r20",
+            "cp r24, r0",
+            "cpc r25, r1",
+            "brsh 37f",
+            "38:",
+            "rjmp 98f",
+            // The job, pushed from its end: 8 bytes, j, i (any), c, n, log2, obs, stats,
+            // relay (rssi + c·n, or null), rssi (pos + 4n), pos; Y at it (saved first).
+            "37:",
+            "clr r1",
             "push r29",
-            "movw r28, r30",
+            "push r28",
+            "ldi r20, 10",
+            "35:",
+            "push r1",
+            "dec r20",
+            "brne 35b",
+            "push r23",
+            "push r22",
+            "push r17",
+            "push r16",
+            "push r19",
+            "push r18",
+            "push r27",
+            "push r26",
+            "mul r22, r23",
+            "mov r20, r22",
+            "lsl r20",
+            "lsl r20",
+            "movw r26, r30",
+            "add r26, r20",
+            "adc r27, r1",
+            "movw r24, r26",
+            "add r24, r0",
+            "adc r25, r1",
+            "tst r21",
+            "brne 34f",
+            "clr r24",
+            "clr r25",
+            "34:",
+            "push r25",
+            "push r24",
+            "push r27",
+            "push r26",
+            "push r31",
+            "push r30",
+            "in r28, 0x3d",
+            "in r29, 0x3e",
+            "adiw r28, 1",
             // The pairs, with the relay bytes only (without them every byte is 0: no samples).
             "ldd r30, Y+4",
             "ldd r31, Y+5",
@@ -345,9 +359,17 @@ pub fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observatio
             "58:",
             "inc r16",
             "rjmp 51b",
+            // the job released, Y restored
             "59:",
-            "pop r29",
+            "adiw r28, 23",
+            "in r0, 0x3f",
+            "cli",
+            "out 0x3e, r29",
+            "out 0x3f, r0",
+            "out 0x3d, r28",
             "pop r28",
+            "pop r29",
+            "98:",
             "clr r1",
             "rjmp 99f",
             // x of the pair (`distance_x`)
@@ -400,13 +422,16 @@ pub fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observatio
             "brne 66b",
             "ret",
             "99:",
-            inout("Z") &mut job as *mut Job => _,
-            out("X") _,
+            inout("Z") r.bytes.as_ptr() => _,
+            inout("X") stats as *mut CalStats => _,
+            inout("r24") l0 => _, inout("r25") l1 => _,
+            inout("r22") r.anchors => _, inout("r23") r.channels => _,
+            inout("r21") r.relay as u8 => _,
+            inout("r18") o0 => _, inout("r19") o1 => _,
+            inout("r16") t0 => _, inout("r17") t1 => _,
             out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
             out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r12") _,
-            out("r13") _, out("r14") _, out("r15") _, out("r16") _, out("r17") _,
-            out("r18") _, out("r19") _, out("r20") _, out("r21") _, out("r22") _,
-            out("r23") _, out("r24") _, out("r25") _,
+            out("r13") _, out("r14") _, out("r15") _, out("r20") _,
         );
     }
 }
