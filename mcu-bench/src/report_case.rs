@@ -16,8 +16,11 @@ pub const SEED: u32 = 0x9E37_79B9;
 /// One report and what its results are added to.
 #[derive(Clone, Copy, Debug)]
 pub struct Case {
-    /// The bytes from the first position on (8 anchors, 4 channels and the relay bytes fit).
-    pub buf: [u8; 4 * 8 + 4 * 8 * 8],
+    /// The bytes: `start` of a header (anything), then the report's (8 anchors, 4 channels and
+    /// the relay bytes fit).
+    pub buf: [u8; 13 + 4 * 8 + 4 * 8 * 8],
+    /// Where the first position is (0–13).
+    pub start: u8,
     /// How many of them the report passes (sometimes one short of its layout).
     pub len: usize,
     /// Anchors (0–8, sometimes 9).
@@ -38,6 +41,7 @@ impl Case {
     pub fn bytes(&self) -> ReportBytes<'_> {
         ReportBytes {
             bytes: &self.buf[..self.len],
+            start: self.start,
             anchors: self.n,
             channels: self.c,
             relay: self.relay,
@@ -98,12 +102,17 @@ pub fn draw(seed: &mut u32, case: &mut Case) {
     if r.below(16) == 0 && len > 0 {
         len -= 1;
     }
+    let start = r.pick(&[0u8, 1, 10, 13]);
     // (9 anchors or 5 channels are refused whatever the length.)
-    case.len = len.min(case.buf.len());
+    case.len = (start as usize + len).min(case.buf.len());
+    case.start = start;
     (case.n, case.c, case.relay) = (n, c, relay);
     // Positions: anywhere, the i16 extremes, 1 cm from (or on) the previous one, a room.
     let style = r.below(4);
-    let buf = &mut case.buf;
+    let (head, buf) = case.buf.split_at_mut(start as usize);
+    for b in head.iter_mut() {
+        *b = r.next() as u8;
+    }
     for k in 0..(n as usize).min(8) {
         let (x, y) = match style {
             0 => (r.next() as i16, r.next() as i16),

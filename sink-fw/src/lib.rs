@@ -146,11 +146,12 @@ impl ReportData for ReportView<'_> {
     /// (one assembly routine on the AVR).
     #[inline(always)]
     fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations) {
-        let c = self.channels();
+        let c = self.channels() as u8;
         let r = ReportBytes {
-            bytes: self.bytes().get(9 + c..).unwrap_or(&[]),
+            bytes: self.bytes(),
+            start: 9 + c,
             anchors: self.anchors() as u8,
-            channels: c as u8,
+            channels: c,
             relay: self.has_relay(),
         };
         Fit::report_inputs(&r, stats, obs)

@@ -28,7 +28,8 @@ fn avr_report_inputs_equal_the_portable_ones() {
     assert_eq!(got.len(), REPORTS as usize, "{out}");
     let mut seed = SEED;
     let mut case = Case {
-        buf: [0; 4 * 8 + 4 * 8 * 8],
+        buf: [0; 13 + 4 * 8 + 4 * 8 * 8],
+        start: 0,
         len: 0,
         n: 0,
         c: 0,

@@ -229,15 +229,17 @@ fn div_round(num: u32, d: u32) -> u32 {
     (num + d / 2) / d
 }
 
-/// A report's measurement bytes as the radio message carries them (loc-proto's report from its
-/// first anchor position on): `anchors` positions (x, y: little-endian `i16`, cm), the agent's
+/// A report's measurement bytes as the radio message carries them (loc-proto's report: from its
+/// first anchor position, at `start`, on): `anchors` positions (x, y: little-endian `i16`, cm), the agent's
 /// RSSI bytes channel by channel (`anchors` each), then, with `relay`, per channel and anchor
 /// `i` the bytes anchor `i` relayed of the other anchors `j ≠ i` (`anchors − 1` each). 0 bytes:
 /// not heard.
 #[derive(Clone, Copy, Debug)]
 pub struct ReportBytes<'a> {
-    /// The bytes, from the first position on (more are not read).
+    /// The bytes (before `start` and after the layout not read).
     pub bytes: &'a [u8],
+    /// Where the first position is.
+    pub start: u8,
     /// Anchors in use, at most [`MAX_ANCHORS`].
     pub anchors: u8,
     /// Channels in use, at most [`MAX_CHANNELS`].
@@ -247,12 +249,12 @@ pub struct ReportBytes<'a> {
 }
 
 impl ReportBytes<'_> {
-    /// The bytes the layout takes; `None` beyond [`MAX_ANCHORS`] or [`MAX_CHANNELS`] or when
+    /// The bytes the layout takes, `start` included; `None` beyond [`MAX_ANCHORS`] or [`MAX_CHANNELS`] or when
     /// `bytes` is shorter (then a [`ReportKernel`] adds nothing).
     pub fn size(&self) -> Option<usize> {
         let (n, c) = (self.anchors as usize, self.channels as usize);
         let rows = if self.relay { n } else { 1 };
-        let len = 4 * n + c * n * rows;
+        let len = self.start as usize + 4 * n + c * n * rows;
         (n <= MAX_ANCHORS && c <= MAX_CHANNELS && self.bytes.len() >= len).then_some(len)
     }
 }
@@ -282,7 +284,7 @@ pub fn portable_report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut O
         return;
     }
     let (n, c) = (r.anchors as usize, r.channels as usize);
-    let at = |k: usize| r.bytes.get(k).copied().unwrap_or(0);
+    let at = |k: usize| r.bytes.get(r.start as usize + k).copied().unwrap_or(0);
     let pos = |i: usize| {
         let k = 4 * i;
         PointCm::new(

@@ -38,7 +38,8 @@ mod avr {
         let mut serial = board.serial;
         let mut seed = SEED;
         let mut case = Case {
-            buf: [0; 4 * 8 + 4 * 8 * 8],
+            buf: [0; 13 + 4 * 8 + 4 * 8 * 8],
+            start: 0,
             len: 0,
             n: 0,
             c: 0,

@@ -47,18 +47,24 @@ pub fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observatio
     let [o0, o1] = (obs as *mut Observations as usize as u16).to_le_bytes();
     let [t0, t1] = (log2_segment_base() as usize as u16).to_le_bytes();
     // SAFETY: the routine first checks what `ReportBytes::size` checks (n ≤ 8, c ≤ 4, the slice
-    // holding the layout) and does nothing otherwise, so every byte read through `pos`, `rssi`
+    // holding `start` and the layout) and does nothing otherwise, so every byte read through `pos`, `rssi`
     // and `relay` is within `r.bytes`; it writes the `CalStats` and `Observations` (whose
     // offsets are asserted, `len` kept ≤ 8) and its job, which it pushes below SP and releases;
     // it reads 6 bytes of the log2 table with `lpm`, saves and restores Y and otherwise writes
     // only the declared registers, r0, r1 (left at 0), the flags and the stack below SP.
     unsafe {
         asm!(
-            // The layout: n ≤ 8, c ≤ 4, len ≥ 4n + c·n·(n with the relay bytes, else 1).
+            // The layout: n ≤ 8, c ≤ 4, len ≥ start + 4n + c·n·(n with the relay bytes, else
+            // 1); Z at the first position.
             "cpi r22, 9",
             "brsh 38f",
             "cpi r23, 5",
             "brsh 38f",
+            "add r30, r20",
+            "adc r31, r1",
+            "sub r24, r20",
+            "sbc r25, r1",
+            "brlo 38f",
             "mov r20, r22",
             "tst r21",
             "brne 36f",
@@ -426,12 +432,12 @@ pub fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observatio
             inout("X") stats as *mut CalStats => _,
             inout("r24") l0 => _, inout("r25") l1 => _,
             inout("r22") r.anchors => _, inout("r23") r.channels => _,
-            inout("r21") r.relay as u8 => _,
+            inout("r21") r.relay as u8 => _, inout("r20") r.start => _,
             inout("r18") o0 => _, inout("r19") o1 => _,
             inout("r16") t0 => _, inout("r17") t1 => _,
             out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
             out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r12") _,
-            out("r13") _, out("r14") _, out("r15") _, out("r20") _,
+            out("r13") _, out("r14") _, out("r15") _,
         );
     }
 }
