@@ -6,7 +6,7 @@
 //! unrelated code), where the host's build is held to the generic path by sink-fw's tests.
 
 use core::hash::{Hash, Hasher};
-use loc_core::fixed::{CalStats, Obs, Observations, PointCm, ReportBytes};
+use loc_core::fixed::{AreaCm, CalStats, Obs, Observations, PointCm, ReportBytes};
 
 /// Reports drawn.
 pub const REPORTS: u32 = 3_000;
@@ -34,6 +34,8 @@ pub struct Case {
     /// The observations to add to (none, some, or nearly full; `const_cost` sometimes near its
     /// top).
     pub obs: Observations,
+    /// The area to widen (none, or anything).
+    pub area: AreaCm,
 }
 
 impl Case {
@@ -176,6 +178,11 @@ pub fn draw(seed: &mut u32, case: &mut Case) {
         _ => 0,
     };
     case.obs = o;
+    case.area = match r.below(4) {
+        0 => AreaCm::new(r.next() as u16, r.next() as u16),
+        1 => AreaCm::new(r.range(0, 2000) as u16, r.range(0, 2000) as u16),
+        _ => AreaCm::new(0, 0),
+    };
 }
 
 /// FNV-1a over the bytes `Hash` feeds it, `usize` as `u16` (the same on the AVR and the host).
@@ -199,8 +206,8 @@ impl Hasher for Fnv {
 
 /// What the firmware prints of a report's results: a hash of every field of the sums, one of
 /// every field of the observations (the unused slots too), the sample count, the observation
-/// count and `const_cost`.
-pub fn digest(stats: &CalStats, obs: &Observations) -> [u32; 5] {
+/// count, `const_cost` and the area (width in the high half).
+pub fn digest(stats: &CalStats, obs: &Observations, area: &AreaCm) -> [u32; 6] {
     let mut h = Fnv(0x811C_9DC5);
     stats.hash(&mut h);
     let mut g = Fnv(0x811C_9DC5);
@@ -211,5 +218,6 @@ pub fn digest(stats: &CalStats, obs: &Observations) -> [u32; 5] {
         stats.len() as u32,
         obs.len() as u32,
         obs.const_cost,
+        (area.width as u32) << 16 | area.height as u32,
     ]
 }

@@ -85,7 +85,7 @@ pub trait ReportData {
     /// relay matrix.
     fn relay(&self, c: usize, i: usize, j: usize) -> u8;
     /// [`report_inputs_into`].
-    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations);
+    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations, area: &mut AreaCm);
 }
 
 impl ReportData for Report {
@@ -114,8 +114,8 @@ impl ReportData for Report {
             0
         }
     }
-    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations) {
-        inputs_by_accessors(self, stats, obs)
+    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations, area: &mut AreaCm) {
+        inputs_by_accessors(self, stats, obs, area)
     }
 }
 
@@ -145,7 +145,7 @@ impl ReportData for ReportView<'_> {
     /// The report's bytes from the first position on, by [`ReportKernel::report_inputs`]
     /// (one assembly routine on the AVR).
     #[inline(always)]
-    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations) {
+    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations, area: &mut AreaCm) {
         let c = self.channels() as u8;
         let r = ReportBytes {
             bytes: self.bytes(),
@@ -154,7 +154,7 @@ impl ReportData for ReportView<'_> {
             channels: c,
             relay: self.has_relay(),
         };
-        Fit::report_inputs(&r, stats, obs)
+        Fit::report_inputs(&r, stats, obs, area)
     }
 }
 
@@ -384,15 +384,10 @@ impl<K: TermKernel> Sink<K> {
     /// straight from the report's bytes.
     pub fn on_report(&mut self, r: &impl ReportData) -> Result<Fix, LocError> {
         let (mut stats, mut obs) = (CalStats::new(), Observations::new());
-        report_inputs_into(r, &mut stats, &mut obs);
-        // `anchors_box` of the report's positions, read one by one.
-        let area = self.area.unwrap_or_else(|| {
-            let mut a = AreaCm::new(0, 0);
-            for i in 0..r.anchors() {
-                widen(&mut a, r.position(i));
-            }
-            a
-        });
+        // `anchors_box` of the report's positions, from the same pass over its bytes.
+        let mut anchors = AreaCm::new(0, 0);
+        report_inputs_into(r, &mut stats, &mut obs, &mut anchors);
+        let area = self.area.unwrap_or(anchors);
         self.locate(r.agent(), r.seq(), area, &stats, &obs)
     }
 
@@ -484,8 +479,8 @@ fn bump(c: &mut u32) {
 /// [`CalStats::from_measurements`] of [`measurements`]) and the agent's observations under the
 /// Extended refinement (as [`observations`]).
 pub fn report_inputs(r: &impl ReportData) -> (CalStats, Observations) {
-    let (mut stats, mut obs) = (CalStats::new(), Observations::new());
-    report_inputs_into(r, &mut stats, &mut obs);
+    let (mut stats, mut obs, mut area) = (CalStats::new(), Observations::new(), AreaCm::new(0, 0));
+    report_inputs_into(r, &mut stats, &mut obs, &mut area);
     (stats, obs)
 }
 
@@ -494,13 +489,23 @@ pub fn report_inputs(r: &impl ReportData) -> (CalStats, Observations) {
 /// ([`ReportKernel`]: assembly on the AVR, inlined into [`Sink::on_report`], which saves the
 /// registers it clobbers anyway), a [`Report`]'s through its accessors.
 #[inline(always)]
-pub fn report_inputs_into(r: &impl ReportData, stats: &mut CalStats, obs: &mut Observations) {
-    r.inputs_into(stats, obs)
+pub fn report_inputs_into(
+    r: &impl ReportData,
+    stats: &mut CalStats,
+    obs: &mut Observations,
+    area: &mut AreaCm,
+) {
+    r.inputs_into(stats, obs, area)
 }
 
 /// [`report_inputs_into`] by [`ReportData`]'s accessors: every anchor pair's relayed bytes
 /// (both directions) into `stats`, each anchor's Extended refinement into `obs`.
-fn inputs_by_accessors(r: &impl ReportData, stats: &mut CalStats, obs: &mut Observations) {
+fn inputs_by_accessors(
+    r: &impl ReportData,
+    stats: &mut CalStats,
+    obs: &mut Observations,
+    area: &mut AreaCm,
+) {
     let n = r.anchors();
     let c = r.channels();
     // Without the relay matrix every byte is 0 (not heard): no samples. The bytes as they are
@@ -517,6 +522,7 @@ fn inputs_by_accessors(r: &impl ReportData, stats: &mut CalStats, obs: &mut Obse
     }
     // The Extended refinement of each anchor's bytes (0 = not heard), as `observations_of`.
     for i in 0..n {
+        widen(area, r.position(i));
         let mut bytes = [0u8; loc_core::MAX_CHANNELS];
         for (ch, v) in bytes[..c].iter_mut().enumerate() {
             *v = r.rssi(ch, i);

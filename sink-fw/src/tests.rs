@@ -306,8 +306,16 @@ fn reports_go_the_same_way_as_their_measurements() {
         }
         let m = measurements(&r);
         let (stats, obs) = report_inputs(&r);
+        let mut area = AreaCm::new(0, 0);
+        report_inputs_into(
+            &r,
+            &mut CalStats::new(),
+            &mut Observations::new(),
+            &mut area,
+        );
         assert_eq!(stats, CalStats::from_measurements(&m, None), "report {t}");
         assert_eq!(obs, observations(&m, Refinement::Extended), "report {t}");
+        assert_eq!(area, anchors_box(&m.anchors[..m.n_anchors]), "report {t}");
         let fa = a.on_report(&r);
         assert_eq!(fa, b.on_measurements(r.agent, r.seq, &m), "report {t}");
         // Off the wire, read in place (what the firmware does): the same inputs.
@@ -316,6 +324,14 @@ fn reports_go_the_same_way_as_their_measurements() {
             if let Ok(n) = r.encode(&mut buf) {
                 let view = loc_proto::msg::ReportView::parse(&buf[..n]).unwrap();
                 assert_eq!(report_inputs(&view), (stats, obs), "report {t}");
+                let mut a = AreaCm::new(0, 0);
+                report_inputs_into(
+                    &view,
+                    &mut CalStats::new(),
+                    &mut Observations::new(),
+                    &mut a,
+                );
+                assert_eq!(a, area, "report {t}");
                 views += 1;
             }
         }

@@ -10,8 +10,9 @@ use mcu_bench::report_case::{digest, draw, Case, REPORTS, SEED};
 /// 3 000 random reports (0–9 anchors, 0–5 channels, relay bytes or not, bytes 0 to 255, rooms,
 /// coincident and extreme positions, slices too short) added to random sums and observations:
 /// every field of the sums and of the observations equal (by their hashes, the counts and
-/// `const_cost`); pairs pushed, observations made, `const_cost` saturated, the 256-sample limit
-/// reached and reports left alone all among them.
+/// `const_cost`), and the anchors' box widened alike; pairs pushed, observations made,
+/// `const_cost` saturated, the 256-sample limit reached, areas widened and reports left alone all
+/// among them.
 #[test]
 fn avr_report_inputs_equal_the_portable_ones() {
     harness::build().expect("bench firmware");
@@ -36,14 +37,16 @@ fn avr_report_inputs_equal_the_portable_ones() {
         relay: false,
         stats: Default::default(),
         obs: Default::default(),
+        area: Default::default(),
     };
     let (mut bad, mut pairs, mut seen, mut cut, mut alone, mut full) = (0, 0, 0, 0, 0, 0);
+    let mut widened = 0;
     for (k, g) in got.iter().enumerate() {
         draw(&mut seed, &mut case);
         let (s0, o0) = (case.stats, case.obs);
-        let (mut s, mut o) = (s0, o0);
-        portable_report_inputs(&case.bytes(), &mut s, &mut o);
-        let want = digest(&s, &o);
+        let (mut s, mut o, mut a) = (s0, o0, case.area);
+        portable_report_inputs(&case.bytes(), &mut s, &mut o, &mut a);
+        let want = digest(&s, &o, &a);
         if g[..] != want[..] {
             bad += 1;
             if bad <= 5 {
@@ -59,10 +62,12 @@ fn avr_report_inputs_equal_the_portable_ones() {
         seen += o.len() - o0.len();
         cut += usize::from(s.len() == 256 && s0.len() < 256 && heard);
         full += usize::from(o.const_cost == u32::MAX && o0.const_cost < u32::MAX);
+        widened += usize::from(a != case.area);
     }
     println!(
         "reports {REPORTS}, mismatches {bad}, with samples {pairs}, observations {seen}, \
-         cut at 256 samples {cut}, const_cost saturated {full}, left alone {alone}"
+         cut at 256 samples {cut}, const_cost saturated {full}, area widened {widened}, \
+         left alone {alone}"
     );
     assert_eq!(bad, 0);
     assert!(pairs >= 1_500, "{pairs}");
@@ -70,4 +75,5 @@ fn avr_report_inputs_equal_the_portable_ones() {
     assert!(cut >= 50, "{cut}");
     assert!(full >= 20, "{full}");
     assert!(alone >= 100, "{alone}");
+    assert!(widened >= 1_000, "{widened}");
 }

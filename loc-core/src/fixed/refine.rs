@@ -5,7 +5,7 @@ use super::math::{log2_u32, log2_u33, log2_u64, m8, mul_shr};
 use super::params::FitKernel;
 use super::params::{CalStats, PortableFit};
 use super::tables::{decade, decibel};
-use super::{ChannelBytes, Measurements, PointCm, DB};
+use super::{AreaCm, ChannelBytes, Measurements, PointCm, DB};
 use crate::refine::Refinement;
 use crate::{MAX_ANCHORS, MAX_CHANNELS};
 
@@ -259,27 +259,43 @@ impl ReportBytes<'_> {
     }
 }
 
-/// A report's calibration sums and observations straight from its bytes: what the sink does
-/// per report, [`portable_report_inputs`] here, one AVR assembly routine on the sink
+/// A report's calibration sums, observations and anchors' extent straight from its bytes: what
+/// the sink does per report, [`portable_report_inputs`] here, one AVR assembly routine on the sink
 /// (`uno_board::AvrFit`); both leave exactly the same results (`report-check`).
 pub trait ReportKernel {
     /// Adds `r`'s samples (every anchor pair `i < j`, both directions' relayed bytes, by
     /// [`CalStats::push_pair_with`]) to `stats` and its anchors' Extended observations (by
-    /// [`extended`], the spreads to `const_cost`) to `obs`; nothing when `r` does not hold its
-    /// layout ([`ReportBytes::size`]).
-    fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observations);
+    /// [`extended`], the spreads to `const_cost`) to `obs`, and widens `area` to each anchor's
+    /// position (x and y below 0 as 0: the sink's anchors' box); nothing when `r` does not hold
+    /// its layout ([`ReportBytes::size`]).
+    fn report_inputs(
+        r: &ReportBytes,
+        stats: &mut CalStats,
+        obs: &mut Observations,
+        area: &mut AreaCm,
+    );
 }
 
 impl ReportKernel for PortableFit {
-    fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observations) {
-        portable_report_inputs(r, stats, obs)
+    fn report_inputs(
+        r: &ReportBytes,
+        stats: &mut CalStats,
+        obs: &mut Observations,
+        area: &mut AreaCm,
+    ) {
+        portable_report_inputs(r, stats, obs, area)
     }
 }
 
 /// [`ReportKernel::report_inputs`]: every pair by [`CalStats::push_pair`] (what
 /// [`CalStats::push_pair_with`] adds, whatever the [`FitKernel`]), every anchor by [`extended`]
 /// (the definition the assembly one is checked against).
-pub fn portable_report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observations) {
+pub fn portable_report_inputs(
+    r: &ReportBytes,
+    stats: &mut CalStats,
+    obs: &mut Observations,
+    area: &mut AreaCm,
+) {
     if r.size().is_none() {
         return;
     }
@@ -312,17 +328,16 @@ pub fn portable_report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut O
         }
     }
     for i in 0..n {
+        let p = pos(i);
+        area.width = area.width.max(p.x.max(0) as u16);
+        area.height = area.height.max(p.y.max(0) as u16);
         let mut bytes = [0u8; MAX_CHANNELS];
         for (ch, v) in bytes[..c].iter_mut().enumerate() {
             *v = at(rssi + ch * n + i);
         }
         if let Some((z, weight, spread)) = extended(&bytes[..c]) {
             obs.const_cost = obs.const_cost.saturating_add(spread);
-            obs.push(Obs {
-                pos: pos(i),
-                z,
-                weight,
-            });
+            obs.push(Obs { pos: p, z, weight });
         }
     }
 }

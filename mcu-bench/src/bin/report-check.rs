@@ -4,8 +4,9 @@
 //! sometimes 0 or 5, relay bytes or not, bytes 0 = not heard to 255, positions in a room,
 //! coincident, 1 cm apart or anywhere in `i16`, slices one byte short), added to random sums
 //! (some nearly at the 256-sample limit) and observations (some nearly full, `const_cost` near
-//! saturation). Prints one line per report, `r <hash of the sums> <hash of the observations>
-//! <samples> <observations> <const_cost>` (`report_case::digest`), then `end`; the host
+//! saturation) and areas. Prints one line per report, `r <hash of the sums> <hash of the
+//! observations> <samples> <observations> <const_cost> <area>` (`report_case::digest`), then
+//! `end`; the host
 //! (`tests/tests/report_check.rs`) computes the portable twin on the same reports and compares.
 //! Build: `cargo fw-bench`.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
@@ -25,7 +26,7 @@ fn main() -> ! {
 #[cfg(target_arch = "avr")]
 mod avr {
     use core::hint::black_box;
-    use loc_core::fixed::{CalStats, Observations, ReportKernel};
+    use loc_core::fixed::{AreaCm, CalStats, Observations, ReportKernel};
     use mcu_bench::fw::write_u32;
     use mcu_bench::report_case::{digest, draw, Case, REPORTS, SEED};
     use uno_board::{AvrFit, Board};
@@ -46,13 +47,14 @@ mod avr {
             relay: false,
             stats: CalStats::new(),
             obs: Observations::new(),
+            area: AreaCm::new(0, 0),
         };
         for _ in 0..black_box(REPORTS) {
             draw(&mut seed, &mut case);
-            let (mut s, mut o) = (case.stats, case.obs);
-            AvrFit::report_inputs(black_box(&case.bytes()), &mut s, &mut o);
+            let (mut s, mut o, mut a) = (case.stats, case.obs, case.area);
+            AvrFit::report_inputs(black_box(&case.bytes()), &mut s, &mut o, &mut a);
             serial.write_byte(b'r');
-            for v in digest(&s, &o) {
+            for v in digest(&s, &o, &a) {
                 serial.write_byte(b' ');
                 write_u32(&mut serial, v);
             }

@@ -4,20 +4,24 @@
 //! gathered and pushed into `CalStats` with the pair's `x` (the [`AvrFit`] distance and push
 //! code, `rcall`ed here: their one copy in the sink), then each anchor's Extended refinement
 //! (byte sums in registers, the two rounding divisions by the channel count bit by bit) into
-//! `Observations`. It computes exactly [`loc_core::fixed::portable_report_inputs`], which
+//! `Observations`, and each anchor's position into the anchors' box. It computes exactly [`loc_core::fixed::portable_report_inputs`], which
 //! `hoploc-tests` checks in simavr on random reports (`mcu-bench`'s `report-check`).
 //!
-//! Register plan: the job in Y (r29:r28, saved), 24 bytes the routine pushes: `pos` 0, `rssi` 2
+//! `Observations`, and each anchor's position into the anchors' box.
+//!
+//! Register plan: the job in Y (r29:r28, saved), 26 bytes the routine pushes: `pos` 0, `rssi` 2
 //! (the agent's bytes), `relay` 4 (null without them), `stats` 6, `obs` 8, the log2 table 10,
-//! `n` 12, `c` 13, the pair loop's `i` 14 and `j` 15, the pair's 8 bytes 16 (the distance and
-//! push code clobber nearly every register); r1 is zero between `mul`s in the pair loop, r2
-//! throughout the observations.
+//! `n` 12, `c` 13, the pair loop's `i` 14 and `j` 15, the pair's 8 bytes 16, `area` 24 (the
+//! distance and push code clobber nearly every register); r1 is zero between `mul`s in the pair
+//! loop, r2 throughout the observations.
 
 use super::fit::{distance_x_asm, push_asm};
 use super::AvrFit;
 use core::arch::asm;
 use core::mem::{offset_of, size_of};
-use loc_core::fixed::{log2_segment_base, CalStats, Obs, Observations, ReportBytes, ReportKernel};
+use loc_core::fixed::{
+    log2_segment_base, AreaCm, CalStats, Obs, Observations, ReportBytes, ReportKernel,
+};
 
 const _: () = {
     // What the routine writes: an `Obs` is 9 bytes (pos 0, z 4, weight 8), `len` at 72,
@@ -29,12 +33,19 @@ const _: () = {
     assert!(offset_of!(loc_core::fixed::PointCm, x) == 0);
     assert!(offset_of!(loc_core::fixed::PointCm, y) == 2);
     assert!(size_of::<Observations>() == 78);
+    assert!(offset_of!(AreaCm, width) == 0);
+    assert!(offset_of!(AreaCm, height) == 2);
 };
 
 impl ReportKernel for AvrFit {
     #[inline(always)]
-    fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observations) {
-        report_inputs(r, stats, obs)
+    fn report_inputs(
+        r: &ReportBytes,
+        stats: &mut CalStats,
+        obs: &mut Observations,
+        area: &mut AreaCm,
+    ) {
+        report_inputs(r, stats, obs, area)
     }
 }
 
@@ -42,14 +53,20 @@ impl ReportKernel for AvrFit {
 /// routine checks the layout and builds its [`Job`] on the stack itself (no Rust frame), and its
 /// caller saves the registers it clobbers anyway.
 #[inline(always)]
-pub fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observations) {
+pub fn report_inputs(
+    r: &ReportBytes,
+    stats: &mut CalStats,
+    obs: &mut Observations,
+    area: &mut AreaCm,
+) {
     let [l0, l1] = (r.bytes.len() as u16).to_le_bytes();
     let [o0, o1] = (obs as *mut Observations as usize as u16).to_le_bytes();
     let [t0, t1] = (log2_segment_base() as usize as u16).to_le_bytes();
+    let [a0, a1] = (area as *mut AreaCm as usize as u16).to_le_bytes();
     // SAFETY: the routine first checks what `ReportBytes::size` checks (n ≤ 8, c ≤ 4, the slice
-    // holding `start` and the layout) and does nothing otherwise, so every byte read through `pos`, `rssi`
-    // and `relay` is within `r.bytes`; it writes the `CalStats` and `Observations` (whose
-    // offsets are asserted, `len` kept ≤ 8) and its job, which it pushes below SP and releases;
+    // holding `start` and the layout) and does nothing otherwise, so every byte read through
+    // `pos`, `rssi` and `relay` is within `r.bytes`; it writes the `CalStats`, `Observations` and
+    // `AreaCm` (whose offsets are asserted, `len` kept ≤ 8) and its job, which it pushes below SP and releases;
     // it reads 6 bytes of the log2 table with `lpm`, saves and restores Y and otherwise writes
     // only the declared registers, r0, r1 (left at 0), the flags and the stack below SP.
     unsafe {
@@ -83,12 +100,14 @@ pub fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observatio
             "brsh 37f",
             "38:",
             "rjmp 98f",
-            // The job, pushed from its end: 8 bytes, j, i (any), c, n, log2, obs, stats,
+            // The job, pushed from its end: area, 8 bytes, j, i (any), c, n, log2, obs, stats,
             // relay (rssi + c·n, or null), rssi (pos + 4n), pos; Y at it (saved first).
             "37:",
             "clr r1",
             "push r29",
             "push r28",
+            "push r15",
+            "push r14",
             "ldi r20, 10",
             "35:",
             "push r1",
@@ -226,7 +245,20 @@ pub fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observatio
             "cp r16, r18",
             "brlo 52f",
             "rjmp 59f",
+            // the area (Y+24) widened to position i (X, left at its last byte)
             "52:",
+            "ldd r26, Y+0",
+            "ldd r27, Y+1",
+            "mov r17, r16",
+            "lsl r17",
+            "lsl r17",
+            "add r26, r17",
+            "adc r27, r2",
+            "ldd r30, Y+24",
+            "ldd r31, Y+25",
+            "rcall 70f",
+            "adiw r30, 2",
+            "rcall 70f",
             "ldd r30, Y+2",
             "ldd r31, Y+3",
             "add r30, r16",
@@ -328,29 +360,24 @@ pub fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observatio
             "sbci r25, 0xFF",
             // pushed if len (obs + 72) < 8
             "sbiw r30, 2",
-            "ld r26, Z",
-            "ldd r27, Z+1",
-            "cpi r26, 8",
-            "cpc r27, r2",
+            "ld r18, Z",
+            "ldd r19, Z+1",
+            "cpi r18, 8",
+            "cpc r19, r2",
             "brsh 58f",
-            "adiw r26, 1",
-            "st Z, r26",
-            "std Z+1, r27",
+            "subi r18, 0xFF",
+            "sbci r19, 0xFF",
+            "st Z, r18",
+            "std Z+1, r19",
             // the slot at obs + 9·len = obs + 9·(len + 1) − 9
             "ldi r17, 9",
-            "mul r26, r17",
+            "mul r18, r17",
             "ldd r30, Y+8",
             "ldd r31, Y+9",
             "add r30, r0",
             "adc r31, r1",
             "sbiw r30, 9",
-            "ldd r26, Y+0",
-            "ldd r27, Y+1",
-            "mov r17, r16",
-            "lsl r17",
-            "lsl r17",
-            "add r26, r17",
-            "adc r27, r2",
+            "sbiw r26, 4",
             "ldi r17, 4",
             "65:",
             "ld r0, X+",
@@ -367,7 +394,7 @@ pub fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observatio
             "rjmp 51b",
             // the job released, Y restored
             "59:",
-            "adiw r28, 23",
+            "adiw r28, 25",
             "in r0, 0x3f",
             "cli",
             "out 0x3e, r29",
@@ -427,6 +454,21 @@ pub fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observatio
             "dec r18",
             "brne 66b",
             "ret",
+            // the u16 at Z raised to the i16 at X+ (if not negative)
+            "70:",
+            "ld r22, X+",
+            "ld r23, X+",
+            "tst r23",
+            "brmi 71f",
+            "ld r24, Z",
+            "ldd r25, Z+1",
+            "cp r24, r22",
+            "cpc r25, r23",
+            "brsh 71f",
+            "st Z, r22",
+            "std Z+1, r23",
+            "71:",
+            "ret",
             "99:",
             inout("Z") r.bytes.as_ptr() => _,
             inout("X") stats as *mut CalStats => _,
@@ -435,9 +477,10 @@ pub fn report_inputs(r: &ReportBytes, stats: &mut CalStats, obs: &mut Observatio
             inout("r21") r.relay as u8 => _, inout("r20") r.start => _,
             inout("r18") o0 => _, inout("r19") o1 => _,
             inout("r16") t0 => _, inout("r17") t1 => _,
+            inout("r14") a0 => _, inout("r15") a1 => _,
             out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
             out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r12") _,
-            out("r13") _, out("r14") _, out("r15") _,
+            out("r13") _,
         );
     }
 }
