@@ -10,12 +10,13 @@
 //! What a report costs (SPEC §8: the sink firmware within 16 KB of flash): [`Sink::on_report`]
 //! takes the calibration statistics and the Extended observations straight from the report's
 //! bytes ([`report_inputs`] over a [`ReportView`] in the firmware: no decoded [`Report`], no
-//! [`Measurements`] of 8 × 8 × 4 optional bytes in between), fits
+//! [`Measurements`] of 8 × 8 × 4 optional bytes in between; on the AVR one assembly routine,
+//! `uno_board::AvrFit`'s [`ReportKernel`], which widens the anchors' box too), fits
 //! P0/α by least squares only, and gets both estimates from one search
 //! (`loc_core::fixed::mle_and_mmse_window_into`: the MMSE's window is the thesis' fine window,
 //! so the coarse stage and the window run once). The results are those of the generic path,
 //! [`Sink::on_measurements`] (thesis MLE, then windowed MMSE), bit for bit (`tests`). The sink
-//! firmware with all of this is 24.1 KB (`hoploc footprint`): it fits the Uno, not yet the
+//! firmware with all of this is 23.4 KB (`hoploc footprint`): it fits the Uno, not yet the
 //! budget.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
