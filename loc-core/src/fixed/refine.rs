@@ -373,6 +373,91 @@ pub fn observations(m: &Measurements, refinement: Refinement) -> Observations {
 mod tests {
     use super::*;
 
+    /// A report's inputs are those of its anchors' bytes by `observations_of` and of its pairs
+    /// by `CalStats::push_pair`, wherever it starts; a slice one byte short (or 9 anchors, or 5
+    /// channels) changes nothing.
+    #[test]
+    fn report_inputs_are_the_pairs_and_the_anchors_bytes() {
+        let (n, c) = (4usize, 3usize);
+        let mut x = 0x1234_5678u32;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x
+        };
+        for t in 0..200 {
+            let start = t % 11;
+            let relay = t % 3 != 0;
+            let len = start + 4 * n + c * n * if relay { n } else { 1 };
+            let mut buf = [0u8; 11 + 4 * 4 + 3 * 4 * 4];
+            for b in buf.iter_mut() {
+                *b = match next() % 4 {
+                    0 => 0,
+                    _ => next() as u8,
+                };
+            }
+            let body = &buf[start..];
+            let pos: [PointCm; 4] = core::array::from_fn(|i| {
+                let b = &body[4 * i..];
+                PointCm::new(
+                    i16::from_le_bytes([b[0], b[1]]),
+                    i16::from_le_bytes([b[2], b[3]]),
+                )
+            });
+            let heard = |v: u8| (v != 0).then_some(v);
+            let rssi: [ChannelBytes; 4] = core::array::from_fn(|i| {
+                core::array::from_fn(|ch| {
+                    (ch < c).then(|| heard(body[4 * n + ch * n + i])).flatten()
+                })
+            });
+            let mut want_s = CalStats::new();
+            if relay {
+                let rel = |ch: usize, i: usize, j: usize| {
+                    heard(body[4 * n + c * n + (ch * n + i) * (n - 1) + j - usize::from(j > i)])
+                };
+                for i in 0..n {
+                    for j in i + 1..n {
+                        let mut b = [None; 8];
+                        for ch in 0..c {
+                            (b[ch], b[4 + ch]) = (rel(ch, i, j), rel(ch, j, i));
+                        }
+                        want_s.push_pair(pos[i], pos[j], &b);
+                    }
+                }
+            }
+            let want_o = observations_of(&pos, &rssi, c, Refinement::Extended);
+            let mut want_a = AreaCm::new(0, 0);
+            for p in pos {
+                want_a.width = want_a.width.max(p.x.max(0) as u16);
+                want_a.height = want_a.height.max(p.y.max(0) as u16);
+            }
+            let r = ReportBytes {
+                bytes: &buf[..len],
+                start: start as u8,
+                anchors: n as u8,
+                channels: c as u8,
+                relay,
+            };
+            let (mut s, mut o, mut a) = (CalStats::new(), Observations::new(), AreaCm::new(0, 0));
+            portable_report_inputs(&r, &mut s, &mut o, &mut a);
+            assert_eq!((s, o, a), (want_s, want_o, want_a), "{t}");
+            for short in [
+                ReportBytes {
+                    bytes: &buf[..len - 1],
+                    ..r
+                },
+                ReportBytes { anchors: 9, ..r },
+                ReportBytes { channels: 5, ..r },
+            ] {
+                let (mut s, mut o, mut a) =
+                    (CalStats::new(), Observations::new(), AreaCm::new(0, 0));
+                portable_report_inputs(&short, &mut s, &mut o, &mut a);
+                assert_eq!((s, o, a), Default::default());
+            }
+        }
+    }
+
     #[test]
     fn extended_of_raw_bytes_is_db_mean_and_spread() {
         // Every combination of up to 4 channels over a spread of byte values, 0 = not heard.
