@@ -9,11 +9,13 @@
 //!
 //! `Observations`, and each anchor's position into the anchors' box.
 //!
-//! Register plan: the job in Y (r29:r28, saved), 26 bytes the routine pushes: `pos` 0, `rssi` 2
+//! Register plan: the job in Y (r29:r28, saved), 28 bytes the routine pushes: `pos` 0, `rssi` 2
 //! (the agent's bytes), `relay` 4 (null without them), `stats` 6, `obs` 8, the log2 table 10,
-//! `n` 12, `c` 13, the pair loop's `i` 14 and `j` 15, the pair's 8 bytes 16, `area` 24 (the
-//! distance and push code clobber nearly every register); r1 is zero between `mul`s in the pair
-//! loop, r2 throughout the observations.
+//! `n` 12, `c` 13, the pair loop's `i` 14 and `j` 15, the pair's 8 bytes 16, the anchors' box
+//! 24 (from 0; out in r15:r14 and r13:r12, the area widened to it in Rust: on the sink, whose
+//! area starts at 0, that folds away and the box never goes through memory) (the distance and
+//! push code clobber nearly every register); r1 is zero between `mul`s in the pair loop, r2
+//! throughout the observations.
 
 use super::fit::{distance_x_asm, push_asm};
 use super::AvrFit;
@@ -33,8 +35,6 @@ const _: () = {
     assert!(offset_of!(loc_core::fixed::PointCm, x) == 0);
     assert!(offset_of!(loc_core::fixed::PointCm, y) == 2);
     assert!(size_of::<Observations>() == 78);
-    assert!(offset_of!(AreaCm, width) == 0);
-    assert!(offset_of!(AreaCm, height) == 2);
 };
 
 impl ReportKernel for AvrFit {
@@ -62,17 +62,23 @@ pub fn report_inputs(
     let [l0, l1] = (r.bytes.len() as u16).to_le_bytes();
     let [o0, o1] = (obs as *mut Observations as usize as u16).to_le_bytes();
     let [t0, t1] = (log2_segment_base() as usize as u16).to_le_bytes();
-    let [a0, a1] = (area as *mut AreaCm as usize as u16).to_le_bytes();
+    let (w0, w1, h0, h1): (u8, u8, u8, u8);
     // SAFETY: the routine first checks what `ReportBytes::size` checks (n ≤ 8, c ≤ 4, the slice
     // holding `start` and the layout) and does nothing otherwise, so every byte read through
-    // `pos`, `rssi` and `relay` is within `r.bytes`; it writes the `CalStats`, `Observations` and
-    // `AreaCm` (whose offsets are asserted, `len` kept ≤ 8) and its job, which it pushes below SP and releases;
+    // `pos`, `rssi` and `relay` is within `r.bytes`; it writes the `CalStats` and `Observations`
+    // (whose offsets are asserted, `len` kept ≤ 8) and its job, which it pushes below SP and
+    // releases;
     // it reads 6 bytes of the log2 table with `lpm`, saves and restores Y and otherwise writes
     // only the declared registers, r0, r1 (left at 0), the flags and the stack below SP.
     unsafe {
         asm!(
             // The layout: n ≤ 8, c ≤ 4, len ≥ start + 4n + c·n·(n with the relay bytes, else
             // 1); Z at the first position.
+            // the box's output 0 unless computed
+            "clr r12",
+            "clr r13",
+            "clr r14",
+            "clr r15",
             "cpi r22, 9",
             "brsh 38f",
             "cpi r23, 5",
@@ -100,15 +106,14 @@ pub fn report_inputs(
             "brsh 37f",
             "38:",
             "rjmp 98f",
-            // The job, pushed from its end: area, 8 bytes, j, i (any), c, n, log2, obs, stats,
+            // The job, pushed from its end: the box (0), 8 bytes, j, i (any), c, n, log2, obs,
+            // stats,
             // relay (rssi + c·n, or null), rssi (pos + 4n), pos; Y at it (saved first).
             "37:",
             "clr r1",
             "push r29",
             "push r28",
-            "push r15",
-            "push r14",
-            "ldi r20, 10",
+            "ldi r20, 14",
             "35:",
             "push r1",
             "dec r20",
@@ -245,7 +250,7 @@ pub fn report_inputs(
             "cp r16, r18",
             "brlo 52f",
             "rjmp 59f",
-            // the area (Y+24) widened to position i (X, left at its last byte)
+            // the box (Y+24) widened to position i (X, left at its last byte)
             "52:",
             "ldd r26, Y+0",
             "ldd r27, Y+1",
@@ -254,8 +259,8 @@ pub fn report_inputs(
             "lsl r17",
             "add r26, r17",
             "adc r27, r2",
-            "ldd r30, Y+24",
-            "ldd r31, Y+25",
+            "movw r30, r28",
+            "adiw r30, 24",
             "rcall 70f",
             "adiw r30, 2",
             "rcall 70f",
@@ -394,7 +399,11 @@ pub fn report_inputs(
             "rjmp 51b",
             // the job released, Y restored
             "59:",
-            "adiw r28, 25",
+            "ldd r14, Y+24",
+            "ldd r15, Y+25",
+            "ldd r12, Y+26",
+            "ldd r13, Y+27",
+            "adiw r28, 27",
             "in r0, 0x3f",
             "cli",
             "out 0x3e, r29",
@@ -477,10 +486,11 @@ pub fn report_inputs(
             inout("r21") r.relay as u8 => _, inout("r20") r.start => _,
             inout("r18") o0 => _, inout("r19") o1 => _,
             inout("r16") t0 => _, inout("r17") t1 => _,
-            inout("r14") a0 => _, inout("r15") a1 => _,
+            out("r14") w0, out("r15") w1, out("r12") h0, out("r13") h1,
             out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
-            out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r12") _,
-            out("r13") _,
+            out("r8") _, out("r9") _, out("r10") _, out("r11") _,
         );
     }
+    area.width = area.width.max(u16::from_le_bytes([w0, w1]));
+    area.height = area.height.max(u16::from_le_bytes([h0, h1]));
 }
