@@ -517,6 +517,9 @@ pub struct ReportView<'a> {
     n: u8,
     c: u8,
     has_relay: bool,
+    /// The agent and the sequence, as parsed: read with no bounds checks.
+    agent: u8,
+    seq: u16,
 }
 
 impl<'a> ReportView<'a> {
@@ -528,7 +531,7 @@ impl<'a> ReportView<'a> {
             return Err(Error::BadKind { found: kind });
         }
         // Byte by byte as `Report::body` reads them: running out is `BadLength`.
-        let &[agent, _, _, anchors, cf] = buf.get(4..9).ok_or(Error::BadLength)? else {
+        let &[agent, s0, s1, anchors, cf] = buf.get(4..9).ok_or(Error::BadLength)? else {
             return Err(Error::BadLength);
         };
         if cf & !(RELAY_FLAG | 0x07) != 0 {
@@ -575,6 +578,8 @@ impl<'a> ReportView<'a> {
             n: anchors,
             c: c as u8,
             has_relay,
+            agent,
+            seq: u16::from_le_bytes([s0, s1]),
         })
     }
 
@@ -589,12 +594,12 @@ impl<'a> ReportView<'a> {
 
     /// The reporting agent.
     pub fn agent(&self) -> u8 {
-        self.at(4)
+        self.agent
     }
 
     /// The superframe sequence number.
     pub fn seq(&self) -> u16 {
-        u16::from_le_bytes([self.at(5), self.at(6)])
+        self.seq
     }
 
     /// N, the number of anchors.

@@ -176,6 +176,30 @@ fn start<W: FnMut(u8)>(o: &mut Out<W>, kind: u8) {
     o.word(kind);
 }
 
+/// A `status` line written field by field (uptime, then the counters in [`SinkLine::Status`]'s
+/// order, then [`StatusOut::end`]): for a writer that reads each counter where it lies as it
+/// writes it (the sink firmware: [`SinkLine::write`] of a built line loaded all seven first).
+pub struct StatusOut<W>(Out<W>);
+
+impl<W: FnMut(u8)> StatusOut<W> {
+    /// `hoploc sink status`, to `out`.
+    pub fn new(out: W) -> StatusOut<W> {
+        let mut o = Out::new(out);
+        start(&mut o, STATUS);
+        StatusOut(o)
+    }
+
+    /// The next field.
+    pub fn num(&mut self, n: u32) {
+        self.0.num(n);
+    }
+
+    /// The checksum and `\r\n`.
+    pub fn end(mut self) {
+        self.0.end(true);
+    }
+}
+
 impl SinkLine {
     /// Writes the line, checksum and `\r\n` included, one byte at a time (at most
     /// [`MAX_SINK_LINE`] bytes).

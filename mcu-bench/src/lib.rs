@@ -32,6 +32,7 @@ pub mod float;
 pub mod fw;
 #[cfg(not(target_arch = "avr"))]
 pub mod harness;
+pub mod report_case;
 pub mod sink;
 
 /// Anchors.

@@ -10,12 +10,13 @@
 //! What a report costs (SPEC §8: the sink firmware within 16 KB of flash): [`Sink::on_report`]
 //! takes the calibration statistics and the Extended observations straight from the report's
 //! bytes ([`report_inputs`] over a [`ReportView`] in the firmware: no decoded [`Report`], no
-//! [`Measurements`] of 8 × 8 × 4 optional bytes in between), fits
+//! [`Measurements`] of 8 × 8 × 4 optional bytes in between; on the AVR one assembly routine,
+//! `uno_board::AvrFit`'s [`ReportKernel`], which widens the anchors' box too), fits
 //! P0/α by least squares only, and gets both estimates from one search
 //! (`loc_core::fixed::mle_and_mmse_window_into`: the MMSE's window is the thesis' fine window,
 //! so the coarse stage and the window run once). The results are those of the generic path,
 //! [`Sink::on_measurements`] (thesis MLE, then windowed MMSE), bit for bit (`tests`). The sink
-//! firmware with all of this is 24.3 KB (`hoploc footprint`): it fits the Uno, not yet the
+//! firmware with all of this is 23.3 KB (`hoploc footprint`): it fits the Uno, not yet the
 //! budget.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
@@ -25,7 +26,7 @@ use core::marker::PhantomData;
 use loc_core::fixed::{
     extended, fit_least_squares_with, mle_and_mmse_window_into, observations, AreaCm, Bounds,
     CalStats, Estimate, FitMethod, LocError, Measurements, Obs, Observations, OnlineParams,
-    ParamMode, PathLoss, PointCm, Refinement, TermKernel,
+    ParamMode, PathLoss, PointCm, Refinement, ReportBytes, ReportKernel, TermKernel,
 };
 use loc_proto::msg::{Position, Report, ReportView};
 
@@ -36,7 +37,7 @@ use loc_proto::msg::{Position, Report, ReportView};
 type Fit = uno_board::AvrFit;
 #[cfg(not(target_arch = "avr"))]
 type Fit = loc_core::fixed::PortableFit;
-use loc_proto::sink_line::{Estimator, SinkLine, FLAG_FITTED};
+use loc_proto::sink_line::{Estimator, SinkLine, StatusOut, FLAG_FITTED};
 use loc_proto::Error;
 
 /// What a [`Report`] measured, for loc-core: anchor positions as the beacons gave them, the
@@ -84,6 +85,8 @@ pub trait ReportData {
     /// The relayed byte anchor `i + 1` heard from `j + 1` on channel number `c`, 0 without the
     /// relay matrix.
     fn relay(&self, c: usize, i: usize, j: usize) -> u8;
+    /// [`report_inputs_into`].
+    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations, area: &mut AreaCm);
 }
 
 impl ReportData for Report {
@@ -112,6 +115,9 @@ impl ReportData for Report {
             0
         }
     }
+    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations, area: &mut AreaCm) {
+        inputs_by_accessors(self, stats, obs, area)
+    }
 }
 
 impl ReportData for ReportView<'_> {
@@ -136,6 +142,20 @@ impl ReportData for ReportView<'_> {
     }
     fn relay(&self, c: usize, i: usize, j: usize) -> u8 {
         ReportView::relay(self, c, i, j)
+    }
+    /// The report's bytes from the first position on, by [`ReportKernel::report_inputs`]
+    /// (one assembly routine on the AVR).
+    #[inline(always)]
+    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations, area: &mut AreaCm) {
+        let c = self.channels() as u8;
+        let r = ReportBytes {
+            bytes: self.bytes(),
+            start: 9 + c,
+            anchors: self.anchors() as u8,
+            channels: c,
+            relay: self.has_relay(),
+        };
+        Fit::report_inputs(&r, stats, obs, area)
     }
 }
 
@@ -278,6 +298,20 @@ pub fn no_fix_line(agent: u8, seq: u16, e: LocError) -> SinkLine {
 }
 
 impl Counters {
+    /// Writes [`Counters::line`]`(uptime_s)`, each counter read as it is written (the firmware:
+    /// through the built line all seven were loaded first; 56 B less AVR flash).
+    pub fn write_line(&self, uptime_s: u32, out: impl FnMut(u8)) {
+        let mut o = StatusOut::new(out);
+        o.num(uptime_s);
+        o.num(self.frames);
+        o.num(self.reports);
+        o.num(self.drops);
+        o.num(self.checksum_errors);
+        o.num(self.foreign);
+        o.num(self.fixes);
+        o.end();
+    }
+
     /// The `status` line at `uptime_s` seconds.
     pub fn line(&self, uptime_s: u32) -> SinkLine {
         SinkLine::Status {
@@ -299,8 +333,11 @@ pub struct Sink<K> {
     area: Option<AreaCm>,
     params: OnlineParams,
     counters: Counters,
-    /// Next expected sequence per agent (index agent − 1).
-    next_seq: [Option<u16>; MAX_AGENTS],
+    /// Next expected sequence per agent (index agent − 1), valid where `seen`: all zeros at
+    /// first (no `Option` array to build field by field).
+    next_seq: [u16; MAX_AGENTS],
+    /// Whether agent `k + 1` has reported.
+    seen: [bool; MAX_AGENTS],
     kernel: PhantomData<K>,
 }
 
@@ -318,7 +355,8 @@ impl<K: TermKernel> Sink<K> {
                 PathLoss::THESIS,
             ),
             counters: Counters::default(),
-            next_seq: [None; MAX_AGENTS],
+            next_seq: [0; MAX_AGENTS],
+            seen: [false; MAX_AGENTS],
             kernel: PhantomData,
         }
     }
@@ -347,15 +385,10 @@ impl<K: TermKernel> Sink<K> {
     /// straight from the report's bytes.
     pub fn on_report(&mut self, r: &impl ReportData) -> Result<Fix, LocError> {
         let (mut stats, mut obs) = (CalStats::new(), Observations::new());
-        report_inputs_into(r, &mut stats, &mut obs);
-        // `anchors_box` of the report's positions, read one by one.
-        let area = self.area.unwrap_or_else(|| {
-            let mut a = AreaCm::new(0, 0);
-            for i in 0..r.anchors() {
-                widen(&mut a, r.position(i));
-            }
-            a
-        });
+        // `anchors_box` of the report's positions, from the same pass over its bytes.
+        let mut anchors = AreaCm::new(0, 0);
+        report_inputs_into(r, &mut stats, &mut obs, &mut anchors);
+        let area = self.area.unwrap_or(anchors);
         self.locate(r.agent(), r.seq(), area, &stats, &obs)
     }
 
@@ -387,15 +420,17 @@ impl<K: TermKernel> Sink<K> {
     ) -> Result<Fix, LocError> {
         bump(&mut self.counters.frames);
         bump(&mut self.counters.reports);
-        if let Some(next) = self.next_seq.get_mut((agent as usize).wrapping_sub(1)) {
-            if let Some(want) = *next {
-                let gap = seq.wrapping_sub(want);
+        let k = agent.wrapping_sub(1) as usize;
+        if let (Some(next), Some(seen)) = (self.next_seq.get_mut(k), self.seen.get_mut(k)) {
+            if *seen {
+                let gap = seq.wrapping_sub(*next);
                 // A gap of more than half the sequence space is a late or repeated report.
                 if gap < 0x8000 {
                     self.counters.drops += gap as u32;
                 }
             }
-            *next = Some(seq.wrapping_add(1));
+            *seen = true;
+            *next = seq.wrapping_add(1);
         }
         // The least-squares fit directly (through `OnlineParams::update` the thesis' grid fit
         // would be linked in too), with the mode and bounds `Sink::new` gave `params` as
@@ -445,19 +480,37 @@ fn bump(c: &mut u32) {
 /// [`CalStats::from_measurements`] of [`measurements`]) and the agent's observations under the
 /// Extended refinement (as [`observations`]).
 pub fn report_inputs(r: &impl ReportData) -> (CalStats, Observations) {
-    let (mut stats, mut obs) = (CalStats::new(), Observations::new());
-    report_inputs_into(r, &mut stats, &mut obs);
+    let (mut stats, mut obs, mut area) = (CalStats::new(), Observations::new(), AreaCm::new(0, 0));
+    report_inputs_into(r, &mut stats, &mut obs, &mut area);
     (stats, obs)
 }
 
 /// [`report_inputs`] added to `stats` and `obs` (new ones: [`report_inputs`]'s result), in
-/// place: a returned pair is copied on the AVR.
-#[inline(never)]
-pub fn report_inputs_into(r: &impl ReportData, stats: &mut CalStats, obs: &mut Observations) {
+/// place: a returned pair is copied on the AVR. A [`ReportView`]'s straight from its bytes
+/// ([`ReportKernel`]: assembly on the AVR, inlined into [`Sink::on_report`], which saves the
+/// registers it clobbers anyway), a [`Report`]'s through its accessors.
+#[inline(always)]
+pub fn report_inputs_into(
+    r: &impl ReportData,
+    stats: &mut CalStats,
+    obs: &mut Observations,
+    area: &mut AreaCm,
+) {
+    r.inputs_into(stats, obs, area)
+}
+
+/// [`report_inputs_into`] by [`ReportData`]'s accessors: every anchor pair's relayed bytes
+/// (both directions) into `stats`, each anchor's Extended refinement into `obs`.
+fn inputs_by_accessors(
+    r: &impl ReportData,
+    stats: &mut CalStats,
+    obs: &mut Observations,
+    area: &mut AreaCm,
+) {
     let n = r.anchors();
     let c = r.channels();
     // Without the relay matrix every byte is 0 (not heard): no samples. The bytes as they are
-    // (0: not heard), the sums by `Fit` (assembly on the AVR).
+    // (0: not heard), the sums by `Fit`.
     for i in 0..n {
         for j in i + 1..n {
             let mut bytes = [0; 2 * loc_core::MAX_CHANNELS];
@@ -470,6 +523,7 @@ pub fn report_inputs_into(r: &impl ReportData, stats: &mut CalStats, obs: &mut O
     }
     // The Extended refinement of each anchor's bytes (0 = not heard), as `observations_of`.
     for i in 0..n {
+        widen(area, r.position(i));
         let mut bytes = [0u8; loc_core::MAX_CHANNELS];
         for (ch, v) in bytes[..c].iter_mut().enumerate() {
             *v = r.rssi(ch, i);

@@ -306,8 +306,16 @@ fn reports_go_the_same_way_as_their_measurements() {
         }
         let m = measurements(&r);
         let (stats, obs) = report_inputs(&r);
+        let mut area = AreaCm::new(0, 0);
+        report_inputs_into(
+            &r,
+            &mut CalStats::new(),
+            &mut Observations::new(),
+            &mut area,
+        );
         assert_eq!(stats, CalStats::from_measurements(&m, None), "report {t}");
         assert_eq!(obs, observations(&m, Refinement::Extended), "report {t}");
+        assert_eq!(area, anchors_box(&m.anchors[..m.n_anchors]), "report {t}");
         let fa = a.on_report(&r);
         assert_eq!(fa, b.on_measurements(r.agent, r.seq, &m), "report {t}");
         // Off the wire, read in place (what the firmware does): the same inputs.
@@ -316,6 +324,14 @@ fn reports_go_the_same_way_as_their_measurements() {
             if let Ok(n) = r.encode(&mut buf) {
                 let view = loc_proto::msg::ReportView::parse(&buf[..n]).unwrap();
                 assert_eq!(report_inputs(&view), (stats, obs), "report {t}");
+                let mut a = AreaCm::new(0, 0);
+                report_inputs_into(
+                    &view,
+                    &mut CalStats::new(),
+                    &mut Observations::new(),
+                    &mut a,
+                );
+                assert_eq!(a, area, "report {t}");
                 views += 1;
             }
         }
@@ -442,4 +458,39 @@ fn decode_errors_are_foreign_or_corrupt() {
         Report::decode(&buf[..n - 1]).map_err(BadFrame::of),
         Err(BadFrame::Corrupt)
     );
+}
+
+/// The firmware's `status` line, written counter by counter ([`Counters::write_line`]), is the
+/// built line's bytes ([`Counters::line`], whose format loc-proto's golden tests pin), for
+/// counters across the whole `u32` range.
+#[test]
+fn status_lines_written_in_place_are_the_built_ones() {
+    let mut x = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = move || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        // Short and long numbers alike: 0…9, then up to 32 bits.
+        match x % 4 {
+            0 => (x >> 8) as u32 % 10,
+            1 => u32::MAX - (x >> 8) as u32 % 3,
+            _ => (x >> (8 + x % 24)) as u32,
+        }
+    };
+    for _ in 0..2000 {
+        let c = Counters {
+            frames: next(),
+            reports: next(),
+            drops: next(),
+            checksum_errors: next(),
+            foreign: next(),
+            fixes: next(),
+            no_fixes: next(),
+        };
+        let uptime = next();
+        let (mut built, mut direct) = (std::vec::Vec::new(), std::vec::Vec::new());
+        c.line(uptime).write(|b| built.push(b));
+        c.write_line(uptime, |b| direct.push(b));
+        assert_eq!(direct, built);
+    }
 }

@@ -124,8 +124,8 @@ pub use params::{
     OnlineParams, PairBytes, ParamFit, PortableFit, MAX_SAMPLES,
 };
 pub use refine::{
-    db_mean, extended, linear_avg, max_rssi, observations, observations_of, refine_anchor, Obs,
-    Observations,
+    db_mean, extended, linear_avg, max_rssi, observations, observations_of, portable_report_inputs,
+    refine_anchor, Obs, Observations, ReportBytes, ReportKernel,
 };
 
 pub use crate::grid::Search;

@@ -10,6 +10,7 @@ pub mod libm;
 pub mod node;
 mod power;
 mod radio;
+mod report;
 mod serial;
 mod time;
 mod watchdog;
