@@ -1,5 +1,5 @@
 //! The sink's search with the AVR kernels (`uno_board::AvrTerm`: the column, posterior,
-//! weights, window, placement and starting-point routines in assembly) against the portable
+//! weights, window, observation, placement and starting-point routines in assembly) against the portable
 //! one, both run on the MCU in simavr by mcu-bench's `search-check` firmware.
 
 use mcu_bench::harness;
@@ -16,7 +16,8 @@ fn counts(out: &str, tag: &str) -> Vec<u32> {
 }
 
 /// 20 000 random jobs (half as a search sets them up, half garbage) give the same coarse start
-/// (`AvrTerm::guess` = `portable_guess`), and 150 random whole sink searches
+/// (`AvrTerm::guess` = `portable_guess`), 10 000 random observation sets give the same setup
+/// (`AvrTerm::observe` = `portable_observe`: every anchor slot and sum), and 150 random whole sink searches
 /// (`mle_and_mmse_window_into`: flat, negative and thesis-like models, area corners, anchors
 /// outside, 3 to 8 anchors, σ edge values) give the same two estimates, every field.
 #[test]
@@ -29,5 +30,6 @@ fn avr_search_equals_the_portable_one() {
     let out = avr.uart_output_string();
     println!("{out}");
     assert_eq!(counts(&out, "guess "), [20_000, 0], "{out}");
+    assert_eq!(counts(&out, "observe "), [10_000, 0], "{out}");
     assert_eq!(counts(&out, "search "), [150, 0], "{out}");
 }

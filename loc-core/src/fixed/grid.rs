@@ -23,7 +23,7 @@
 //! loop inlined into its one caller (a frame fewer).
 
 use super::kernel::{
-    log2_segment_base, ColumnJob, Placement, Portable, Posterior, TermKernel, Weights,
+    log2_segment_base, ColumnJob, Portable, Posterior, Setup, TermKernel, Weights,
 };
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
@@ -49,8 +49,6 @@ const INF: u32 = u32::MAX;
 /// Largest real cost.
 const COST_MAX: u32 = u32::MAX - 1;
 
-/// `log2(1 m²)` in lattice units `(1/50 cm)²`: `log2(5000²)`, Q.20.
-const LOG2_M2: i32 = 25_769_201;
 /// `5·log10(2)`, Q.31.
 const FIVE_LOG10_2_Q31: u32 = 3_232_284_966;
 
@@ -211,30 +209,18 @@ impl<K: TermKernel> Grid<K> {
         (g.job.xstep, g.job.ystep) = (area.width, area.height);
         g.job.seg_base = log2_segment_base();
         g.job.n = 0;
-        for o in obs.as_slice() {
-            let d = o.z.wrapping_sub(model.p0);
-            let ad = d.unsigned_abs();
-            // The flat cost: Q.4 dB residuals (< 2^14) squared into Q.8 dB², w ≤ 4. (Here, not
-            // where it is used: one loop over the observations.)
-            let q = (ad >> 12).min(0x3FFF);
-            g.flat_cost = g.flat_cost.saturating_add(q * q * (o.weight & 7) as u32);
-            g.anchors += 1;
-            g.weight = g.weight.wrapping_add(o.weight);
-            // |z − P0| Q.16 (< 2^26) as Q.22, × 2^30/K → Q.20.
-            let r = K::mul_hi(ad.min((1 << 26) - 1) << 6, inv_k).min(1 << 30) as i32;
-            let r = if (d < 0) != (model.alpha < 0) { -r } else { r };
-            // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32. Strongest
-            // anchor first: its term grows fastest away from the winner, so evaluations stop
-            // after fewer terms. A completed cost is the same sum in any order, and one that
-            // reaches its bound is set to the bound: no result depends on it.
-            let p = Placement {
-                rho: r - LOG2_M2,
-                x: o.pos.x,
-                y: o.pos.y,
-                weight: o.weight,
-            };
-            K::place(&mut g.job, &p);
-        }
+        // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32. Strongest anchor
+        // first (`place`): its term grows fastest away from the winner, so evaluations stop
+        // after fewer terms. A completed cost is the same sum in any order, and one that
+        // reaches its bound is set to the bound: no result depends on it.
+        let mut s = Setup {
+            p0: model.p0,
+            inv_k,
+            neg: u8::from(model.alpha < 0),
+            ..Setup::default()
+        };
+        K::observe(&mut g.job, &mut s, obs.as_slice());
+        (g.flat_cost, g.anchors, g.weight) = (s.flat_cost, s.anchors, s.weight);
         if flat {
             g.job.n = 0;
         }

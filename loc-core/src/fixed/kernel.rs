@@ -16,6 +16,7 @@
 //! equal, bit for bit.
 
 use super::math::{exp2_neg_q26, log2_fast, sq16, sq_q18};
+use super::refine::Obs;
 use super::tables;
 use crate::MAX_ANCHORS;
 
@@ -85,6 +86,18 @@ pub trait TermKernel {
         Self: Sized,
     {
         portable_place(job, p)
+    }
+
+    /// A search's observations set up: each one's `ρ`, sign and clamp, the flat cost, the
+    /// counts, and the anchor placed in `job` ([`TermKernel::place`]): exactly
+    /// [`portable_observe`]`::<Self>(job, s, obs)` (the default; `obs.len() ≤ MAX_ANCHORS −
+    /// job.n`). A kernel overrides it: LLVM's AVR loop is most of ≈ 900 bytes of `Grid::setup`.
+    #[inline(always)]
+    fn observe(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs])
+    where
+        Self: Sized,
+    {
+        portable_observe::<Self>(job, s, obs)
     }
 
     /// A search's coarse starting point (coarse indices, each ≤ 10) for `job` with its window
@@ -470,6 +483,58 @@ pub struct Placement {
     pub y: i16,
     /// Observation weight (1 to 3 kept, anything else is 4).
     pub weight: u8,
+}
+
+/// `log2(1 m²)` in lattice units `(1/50 cm)²`: `log2(5000²)`, Q.20.
+pub const LOG2_M2: i32 = 25_769_201;
+
+/// A search's setup over its observations, for [`TermKernel::observe`]: its inputs (`P0`,
+/// `2^30/|K|`, α's sign), its sums and a [`Placement`]'s scratch. `repr(C)` (on AVR: `p` 0,
+/// `p0` 9, `inv_k` 13, `neg` 17, `flat_cost` 18, `anchors` 22, `weight` 23): an assembly
+/// kernel reads it by offset.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Setup {
+    /// Scratch: the anchor being placed.
+    pub p: Placement,
+    /// P0, Q.16 dBm.
+    pub p0: i32,
+    /// `2^30/|K|` (Q.25 of `2^30/|K|` in Q.26 units; 0 for a flat cost).
+    pub inv_k: u32,
+    /// 1 if α < 0 (`ρ` changes sign), else 0.
+    pub neg: u8,
+    /// Sum: the cost if flat (α = 0), `Σ w·(z − P0)²`, Q.8 dB², saturating (`w` is `weight & 7`).
+    pub flat_cost: u32,
+    /// Count of the observations.
+    pub anchors: u8,
+    /// Sum of their weights (wrapping).
+    pub weight: u8,
+}
+
+/// The reference of [`TermKernel::observe`], per observation: `d = z − P0` (wrapping); the
+/// flat cost plus `(w & 7)·q²`, `q = min(|d| >> 12, 2^14 − 1)` (Q.4 dB, squared into Q.8 dB²),
+/// saturating; `ρ = ±min(mul_hi(min(|d|, 2^26 − 1) << 6, inv_k), 2^30) − log2(1 m²)` (Q.20,
+/// negative when `d < 0` and α ≥ 0 or the reverse); then [`TermKernel::place`].
+pub fn portable_observe<K: TermKernel>(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs]) {
+    for o in obs {
+        let d = o.z.wrapping_sub(s.p0);
+        let ad = d.unsigned_abs();
+        // |z − P0| Q.16 (< 2^26) as Q.22, × 2^30/K → Q.20 (and Q.4 dB for the flat cost).
+        let a = ad.min((1 << 26) - 1) << 6;
+        let q = a >> 18;
+        s.flat_cost = s.flat_cost.saturating_add(q * q * (o.weight & 7) as u32);
+        s.anchors = s.anchors.wrapping_add(1);
+        s.weight = s.weight.wrapping_add(o.weight);
+        let r = K::mul_hi(a, s.inv_k).min(1 << 30) as i32;
+        let r = if (d < 0) != (s.neg != 0) { -r } else { r };
+        s.p = Placement {
+            rho: r - LOG2_M2,
+            x: o.pos.x,
+            y: o.pos.y,
+            weight: o.weight,
+        };
+        K::place(job, &s.p);
+    }
 }
 
 /// The reference of [`TermKernel::place`]: `p` goes after the anchors whose sort key (`ρ`

@@ -3,7 +3,9 @@
 //! on 20 000 jobs: half set up as a search sets them up (random observations placed by
 //! `portable_place`: sorted keys, real shifts), half garbage (any `n`, keys in any order, any
 //! shift byte, any offsets and sides, 0 and the extremes among them); prints `badguess n xstep
-//! ystep portable avr` for its first mismatches, then `guess <checked> <mismatches>`. Then
+//! ystep portable avr` for its first mismatches, then `guess <checked> <mismatches>`. Then `AvrTerm::observe` against
+//! `portable_observe` on 10 000 random observation sets (`observe_inputs`); prints `badobserve
+//! <i> …` for its first mismatches, then `observe <checked> <mismatches>`. Then
 //! `mle_and_mmse_window_into` with `AvrTerm` against the same with `Portable` on 150 random
 //! searches (3 to 8 anchors inside and outside the area, rooms of 1 to 65 m and a corner-sized
 //! one, flat (α = 0, tiny), negative and thesis-like models, σ = 0, 1, 65 535 and random; every
@@ -113,6 +115,37 @@ fn main() -> ! {
         }
     }
     line(&mut serial, b"guess", &[n, bad]);
+    // ---- observe ----
+    let (mut bad, n) = (0u32, black_box(10_000u32));
+    for i in 0..n {
+        let (mut want_job, mut want_s, all, len) = observe_inputs(i, &mut r);
+        let obs = &all[..len as usize];
+        let (mut got_job, mut got_s) = (want_job, want_s);
+        loc_core::fixed::portable_observe::<loc_core::fixed::Portable>(
+            &mut want_job,
+            &mut want_s,
+            black_box(obs),
+        );
+        uno_board::AvrTerm::observe(&mut got_job, &mut got_s, black_box(obs));
+        let same_anchors = want_job.anchors.iter().zip(&got_job.anchors).all(|(a, b)| {
+            (a.dx0, a.dy0, a.lclamp, a.rho, a.w, a.shift)
+                == (b.dx0, b.dy0, b.lclamp, b.rho, b.w, b.shift)
+        });
+        if want_s != got_s || want_job.n != got_job.n || !same_anchors {
+            bad += 1;
+            if bad <= 5 {
+                let v = [
+                    i,
+                    want_s.flat_cost,
+                    got_s.flat_cost,
+                    want_s.p.rho as u32,
+                    got_s.p.rho as u32,
+                ];
+                line(&mut serial, b"badobserve", &v);
+            }
+        }
+    }
+    line(&mut serial, b"observe", &[n, bad]);
     // ---- the sink's whole search ----
     let (mut bad, n) = (0u32, black_box(150u32));
     for t in 0..n {
@@ -140,6 +173,75 @@ fn main() -> ! {
         avr_device::interrupt::disable();
         avr_device::asm::sleep();
     }
+}
+
+/// Observation job `i`'s inputs: a job with `xstep`, `ystep` of any size and 0 to 5 anchors
+/// already placed, a [`loc_core::fixed::Setup`] with any `P0` (the extremes among them),
+/// `inv_k` 0, small, as a search has it or any, either sign, sums near saturation or wrapping,
+/// and 1 to 8 − n observations with any `z` (near `P0` or anywhere), position and weight byte.
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+fn observe_inputs(
+    i: u32,
+    r: &mut u32,
+) -> (
+    loc_core::fixed::ColumnJob,
+    loc_core::fixed::Setup,
+    [loc_core::fixed::Obs; loc_core::MAX_ANCHORS],
+    u8,
+) {
+    use loc_core::fixed::{ColumnJob, Obs, Placement, PointCm, Setup};
+    use mcu_bench::fw::xorshift;
+    let mut next = || xorshift(r);
+    let mut job = ColumnJob::EMPTY;
+    (job.xstep, job.ystep) = (1 + next() as u16 % 6_500, next() as u16);
+    let pre = next() % 6;
+    for _ in 0..pre {
+        let (a, b) = (next(), next());
+        let p = Placement {
+            rho: a as i32 >> (b % 8),
+            x: b as i16,
+            y: (b >> 16) as i16,
+            weight: a as u8,
+        };
+        loc_core::fixed::portable_place(&mut job, &p);
+    }
+    let (a, b, c) = (next(), next(), next());
+    let s = Setup {
+        p0: match i % 5 {
+            0 => i32::MIN,
+            1 => i32::MAX,
+            2 => a as i32,
+            _ => -((a % (90 << 16)) as i32),
+        },
+        inv_k: match i % 7 {
+            0 => 0,
+            1 => u32::MAX,
+            2 => b % 1_000,
+            3 => b,
+            _ => (1 << 25) + b % (1 << 28),
+        },
+        neg: (c & 1) as u8,
+        flat_cost: if c & 2 == 0 { c } else { u32::MAX - (c >> 20) },
+        anchors: (c >> 8) as u8,
+        weight: (c >> 16) as u8,
+        ..Setup::default()
+    };
+    let mut obs = [Obs::default(); loc_core::MAX_ANCHORS];
+    let len = 1 + next() % (8 - pre);
+    for o in &mut obs[..len as usize] {
+        let (x, y) = (next(), next());
+        *o = Obs {
+            pos: PointCm::new(x as i16, (x >> 16) as i16),
+            z: if y % 3 == 0 {
+                y as i32
+            } else {
+                s.p0.wrapping_add((y >> 4) as i32 >> (y % 16))
+            },
+            weight: (y >> 8) as u8,
+        };
+    }
+    (job, s, obs, len as u8)
 }
 
 /// Search `t`'s inputs: observations, model, area, σ (Q.8 dB).

@@ -27,8 +27,8 @@
 use core::arch::asm;
 use core::mem::{offset_of, size_of};
 use loc_core::fixed::{
-    exp2_segment_table, log2_segment_base, AnchorTerm, ColumnJob, Placement, Posterior, TermKernel,
-    Weights,
+    exp2_segment_table, log2_segment_base, AnchorTerm, ColumnJob, Obs, Placement, Posterior, Setup,
+    TermKernel, Weights,
 };
 
 // The offsets the assembly reads (AVR has no padding).
@@ -67,6 +67,13 @@ const _: () = {
     assert!(offset_of!(loc_core::fixed::Weights, ra) == 8);
     assert!(offset_of!(Posterior, col) == 13);
     assert!(offset_of!(Posterior, s) == 14);
+    assert!(offset_of!(Setup, p) == 0);
+    assert!(offset_of!(Setup, p0) == 9);
+    assert!(offset_of!(Setup, inv_k) == 13);
+    assert!(offset_of!(Setup, neg) == 17);
+    assert!(offset_of!(Setup, flat_cost) == 18);
+    assert!(offset_of!(Setup, anchors) == 22);
+    assert!(offset_of!(Setup, weight) == 23);
 };
 
 /// The AVR kernel for `loc_core::fixed::{mle_with, mmse_with, estimate_with}`.
@@ -113,6 +120,11 @@ impl TermKernel for AvrTerm {
     #[inline(never)]
     fn place(job: &mut ColumnJob, p: &Placement) {
         place(job, p)
+    }
+
+    #[inline(never)]
+    fn observe(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs]) {
+        observe(job, s, obs)
     }
 
     #[inline(never)]
@@ -1757,4 +1769,199 @@ pub fn guess(job: &ColumnJob) -> u16 {
         );
     }
     g
+}
+
+/// [`loc_core::fixed::portable_observe`]`(job, s, obs)`, exactly: per observation its
+/// position and weight copied into `s.p`, the counts, `d = z − P0` and `|d|` clamped and
+/// scaled (`a`, the argument of [`AvrTerm`]'s `mul_hi`; `q = a >> 18`), the flat cost plus
+/// `(w & 7)` saturating additions of `q²`, then `ρ` from `mul_hi` (called), clamped, signed
+/// and less `log2(1 m²)`, and [`AvrTerm`]'s `place` called on `s.p`.
+///
+/// Register plan: r3:r2 the job, r5:r4 `s`, r7:r6 the next observation, r8 observations left,
+/// r9 the weight, r14 bit 0 set when `ρ` changes sign (all kept across the calls, which follow
+/// the ABI: r1 zero, r2–r17 preserved); r25:r22 `d`, then `a`, then `ρ`.
+pub fn observe(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs]) {
+    // SAFETY: reads `obs` (Z, `obs.len()` items of `size_of::<Obs>()` bytes at the offsets
+    // `offset_of!` gives) and `s`, writes `s` (Z, within the `&mut`, at the offsets asserted
+    // above); the job only through the called `place`, whose contract (`job.n + obs.len() ≤
+    // MAX_ANCHORS`) is the caller's, as for the portable one. The calls use the stack (their
+    // return addresses and saves) and follow the ABI; every register they or this code may
+    // change is declared; r1 is zero at the end.
+    unsafe {
+        asm!(
+            "movw r2, r24",
+            "movw r4, r22",
+            "movw r6, r20",
+            "mov r8, r18",
+            "tst r8",
+            "brne 1f",
+            "rjmp 19f",
+            // ---- one observation: z r25:r22, x, y, w into s.p, next observation ----
+            "1:",
+            "movw r30, r6",
+            "ldd r22, Z+{oz}",
+            "ldd r23, Z+{oz}+1",
+            "ldd r24, Z+{oz}+2",
+            "ldd r25, Z+{oz}+3",
+            "ldd r18, Z+{ox}",
+            "ldd r19, Z+{ox}+1",
+            "ldd r20, Z+{oy}",
+            "ldd r21, Z+{oy}+1",
+            "ldd r9, Z+{ow}",
+            "adiw r30, {size}",
+            "movw r6, r30",
+            "movw r30, r4",
+            "std Z+4, r18",
+            "std Z+5, r19",
+            "std Z+6, r20",
+            "std Z+7, r21",
+            "std Z+8, r9",
+            // ---- anchors += 1, weight += w ----
+            "ldd r0, Z+22",
+            "inc r0",
+            "std Z+22, r0",
+            "ldd r0, Z+23",
+            "add r0, r9",
+            "std Z+23, r0",
+            // ---- d = z − P0; r14 = neg, complemented if d < 0; |d| ----
+            "ldd r0, Z+9",
+            "sub r22, r0",
+            "ldd r0, Z+10",
+            "sbc r23, r0",
+            "ldd r0, Z+11",
+            "sbc r24, r0",
+            "ldd r0, Z+12",
+            "sbc r25, r0",
+            "ldd r14, Z+17",
+            "sbrs r25, 7",
+            "rjmp 2f",
+            "com r14",
+            "com r25",
+            "com r24",
+            "com r23",
+            "neg r22",
+            "sbci r23, 0xFF",
+            "sbci r24, 0xFF",
+            "sbci r25, 0xFF",
+            // ---- a = min(|d|, 2^26 − 1) << 6 ----
+            "2:",
+            "cpi r25, 4",
+            "brlo 3f",
+            "ldi r22, 0xC0",
+            "ldi r23, 0xFF",
+            "ldi r24, 0xFF",
+            "ldi r25, 0xFF",
+            "rjmp 5f",
+            "3:",
+            "ldi r16, 6",
+            "4:",
+            "lsl r22",
+            "rol r23",
+            "rol r24",
+            "rol r25",
+            "dec r16",
+            "brne 4b",
+            // ---- q = a >> 18 in r17:r16, q² in r21:r18 ----
+            "5:",
+            "movw r16, r24",
+            "lsr r17",
+            "ror r16",
+            "lsr r17",
+            "ror r16",
+            "mul r16, r16",
+            "movw r18, r0",
+            "mul r17, r17",
+            "movw r20, r0",
+            "mul r16, r17",
+            "lsl r0",
+            "rol r1",
+            "add r19, r0",
+            "adc r20, r1",
+            "clr r1",
+            "adc r21, r1",
+            // ---- flat (r11:r10:r17:r16) += q², (w & 7) times, saturating ----
+            "ldd r16, Z+18",
+            "ldd r17, Z+19",
+            "ldd r10, Z+20",
+            "ldd r11, Z+21",
+            "mov r26, r9",
+            "andi r26, 7",
+            "rjmp 7f",
+            "6:",
+            "add r16, r18",
+            "adc r17, r19",
+            "adc r10, r20",
+            "adc r11, r21",
+            "brcc 7f",
+            "ldi r16, 0xFF",
+            "ldi r17, 0xFF",
+            "movw r10, r16",
+            "7:",
+            "subi r26, 1",
+            "brcc 6b",
+            "std Z+18, r16",
+            "std Z+19, r17",
+            "std Z+20, r10",
+            "std Z+21, r11",
+            // ---- r = min(mul_hi(a, inv_k), 2^30) ----
+            "ldd r18, Z+13",
+            "ldd r19, Z+14",
+            "ldd r20, Z+15",
+            "ldd r21, Z+16",
+            "call {mul_hi}",
+            "cpi r25, 0x40",
+            "brlo 8f",
+            "ldi r25, 0x40",
+            "ldi r24, 0",
+            "ldi r23, 0",
+            "ldi r22, 0",
+            // ---- ρ = ±r − log2(1 m²) into s.p; place(job, &s.p) ----
+            "8:",
+            "sbrs r14, 0",
+            "rjmp 9f",
+            "com r25",
+            "com r24",
+            "com r23",
+            "neg r22",
+            "sbci r23, 0xFF",
+            "sbci r24, 0xFF",
+            "sbci r25, 0xFF",
+            "9:",
+            "subi r22, {m0}",
+            "sbci r23, {m1}",
+            "sbci r24, {m2}",
+            "sbci r25, {m3}",
+            "movw r30, r4",
+            "st Z, r22",
+            "std Z+1, r23",
+            "std Z+2, r24",
+            "std Z+3, r25",
+            "movw r24, r2",
+            "movw r22, r4",
+            "call {place}",
+            "dec r8",
+            "breq 19f",
+            "rjmp 1b",
+            "19:",
+            oz = const offset_of!(Obs, z),
+            ox = const offset_of!(Obs, pos) + offset_of!(loc_core::fixed::PointCm, x),
+            oy = const offset_of!(Obs, pos) + offset_of!(loc_core::fixed::PointCm, y),
+            ow = const offset_of!(Obs, weight),
+            size = const size_of::<Obs>(),
+            m0 = const loc_core::fixed::LOG2_M2 & 0xFF,
+            m1 = const (loc_core::fixed::LOG2_M2 >> 8) & 0xFF,
+            m2 = const (loc_core::fixed::LOG2_M2 >> 16) & 0xFF,
+            m3 = const (loc_core::fixed::LOG2_M2 >> 24) & 0xFF,
+            mul_hi = sym <AvrTerm as TermKernel>::mul_hi,
+            place = sym <AvrTerm as TermKernel>::place,
+            inout("r25r24") job as *mut ColumnJob => _,
+            inout("r23r22") s as *mut Setup => _,
+            inout("r21r20") obs.as_ptr() => _,
+            inout("r18") obs.len() as u8 => _,
+            out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
+            out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r14") _,
+            out("r16") _, out("r17") _, out("r19") _, out("r26") _, out("r27") _,
+            out("r30") _, out("r31") _,
+        );
+    }
 }
