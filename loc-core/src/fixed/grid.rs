@@ -49,9 +49,6 @@ const INF: u32 = u32::MAX;
 /// Largest real cost.
 const COST_MAX: u32 = u32::MAX - 1;
 
-/// `5·log10(2)`, Q.31.
-const FIVE_LOG10_2_Q31: u32 = 3_232_284_966;
-
 /// Which estimator produced a fixed-point fix.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Estimator {
@@ -155,13 +152,10 @@ struct Grid<K> {
     rows: u8,
     /// Evaluations (the host's multi-start, exhaustive and full MMSE searches count here).
     evals: u16,
-    /// Observations and the sum of their weights (the estimate's `anchors`, `total_weight`).
-    anchors: u8,
-    weight: u8,
-    /// `|K|` in Q.26 (`K = 5·α·log10 2`); below `2^10` the cost is flat (`job.n = 0`).
-    k26: u32,
-    /// The cost if flat (α = 0): `Σ w·(z − P0)²`, Q.8 dB², saturating.
-    flat_cost: u32,
+    /// The model in, and what [`TermKernel::observe`] sums and derives: `|K|` (below `2^10` the
+    /// cost is flat, `job.n = 0`), the cost if flat, the observations and the sum of their
+    /// weights (the estimate's `anchors`, `total_weight`). (In the grid: no copies.)
+    s: Setup,
     job: ColumnJob,
     sums: [u32; ROWS],
     kernel: PhantomData<K>,
@@ -174,10 +168,7 @@ impl<K: TermKernel> Grid<K> {
         j0: 0,
         rows: 0,
         evals: 0,
-        anchors: 0,
-        weight: 0,
-        k26: 0,
-        flat_cost: 0,
+        s: Setup::ZERO,
         job: ColumnJob::EMPTY,
         sums: [0; ROWS],
         kernel: PhantomData,
@@ -190,40 +181,16 @@ impl<K: TermKernel> Grid<K> {
     /// copied on AVR, and two 240-byte grids on the stack are too many.)
     #[inline(never)]
     fn setup(&mut self, obs: &Observations, model: PathLoss, area: AreaCm) {
-        // |α| ≤ 32 (ALPHA_LIMIT, 2^29 in Q.24): Q.27 fits a u32; K < 48.2 in Q.26 too. (P0
-        // needs no clamp: |z − P0| is limited below.)
-        let k26 = K::mul_hi(
-            model.alpha.unsigned_abs().min(super::ALPHA_LIMIT as u32) << 3,
-            FIVE_LOG10_2_Q31,
-        );
-        let flat = k26 < 1 << 10;
-        // 2^30/|K| (saturating below |K| = 1/4, where only the flatness of the cost matters).
-        let inv_k = if flat {
-            0
-        } else {
-            K::div_shl(1 << 30, k26 >> 1, 25)
-        };
         let g = self;
-        g.k26 = k26;
         // The fine steps in lattice units: `W`, `H` (cm).
         (g.job.xstep, g.job.ystep) = (area.width, area.height);
         g.job.seg_base = log2_segment_base();
-        g.job.n = 0;
         // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32. Strongest anchor
         // first (`place`): its term grows fastest away from the winner, so evaluations stop
         // after fewer terms. A completed cost is the same sum in any order, and one that
         // reaches its bound is set to the bound: no result depends on it.
-        let mut s = Setup {
-            p0: model.p0,
-            inv_k,
-            neg: u8::from(model.alpha < 0),
-            ..Setup::default()
-        };
-        K::observe(&mut g.job, &mut s, obs.as_slice());
-        (g.flat_cost, g.anchors, g.weight) = (s.flat_cost, s.anchors, s.weight);
-        if flat {
-            g.job.n = 0;
-        }
+        (g.s.p0, g.s.alpha) = (model.p0, model.alpha);
+        K::observe(&mut g.job, &mut g.s, obs.as_slice());
     }
 
     fn flat(&self) -> bool {
@@ -473,17 +440,17 @@ impl<K: TermKernel> Grid<K> {
         out: &mut Estimate,
     ) {
         let cost = if self.flat() {
-            self.flat_cost
+            self.s.flat_cost
         } else {
             // C = K²·C': K² Q.20 (< 2^32) × C' Q.20 → Q.8.
-            K::mul_hi(best.cost, K::mul_hi(self.k26, self.k26))
+            K::mul_hi(best.cost, K::mul_hi(self.s.k26, self.s.k26))
         };
         out.pos.x = to_mm(area.width, best.i, 0);
         out.pos.y = to_mm(area.height, best.j, 0);
         out.lattice = (best.i, best.j);
         out.min_cost = cost.saturating_add(obs.const_cost);
-        out.anchors = self.anchors;
-        out.total_weight = self.weight;
+        out.anchors = self.s.anchors;
+        out.total_weight = self.s.weight;
         out.evaluations = evals;
     }
 
@@ -510,7 +477,7 @@ impl<K: TermKernel> Grid<K> {
         let mut best = self.coarse();
         let evals = window_evals(best.i, best.j);
         let mut post = Posterior::new(Weights::ZERO, best.cost);
-        K::weights(self.k26, sigma, &mut post.wts);
+        K::weights(self.s.k26, sigma, &mut post.wts);
         self.fine::<true>(&mut best, &mut post);
         let [mle, mmse] = out;
         self.finish(obs, area, &best, evals[0], mle);
@@ -614,7 +581,7 @@ pub fn mmse_with<K: TermKernel>(
     g.setup(obs, model, area);
     let mut best = g.thesis();
     let mut wts = Weights::ZERO;
-    K::weights(g.k26, sigma, &mut wts);
+    K::weights(g.s.k26, sigma, &mut wts);
     let mut cref = best.cost;
     // Σw (< 2^32), Σw·i and Σw·j (< 2^38), relative to `cref`.
     let (mut s, mut sx, mut sy) = (0u64, 0u64, 0u64);

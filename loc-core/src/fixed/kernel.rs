@@ -88,10 +88,10 @@ pub trait TermKernel {
         portable_place(job, p)
     }
 
-    /// A search's observations set up: each one's `ρ`, sign and clamp, the flat cost, the
-    /// counts, and the anchor placed in `job` ([`TermKernel::place`]): exactly
-    /// [`portable_observe`]`::<Self>(job, s, obs)` (the default; `obs.len() ≤ MAX_ANCHORS −
-    /// job.n`). A kernel overrides it: LLVM's AVR loop is most of ≈ 900 bytes of `Grid::setup`.
+    /// A search's observations set up (`job`'s window at the origin, its steps set): `|K|`
+    /// and its inverse, each observation's `ρ`, sign and clamp, the flat cost, the counts, and
+    /// the anchor placed in `job` ([`TermKernel::place`]): exactly
+    /// [`portable_observe`]`::<Self>(job, s, obs)` (the default; `obs.len() ≤ MAX_ANCHORS`). A kernel overrides it: LLVM's AVR loop is most of ≈ 900 bytes of `Grid::setup`.
     #[inline(always)]
     fn observe(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs])
     where
@@ -488,34 +488,60 @@ pub struct Placement {
 /// `log2(1 m²)` in lattice units `(1/50 cm)²`: `log2(5000²)`, Q.20.
 pub const LOG2_M2: i32 = 25_769_201;
 
-/// A search's setup over its observations, for [`TermKernel::observe`]: its inputs (`P0`,
-/// `2^30/|K|`, α's sign), its sums and a [`Placement`]'s scratch. `repr(C)` (on AVR: `p` 0,
-/// `p0` 9, `inv_k` 13, `neg` 17, `flat_cost` 18, `anchors` 22, `weight` 23): an assembly
-/// kernel reads it by offset.
+/// `5·log10(2)`, Q.31.
+const FIVE_LOG10_2_Q31: u32 = 3_232_284_966;
+
+/// A search's setup over its observations, for [`TermKernel::observe`]: its inputs (`P0`, α)
+/// and outputs (`|K|`, the flat cost, the counts). `repr(C)` (on AVR: `p0` 0, `alpha` 4, `k26`
+/// 8, `flat_cost` 12, `anchors` 16, `weight` 17): an assembly kernel reads it by offset.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Setup {
-    /// Scratch: the anchor being placed.
-    pub p: Placement,
-    /// P0, Q.16 dBm.
+    /// Input: P0, Q.16 dBm.
     pub p0: i32,
-    /// `2^30/|K|` (Q.25 of `2^30/|K|` in Q.26 units; 0 for a flat cost).
-    pub inv_k: u32,
-    /// 1 if α < 0 (`ρ` changes sign), else 0.
-    pub neg: u8,
+    /// Input: α, Q.24 (its magnitude clamped to 32).
+    pub alpha: i32,
+    /// Output: `|K|`, Q.26 (`K = 5·α·log10 2`); below `2^10` the cost is flat.
+    pub k26: u32,
     /// Sum: the cost if flat (α = 0), `Σ w·(z − P0)²`, Q.8 dB², saturating (`w` is `weight & 7`).
     pub flat_cost: u32,
-    /// Count of the observations.
+    /// Sum: the observations.
     pub anchors: u8,
-    /// Sum of their weights (wrapping).
+    /// Sum: their weights (wrapping).
     pub weight: u8,
 }
 
-/// The reference of [`TermKernel::observe`], per observation: `d = z − P0` (wrapping); the
-/// flat cost plus `(w & 7)·q²`, `q = min(|d| >> 12, 2^14 − 1)` (Q.4 dB, squared into Q.8 dB²),
-/// saturating; `ρ = ±min(mul_hi(min(|d|, 2^26 − 1) << 6, inv_k), 2^30) − log2(1 m²)` (Q.20,
-/// negative when `d < 0` and α ≥ 0 or the reverse); then [`TermKernel::place`].
+impl Setup {
+    /// All zero (zeroed memory, not a copy from flash, initialises it).
+    pub const ZERO: Setup = Setup {
+        p0: 0,
+        alpha: 0,
+        k26: 0,
+        flat_cost: 0,
+        anchors: 0,
+        weight: 0,
+    };
+}
+
+/// The reference of [`TermKernel::observe`]: `k26 = mul_hi(min(|α|, 2^29) << 3, 5·log10 2
+/// (Q.31))`, `inv_k = div_shl(2^30, k26 >> 1, 25)` (0 if flat: `k26 < 2^10`), `job.n = 0`; then
+/// per observation `d = z − P0` (wrapping); the flat cost plus `(w & 7)·q²`, `q = min(|d| >>
+/// 12, 2^14 − 1)` (Q.4 dB, squared into Q.8 dB²), saturating; `ρ = ±min(mul_hi(min(|d|, 2^26 −
+/// 1) << 6, inv_k), 2^30) − log2(1 m²)` (Q.20, negative when `d < 0` and α ≥ 0 or the
+/// reverse); then [`TermKernel::place`]. A flat cost ends with `job.n = 0` (every point costs
+/// the same).
 pub fn portable_observe<K: TermKernel>(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs]) {
+    // |α| ≤ 32 (2^29 in Q.24): Q.27 fits a u32; K < 48.2 in Q.26 too. (P0 needs no clamp:
+    // |z − P0| is limited below.)
+    s.k26 = K::mul_hi(s.alpha.unsigned_abs().min(1 << 29) << 3, FIVE_LOG10_2_Q31);
+    let flat = s.k26 < 1 << 10;
+    // 2^30/|K| (saturating below |K| = 1/4, where only the flatness of the cost matters).
+    let inv_k = if flat {
+        0
+    } else {
+        K::div_shl(1 << 30, s.k26 >> 1, 25)
+    };
+    job.n = 0;
     for o in obs {
         let d = o.z.wrapping_sub(s.p0);
         let ad = d.unsigned_abs();
@@ -525,15 +551,18 @@ pub fn portable_observe<K: TermKernel>(job: &mut ColumnJob, s: &mut Setup, obs: 
         s.flat_cost = s.flat_cost.saturating_add(q * q * (o.weight & 7) as u32);
         s.anchors = s.anchors.wrapping_add(1);
         s.weight = s.weight.wrapping_add(o.weight);
-        let r = K::mul_hi(a, s.inv_k).min(1 << 30) as i32;
-        let r = if (d < 0) != (s.neg != 0) { -r } else { r };
-        s.p = Placement {
+        let r = K::mul_hi(a, inv_k).min(1 << 30) as i32;
+        let r = if (d < 0) != (s.alpha < 0) { -r } else { r };
+        let p = Placement {
             rho: r - LOG2_M2,
             x: o.pos.x,
             y: o.pos.y,
             weight: o.weight,
         };
-        K::place(job, &s.p);
+        K::place(job, &p);
+    }
+    if flat {
+        job.n = 0;
     }
 }
 

@@ -138,8 +138,8 @@ fn main() -> ! {
                     i,
                     want_s.flat_cost,
                     got_s.flat_cost,
-                    want_s.p.rho as u32,
-                    got_s.p.rho as u32,
+                    want_job.anchors[0].rho as u32,
+                    got_job.anchors[0].rho as u32,
                 ];
                 line(&mut serial, b"badobserve", &v);
             }
@@ -176,9 +176,10 @@ fn main() -> ! {
 }
 
 /// Observation job `i`'s inputs: a job with `xstep`, `ystep` of any size and 0 to 5 anchors
-/// already placed, a [`loc_core::fixed::Setup`] with any `P0` (the extremes among them),
-/// `inv_k` 0, small, as a search has it or any, either sign, sums near saturation or wrapping,
-/// and 1 to 8 − n observations with any `z` (near `P0` or anywhere), position and weight byte.
+/// already in it (garbage: `observe` starts from `n = 0`), a [`loc_core::fixed::Setup`] with
+/// any `P0` and α (0, tiny, negative, as a search has it, the extremes among them), garbage in
+/// its outputs, sums near saturation or wrapping, and 1 to 8 observations with any `z` (near
+/// `P0` or anywhere), position and weight byte.
 #[cfg(target_arch = "avr")]
 #[inline(never)]
 fn observe_inputs(
@@ -214,21 +215,21 @@ fn observe_inputs(
             2 => a as i32,
             _ => -((a % (90 << 16)) as i32),
         },
-        inv_k: match i % 7 {
+        alpha: match i % 7 {
             0 => 0,
-            1 => u32::MAX,
-            2 => b % 1_000,
-            3 => b,
-            _ => (1 << 25) + b % (1 << 28),
+            1 => i32::MIN,
+            2 => (b % 1_000) as i32 - 500,
+            3 => b as i32,
+            4 => -2 * loc_core::fixed::ALPHA,
+            _ => loc_core::fixed::ALPHA + (b % (4 * loc_core::fixed::ALPHA as u32)) as i32,
         },
-        neg: (c & 1) as u8,
+        k26: a,
         flat_cost: if c & 2 == 0 { c } else { u32::MAX - (c >> 20) },
         anchors: (c >> 8) as u8,
         weight: (c >> 16) as u8,
-        ..Setup::default()
     };
     let mut obs = [Obs::default(); loc_core::MAX_ANCHORS];
-    let len = 1 + next() % (8 - pre);
+    let len = 1 + next() % 8;
     for o in &mut obs[..len as usize] {
         let (x, y) = (next(), next());
         *o = Obs {

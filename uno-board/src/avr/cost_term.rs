@@ -67,13 +67,12 @@ const _: () = {
     assert!(offset_of!(loc_core::fixed::Weights, ra) == 8);
     assert!(offset_of!(Posterior, col) == 13);
     assert!(offset_of!(Posterior, s) == 14);
-    assert!(offset_of!(Setup, p) == 0);
-    assert!(offset_of!(Setup, p0) == 9);
-    assert!(offset_of!(Setup, inv_k) == 13);
-    assert!(offset_of!(Setup, neg) == 17);
-    assert!(offset_of!(Setup, flat_cost) == 18);
-    assert!(offset_of!(Setup, anchors) == 22);
-    assert!(offset_of!(Setup, weight) == 23);
+    assert!(offset_of!(Setup, p0) == 0);
+    assert!(offset_of!(Setup, alpha) == 4);
+    assert!(offset_of!(Setup, k26) == 8);
+    assert!(offset_of!(Setup, flat_cost) == 12);
+    assert!(offset_of!(Setup, anchors) == 16);
+    assert!(offset_of!(Setup, weight) == 17);
 };
 
 /// The AVR kernel for `loc_core::fixed::{mle_with, mmse_with, estimate_with}`.
@@ -1771,71 +1770,150 @@ pub fn guess(job: &ColumnJob) -> u16 {
     g
 }
 
-/// [`loc_core::fixed::portable_observe`]`(job, s, obs)`, exactly: per observation its
-/// position and weight copied into `s.p`, the counts, `d = z − P0` and `|d|` clamped and
-/// scaled (`a`, the argument of [`AvrTerm`]'s `mul_hi`; `q = a >> 18`), the flat cost plus
-/// `(w & 7)` saturating additions of `q²`, then `ρ` from `mul_hi` (called), clamped, signed
-/// and less `log2(1 m²)`, and [`AvrTerm`]'s `place` called on `s.p`.
+/// [`loc_core::fixed::portable_observe`]`(job, s, obs)`, exactly: first `|K|` (`mul_hi`,
+/// called), its inverse (`div_shl_c`, called) and `job.n = 0`; then per observation its
+/// [`Placement`] pushed on the stack as it is found (weight, `y`, `x`, then `ρ`: the bytes in
+/// order above the stack pointer), the counts, `d = z − P0` and `|d|` clamped and scaled (`a`,
+/// the argument of `mul_hi`; `q = a >> 18`), the flat cost plus `(w & 7)` saturating
+/// additions of `q²`, then `ρ` from `mul_hi` (called), clamped, signed and less `log2(1 m²)`,
+/// and [`AvrTerm`]'s `place` called on the pushed placement (then popped).
 ///
 /// Register plan: r3:r2 the job, r5:r4 `s`, r7:r6 the next observation, r8 observations left,
-/// r9 the weight, r14 bit 0 set when `ρ` changes sign (all kept across the calls, which follow
-/// the ABI: r1 zero, r2–r17 preserved); r25:r22 `d`, then `a`, then `ρ`.
+/// r9 the weight's `w & 7` (a count), r13:r10 `inv_k`, r14 1 if α < 0, r15 bit 0 set when `ρ`
+/// changes sign (all kept across the calls, which follow the ABI: r1 zero, r2–r17 preserved);
+/// r25:r22 `d`, then `a`, then `ρ`.
 pub fn observe(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs]) {
     // SAFETY: reads `obs` (Z, `obs.len()` items of `size_of::<Obs>()` bytes at the offsets
     // `offset_of!` gives) and `s`, writes `s` (Z, within the `&mut`, at the offsets asserted
-    // above); the job only through the called `place`, whose contract (`job.n + obs.len() ≤
-    // MAX_ANCHORS`) is the caller's, as for the portable one. The calls use the stack (their
-    // return addresses and saves) and follow the ABI; every register they or this code may
-    // change is declared; r1 is zero at the end.
+    // above) and `job.n`; the job's anchors only through the called `place`, whose contract
+    // (`obs.len() ≤ MAX_ANCHORS`) is the caller's, as for the portable one. The stack: 9 bytes
+    // pushed per observation and popped, and the calls (their return addresses and saves),
+    // which follow the ABI; every register they or this code may change is declared; r1 is
+    // zero at the end.
     unsafe {
         asm!(
             "movw r2, r24",
             "movw r4, r22",
             "movw r6, r20",
             "mov r8, r18",
+            // ---- r14 = α < 0; |α| clamped to 2^29, << 3, in r25:r22 ----
+            "movw r30, r4",
+            "ldd r22, Z+4",
+            "ldd r23, Z+5",
+            "ldd r24, Z+6",
+            "ldd r25, Z+7",
+            "mov r14, r25",
+            "lsl r14",
+            "clr r14",
+            "rol r14",
+            "sbrs r25, 7",
+            "rjmp 11f",
+            "com r25",
+            "com r24",
+            "com r23",
+            "neg r22",
+            "sbci r23, 0xFF",
+            "sbci r24, 0xFF",
+            "sbci r25, 0xFF",
+            "11:",
+            "cpi r25, 0x20",
+            "brlo 12f",
+            "ldi r25, 0x20",
+            "ldi r24, 0",
+            "ldi r23, 0",
+            "ldi r22, 0",
+            "12:",
+            "ldi r16, 3",
+            "13:",
+            "lsl r22",
+            "rol r23",
+            "rol r24",
+            "rol r25",
+            "dec r16",
+            "brne 13b",
+            // ---- k26 = mul_hi(·, 5·log10 2 Q.31) ----
+            "ldi r18, {c0}",
+            "ldi r19, {c1}",
+            "ldi r20, {c2}",
+            "ldi r21, {c3}",
+            "call {mul_hi}",
+            "movw r30, r4",
+            "std Z+8, r22",
+            "std Z+9, r23",
+            "std Z+10, r24",
+            "std Z+11, r25",
+            // ---- inv_k = div_shl(2^30, k26 >> 1, 25), 0 if flat (k26 < 2^10) ----
+            "clr r10",
+            "clr r11",
+            "movw r12, r10",
+            "ldi r16, 4",
+            "cp r23, r16",
+            "cpc r24, r1",
+            "cpc r25, r1",
+            "brlo 15f",
+            "movw r18, r22",
+            "movw r20, r24",
+            "lsr r21",
+            "ror r20",
+            "ror r19",
+            "ror r18",
+            "ldi r22, 0",
+            "ldi r23, 0",
+            "ldi r24, 0",
+            "ldi r25, 0x40",
+            "ldi r16, 25",
+            "call {div}",
+            "movw r10, r22",
+            "movw r12, r24",
+            // ---- job.n = 0 ----
+            "15:",
+            "movw r30, r2",
+            "std Z+4, r1",
             "tst r8",
             "brne 1f",
             "rjmp 19f",
-            // ---- one observation: z r25:r22, x, y, w into s.p, next observation ----
+            // ---- one observation: w, y, x pushed; z in r25:r22; next observation ----
             "1:",
             "movw r30, r6",
+            "ldd r16, Z+{ow}",
+            "push r16",
+            "ldd r17, Z+{oy1}",
+            "push r17",
+            "ldd r17, Z+{oy}",
+            "push r17",
+            "ldd r17, Z+{ox1}",
+            "push r17",
+            "ldd r17, Z+{ox}",
+            "push r17",
             "ldd r22, Z+{oz}",
-            "ldd r23, Z+{oz}+1",
-            "ldd r24, Z+{oz}+2",
-            "ldd r25, Z+{oz}+3",
-            "ldd r18, Z+{ox}",
-            "ldd r19, Z+{ox}+1",
-            "ldd r20, Z+{oy}",
-            "ldd r21, Z+{oy}+1",
-            "ldd r9, Z+{ow}",
+            "ldd r23, Z+{oz1}",
+            "ldd r24, Z+{oz2}",
+            "ldd r25, Z+{oz3}",
             "adiw r30, {size}",
             "movw r6, r30",
+            // ---- anchors += 1, weight += w; r9 = w & 7 ----
             "movw r30, r4",
-            "std Z+4, r18",
-            "std Z+5, r19",
-            "std Z+6, r20",
-            "std Z+7, r21",
-            "std Z+8, r9",
-            // ---- anchors += 1, weight += w ----
-            "ldd r0, Z+22",
+            "ldd r0, Z+16",
             "inc r0",
-            "std Z+22, r0",
-            "ldd r0, Z+23",
-            "add r0, r9",
-            "std Z+23, r0",
-            // ---- d = z − P0; r14 = neg, complemented if d < 0; |d| ----
-            "ldd r0, Z+9",
+            "std Z+16, r0",
+            "ldd r0, Z+17",
+            "add r0, r16",
+            "std Z+17, r0",
+            "andi r16, 7",
+            "mov r9, r16",
+            // ---- d = z − P0; r15 = r14, complemented if d < 0; |d| ----
+            "ldd r0, Z+0",
             "sub r22, r0",
-            "ldd r0, Z+10",
+            "ldd r0, Z+1",
             "sbc r23, r0",
-            "ldd r0, Z+11",
+            "ldd r0, Z+2",
             "sbc r24, r0",
-            "ldd r0, Z+12",
+            "ldd r0, Z+3",
             "sbc r25, r0",
-            "ldd r14, Z+17",
+            "mov r15, r14",
             "sbrs r25, 7",
             "rjmp 2f",
-            "com r14",
+            "com r15",
             "com r25",
             "com r24",
             "com r23",
@@ -1879,35 +1957,31 @@ pub fn observe(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs]) {
             "adc r20, r1",
             "clr r1",
             "adc r21, r1",
-            // ---- flat (r11:r10:r17:r16) += q², (w & 7) times, saturating ----
-            "ldd r16, Z+18",
-            "ldd r17, Z+19",
-            "ldd r10, Z+20",
-            "ldd r11, Z+21",
-            "mov r26, r9",
-            "andi r26, 7",
+            // ---- flat (r27:r26:r17:r16) += q², r9 times, saturating ----
+            "ldd r16, Z+12",
+            "ldd r17, Z+13",
+            "ldd r26, Z+14",
+            "ldd r27, Z+15",
             "rjmp 7f",
             "6:",
             "add r16, r18",
             "adc r17, r19",
-            "adc r10, r20",
-            "adc r11, r21",
+            "adc r26, r20",
+            "adc r27, r21",
             "brcc 7f",
             "ldi r16, 0xFF",
             "ldi r17, 0xFF",
-            "movw r10, r16",
+            "movw r26, r16",
             "7:",
-            "subi r26, 1",
-            "brcc 6b",
-            "std Z+18, r16",
-            "std Z+19, r17",
-            "std Z+20, r10",
-            "std Z+21, r11",
+            "dec r9",
+            "brpl 6b",
+            "std Z+12, r16",
+            "std Z+13, r17",
+            "std Z+14, r26",
+            "std Z+15, r27",
             // ---- r = min(mul_hi(a, inv_k), 2^30) ----
-            "ldd r18, Z+13",
-            "ldd r19, Z+14",
-            "ldd r20, Z+15",
-            "ldd r21, Z+16",
+            "movw r18, r10",
+            "movw r20, r12",
             "call {mul_hi}",
             "cpi r25, 0x40",
             "brlo 8f",
@@ -1915,9 +1989,9 @@ pub fn observe(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs]) {
             "ldi r24, 0",
             "ldi r23, 0",
             "ldi r22, 0",
-            // ---- ρ = ±r − log2(1 m²) into s.p; place(job, &s.p) ----
+            // ---- ρ = ±r − log2(1 m²) pushed; place(job, SP + 1); the 9 bytes popped ----
             "8:",
-            "sbrs r14, 0",
+            "sbrs r15, 0",
             "rjmp 9f",
             "com r25",
             "com r24",
@@ -1931,27 +2005,52 @@ pub fn observe(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs]) {
             "sbci r23, {m1}",
             "sbci r24, {m2}",
             "sbci r25, {m3}",
-            "movw r30, r4",
-            "st Z, r22",
-            "std Z+1, r23",
-            "std Z+2, r24",
-            "std Z+3, r25",
+            "push r25",
+            "push r24",
+            "push r23",
+            "push r22",
+            "in r22, 0x3d",
+            "in r23, 0x3e",
+            "subi r22, 0xFF",
+            "sbci r23, 0xFF",
             "movw r24, r2",
-            "movw r22, r4",
             "call {place}",
+            "ldi r16, 9",
+            "10:",
+            "pop r0",
+            "dec r16",
+            "brne 10b",
             "dec r8",
             "breq 19f",
             "rjmp 1b",
+            // ---- a flat cost (inv_k = 0): job.n = 0 ----
             "19:",
+            "or r10, r11",
+            "or r10, r12",
+            "or r10, r13",
+            "brne 20f",
+            "movw r30, r2",
+            "std Z+4, r1",
+            "20:",
             oz = const offset_of!(Obs, z),
+            oz1 = const offset_of!(Obs, z) + 1,
+            oz2 = const offset_of!(Obs, z) + 2,
+            oz3 = const offset_of!(Obs, z) + 3,
             ox = const offset_of!(Obs, pos) + offset_of!(loc_core::fixed::PointCm, x),
+            ox1 = const offset_of!(Obs, pos) + offset_of!(loc_core::fixed::PointCm, x) + 1,
             oy = const offset_of!(Obs, pos) + offset_of!(loc_core::fixed::PointCm, y),
+            oy1 = const offset_of!(Obs, pos) + offset_of!(loc_core::fixed::PointCm, y) + 1,
             ow = const offset_of!(Obs, weight),
             size = const size_of::<Obs>(),
             m0 = const loc_core::fixed::LOG2_M2 & 0xFF,
             m1 = const (loc_core::fixed::LOG2_M2 >> 8) & 0xFF,
             m2 = const (loc_core::fixed::LOG2_M2 >> 16) & 0xFF,
             m3 = const (loc_core::fixed::LOG2_M2 >> 24) & 0xFF,
+            c0 = const 0x26,
+            c1 = const 0xC1,
+            c2 = const 0xA8,
+            c3 = const 0xC0,
+            div = sym div_shl_c,
             mul_hi = sym <AvrTerm as TermKernel>::mul_hi,
             place = sym <AvrTerm as TermKernel>::place,
             inout("r25r24") job as *mut ColumnJob => _,
@@ -1959,9 +2058,9 @@ pub fn observe(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs]) {
             inout("r21r20") obs.as_ptr() => _,
             inout("r18") obs.len() as u8 => _,
             out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
-            out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r14") _,
-            out("r16") _, out("r17") _, out("r19") _, out("r26") _, out("r27") _,
-            out("r30") _, out("r31") _,
+            out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r12") _,
+            out("r13") _, out("r14") _, out("r15") _, out("r16") _, out("r17") _,
+            out("r19") _, out("r26") _, out("r27") _, out("r30") _, out("r31") _,
         );
     }
 }
