@@ -27,8 +27,8 @@
 use core::arch::asm;
 use core::mem::{offset_of, size_of};
 use loc_core::fixed::{
-    exp2_segment_table, log2_segment_base, AnchorTerm, ColumnJob, Obs, Placement, Posterior, Setup,
-    TermKernel, Weights,
+    exp2_segment_table, log2_segment_base, AnchorTerm, ColumnJob, Lattice, LatticeMin, Obs,
+    Placement, Posterior, Setup, TermKernel, Weights,
 };
 
 // The offsets the assembly reads (AVR has no padding).
@@ -67,6 +67,13 @@ const _: () = {
     assert!(offset_of!(loc_core::fixed::Weights, ra) == 8);
     assert!(offset_of!(Posterior, col) == 13);
     assert!(offset_of!(Posterior, s) == 14);
+    assert!(offset_of!(LatticeMin, i) == 0);
+    assert!(offset_of!(LatticeMin, j) == 1);
+    assert!(offset_of!(LatticeMin, cost) == 2);
+    assert!(offset_of!(Lattice, i0) == 0);
+    assert!(offset_of!(Lattice, j0) == 1);
+    assert!(offset_of!(Lattice, rows) == 2);
+    assert!(offset_of!(Lattice, job) + offset_of!(ColumnJob, stride) < 64);
     assert!(offset_of!(Setup, p0) == 0);
     assert!(offset_of!(Setup, alpha) == 4);
     assert!(offset_of!(Setup, k26) == 8);
@@ -124,6 +131,11 @@ impl TermKernel for AvrTerm {
     #[inline(never)]
     fn observe(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs]) {
         observe(job, s, obs)
+    }
+
+    #[inline(never)]
+    fn search(l: &mut Lattice, best: &mut [LatticeMin; 2], post: &mut Posterior) {
+        search(l, best, post)
     }
 
     #[inline(never)]
@@ -2060,6 +2072,329 @@ pub fn observe(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs]) {
             out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
             out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r12") _,
             out("r13") _, out("r14") _, out("r15") _, out("r16") _, out("r17") _,
+            out("r19") _, out("r26") _, out("r27") _, out("r30") _, out("r31") _,
+        );
+    }
+}
+
+/// [`loc_core::fixed::portable_search`]`(l, best, post)`, exactly: [`guess`] called; the
+/// coarse stage (the window moved to the origin by [`AvrTerm`]'s `move_window`, stride 5; the
+/// guessed point's column with the other rows skipped, then the 11 columns, each bounded one
+/// above the best cost up to the best's column) into `best[0]`; `post.cref` and `best[1]` from
+/// it; then the fine window (corner, end and rows from the winner, saturating, clipped at 50)
+/// column by column: its bound (`cref + span` saturating, `best[1].cost` if larger),
+/// `posterior` called, the minimum taken if strictly below `best[1].cost`. Two local
+/// subroutines: 80 (a column: its bound capped at `u32::MAX − 1`, skip, offset, then a tail
+/// jump to [`AvrTerm`]'s `column`) and 85 (take the column's minimum below r13:r10).
+///
+/// Register plan: r3:r2 the lattice, r5:r4 the best point being searched for, r7:r6 `post`,
+/// r8 the column `i`, r9 the last one, r13:r10 the bound of a take, r14 the guessed row
+/// (all kept across the calls, which follow the ABI).
+pub fn search(l: &mut Lattice, best: &mut [LatticeMin; 2], post: &mut Posterior) {
+    // SAFETY: reads and writes `*l` (its window fields, the job's header: offsets from
+    // `offset_of!`, all below 64; the sums' first 11) and `*best` (12 bytes) and `post.cref`
+    // (X, Z, within the `&mut`s); the job's anchors, the sums and `*post` otherwise only
+    // through the called `guess`, `move_window`, `column` and `posterior` (the sums as the
+    // slice `l.sums[..l.rows]`, `l.rows ≤ 11` as set here). The calls use the stack and follow
+    // the ABI; every register they or this code may change is declared; r1 is zero throughout.
+    unsafe {
+        asm!(
+            "movw r2, r24",
+            "movw r4, r22",
+            "movw r6, r20",
+            // ---- (gi, gj) = guess(job): i = 5·gi in r8, gj in r14 ----
+            "adiw r24, {job}",
+            "call {guess}",
+            "mov r8, r24",
+            "lsl r8",
+            "lsl r8",
+            "add r8, r24",
+            "mov r14, r25",
+            // ---- the window: moved to (0, 0), 11 rows, stride 5 ----
+            "movw r30, r2",
+            "ld r22, Z",
+            "neg r22",
+            "ldd r20, Z+1",
+            "neg r20",
+            "st Z, r1",
+            "std Z+1, r1",
+            "ldi r24, 11",
+            "std Z+2, r24",
+            "ldi r24, 5",
+            "std Z+{stride}, r24",
+            "movw r24, r2",
+            "adiw r24, {job}",
+            "call {mv}",
+            // ---- the guessed point's column, the other rows skipped, no bound ----
+            "ldi r16, 1",
+            "clr r17",
+            "mov r0, r14",
+            "rjmp 2f",
+            "1:",
+            "lsl r16",
+            "rol r17",
+            "2:",
+            "dec r0",
+            "brpl 1b",
+            "com r16",
+            "com r17",
+            "ldi r18, 0xFF",
+            "ldi r19, 0xFF",
+            "movw r20, r18",
+            "rcall 80f",
+            // ---- best[0] = (5·gi, 5·gj, sums[gj]) ----
+            "mov r24, r14",
+            "lsl r24",
+            "lsl r24",
+            "movw r30, r2",
+            "subi r30, {ns0}",
+            "sbci r31, {ns1}",
+            "add r30, r24",
+            "adc r31, r1",
+            "ld r18, Z",
+            "ldd r19, Z+1",
+            "ldd r20, Z+2",
+            "ldd r21, Z+3",
+            "add r24, r14",
+            "movw r30, r4",
+            "st Z, r8",
+            "std Z+1, r24",
+            "std Z+2, r18",
+            "std Z+3, r19",
+            "std Z+4, r20",
+            "std Z+5, r21",
+            // ---- the coarse columns i = 0, 5, …, 50 ----
+            "clr r8",
+            "3:",
+            "movw r30, r4",
+            "ld r24, Z",
+            "ldd r10, Z+2",
+            "ldd r11, Z+3",
+            "ldd r12, Z+4",
+            "ldd r13, Z+5",
+            "cp r24, r8",
+            "brcs 4f",
+            // Up to the best's column: one above its cost (saturating).
+            "sec",
+            "adc r10, r1",
+            "adc r11, r1",
+            "adc r12, r1",
+            "adc r13, r1",
+            "brcc 4f",
+            "sbc r10, r1",
+            "sbc r11, r1",
+            "sbc r12, r1",
+            "sbc r13, r1",
+            "4:",
+            "movw r18, r10",
+            "movw r20, r12",
+            "clr r16",
+            "clr r17",
+            "rcall 80f",
+            "rcall 85f",
+            "ldi r24, 5",
+            "add r8, r24",
+            "ldi r24, 51",
+            "cp r8, r24",
+            "brcs 3b",
+            // ---- post.cref and best[1] = best[0]; r5:r4 = &best[1] ----
+            "movw r30, r4",
+            "movw r26, r6",
+            "ldi r24, 6",
+            "5:",
+            "ld r0, Z+",
+            "std Z+5, r0",
+            "dec r24",
+            "brne 5b",
+            "ldd r18, Z+2",
+            "ldd r19, Z+3",
+            "ldd r20, Z+4",
+            "ldd r21, Z+5",
+            "st X+, r18",
+            "st X+, r19",
+            "st X+, r20",
+            "st X, r21",
+            "movw r4, r30",
+            // ---- the fine window: i0 r18, j0 r19, i1 r9 (from r24), rows r25 ----
+            "ld r24, Z",
+            "ldd r25, Z+1",
+            "mov r18, r24",
+            "subi r18, 5",
+            "brcc 6f",
+            "clr r18",
+            "6:",
+            "mov r19, r25",
+            "subi r19, 5",
+            "brcc 7f",
+            "clr r19",
+            "7:",
+            "subi r24, 0xFB",
+            "cpi r24, 51",
+            "brlo 8f",
+            "ldi r24, 50",
+            "8:",
+            "subi r25, 0xFB",
+            "cpi r25, 51",
+            "brlo 9f",
+            "ldi r25, 50",
+            "9:",
+            "sub r25, r19",
+            "inc r25",
+            "mov r8, r18",
+            "mov r9, r24",
+            // ---- moved by (i0, j0) from the origin; l.i0, l.j0, l.rows; stride 1 ----
+            "movw r30, r2",
+            "mov r22, r18",
+            "mov r20, r19",
+            "st Z, r18",
+            "std Z+1, r19",
+            "std Z+2, r25",
+            "ldi r24, 1",
+            "std Z+{stride}, r24",
+            "movw r24, r2",
+            "adiw r24, {job}",
+            "call {mv}",
+            // ---- a fine column: bound = max(cref + span (saturating), best.cost) ----
+            "10:",
+            "movw r30, r6",
+            "ld r18, Z",
+            "ldd r19, Z+1",
+            "ldd r20, Z+2",
+            "ldd r21, Z+3",
+            "ldd r0, Z+4",
+            "add r18, r0",
+            "ldd r0, Z+5",
+            "adc r19, r0",
+            "ldd r0, Z+6",
+            "adc r20, r0",
+            "ldd r0, Z+7",
+            "adc r21, r0",
+            "brcc 11f",
+            "ldi r18, 0xFF",
+            "ldi r19, 0xFF",
+            "movw r20, r18",
+            "11:",
+            "movw r30, r4",
+            "ldd r10, Z+2",
+            "ldd r11, Z+3",
+            "ldd r12, Z+4",
+            "ldd r13, Z+5",
+            "cp r18, r10",
+            "cpc r19, r11",
+            "cpc r20, r12",
+            "cpc r21, r13",
+            "brcc 12f",
+            "movw r18, r10",
+            "movw r20, r12",
+            "12:",
+            "clr r16",
+            "clr r17",
+            "rcall 80f",
+            // ---- posterior(sums[..rows], i − i0, post); take below best.cost ----
+            "movw r30, r2",
+            "ld r0, Z",
+            "mov r20, r8",
+            "sub r20, r0",
+            "ldd r22, Z+2",
+            "clr r23",
+            "movw r24, r2",
+            "subi r24, {ns0}",
+            "sbci r25, {ns1}",
+            "movw r18, r6",
+            "call {posterior}",
+            "movw r30, r4",
+            "ldd r10, Z+2",
+            "ldd r11, Z+3",
+            "ldd r12, Z+4",
+            "ldd r13, Z+5",
+            "rcall 85f",
+            "inc r8",
+            "cp r9, r8",
+            "brcs 99f",
+            "rjmp 10b",
+            // ---- 80: column r8, bound min(r21:r18, 2^32 − 2), skip r17:r16 ----
+            "80:",
+            "ldi r22, 0xFF",
+            "cp r18, r22",
+            "cpc r19, r22",
+            "cpc r20, r22",
+            "cpc r21, r22",
+            "brne 81f",
+            "ldi r18, 0xFE",
+            "81:",
+            "movw r30, r2",
+            "std Z+{b0}, r18",
+            "std Z+{b1}, r19",
+            "std Z+{b2}, r20",
+            "std Z+{b3}, r21",
+            "std Z+{sk0}, r16",
+            "std Z+{sk1}, r17",
+            "ld r0, Z",
+            "mov r24, r8",
+            "sub r24, r0",
+            "std Z+{col}, r24",
+            "ldd r22, Z+2",
+            "clr r23",
+            "movw r24, r2",
+            "subi r24, {ns0}",
+            "sbci r25, {ns1}",
+            "movw r20, r2",
+            "subi r20, {nj0}",
+            "sbci r21, {nj1}",
+            "jmp {column}",
+            // ---- 85: job.min < r13:r10 → best = (r8, j0 + job.min_row, job.min) ----
+            "85:",
+            "movw r30, r2",
+            "ldd r18, Z+{m0}",
+            "ldd r19, Z+{m1}",
+            "ldd r20, Z+{m2}",
+            "ldd r21, Z+{m3}",
+            "ldd r22, Z+{minrow}",
+            "ldd r23, Z+1",
+            "cp r18, r10",
+            "cpc r19, r11",
+            "cpc r20, r12",
+            "cpc r21, r13",
+            "brcc 86f",
+            "movw r30, r4",
+            "st Z, r8",
+            "add r22, r23",
+            "std Z+1, r22",
+            "std Z+2, r18",
+            "std Z+3, r19",
+            "std Z+4, r20",
+            "std Z+5, r21",
+            "86:",
+            "ret",
+            "99:",
+            job = const offset_of!(Lattice, job),
+            stride = const offset_of!(Lattice, job) + offset_of!(ColumnJob, stride),
+            b0 = const offset_of!(Lattice, job) + offset_of!(ColumnJob, bound),
+            b1 = const offset_of!(Lattice, job) + offset_of!(ColumnJob, bound) + 1,
+            b2 = const offset_of!(Lattice, job) + offset_of!(ColumnJob, bound) + 2,
+            b3 = const offset_of!(Lattice, job) + offset_of!(ColumnJob, bound) + 3,
+            sk0 = const offset_of!(Lattice, job) + offset_of!(ColumnJob, skip),
+            sk1 = const offset_of!(Lattice, job) + offset_of!(ColumnJob, skip) + 1,
+            col = const offset_of!(Lattice, job) + offset_of!(ColumnJob, col),
+            m0 = const offset_of!(Lattice, job) + offset_of!(ColumnJob, min),
+            m1 = const offset_of!(Lattice, job) + offset_of!(ColumnJob, min) + 1,
+            m2 = const offset_of!(Lattice, job) + offset_of!(ColumnJob, min) + 2,
+            m3 = const offset_of!(Lattice, job) + offset_of!(ColumnJob, min) + 3,
+            minrow = const offset_of!(Lattice, job) + offset_of!(ColumnJob, min_row),
+            ns0 = const (offset_of!(Lattice, sums) as u16).wrapping_neg() & 0xFF,
+            ns1 = const (offset_of!(Lattice, sums) as u16).wrapping_neg() >> 8,
+            nj0 = const (offset_of!(Lattice, job) as u16).wrapping_neg() & 0xFF,
+            nj1 = const (offset_of!(Lattice, job) as u16).wrapping_neg() >> 8,
+            guess = sym guess,
+            mv = sym <AvrTerm as TermKernel>::move_window,
+            column = sym <AvrTerm as TermKernel>::column,
+            posterior = sym <AvrTerm as TermKernel>::posterior,
+            inout("r25r24") l as *mut Lattice => _,
+            inout("r23r22") best as *mut [LatticeMin; 2] => _,
+            inout("r21r20") post as *mut Posterior => _,
+            out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
+            out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r12") _,
+            out("r13") _, out("r14") _, out("r16") _, out("r17") _, out("r18") _,
             out("r19") _, out("r26") _, out("r27") _, out("r30") _, out("r31") _,
         );
     }
