@@ -414,7 +414,11 @@ impl<K: TermKernel> Grid<K> {
         let mut post = Posterior::new(Weights::ZERO, 0);
         K::weights(self.l.s.k26, sigma, &mut post.wts);
         // (Zero, not NONE: zeroed memory, not a copy from flash; `search` sets both.)
-        let mut best = [LatticeMin { i: 0, j: 0, cost: 0 }; 2];
+        let mut best = [LatticeMin {
+            i: 0,
+            j: 0,
+            cost: 0,
+        }; 2];
         K::search(&mut self.l, &mut best, &mut post);
         let evals = window_evals(best[0].i, best[0].j);
         let best = &best[1];
