@@ -146,11 +146,12 @@ impl<K: TermKernel> Grid<K> {
     };
 
     /// Sets the cost of `obs` up: `ρ = (z − P0)/K − log2(1 m²)` per anchor (Q.20, `(z − P0)/K`
-    /// clamped to ±2^30), the anchors strongest (largest `ρ`) first, and each anchor's shift: the fewest
-    /// bits that bring its offsets anywhere in the area below 2^16.
-    /// (Callers bind [`Grid::EMPTY`] and set it up in place: a grid returned by value is
-    /// copied on AVR, and two 240-byte grids on the stack are too many.)
-    #[inline(never)]
+    /// clamped to ±2^30), the anchors strongest (largest `ρ`) first, and each anchor's shift:
+    /// the fewest bits that bring its offsets anywhere in the area below 2^16
+    /// ([`TermKernel::observe`]). (Callers bind [`Grid::EMPTY`] and set it up in place: a grid
+    /// returned by value is copied on AVR, and two 250-byte grids on the stack are too many.
+    /// Inlined: a few stores around one call, smaller than a call's argument moves.)
+    #[inline(always)]
     fn setup(&mut self, obs: &Observations, model: PathLoss, area: AreaCm) {
         let g = self;
         // The fine steps in lattice units: `W`, `H` (cm).
@@ -366,8 +367,9 @@ impl<K: TermKernel> Grid<K> {
     }
 
     /// The estimate at `best`'s lattice point with its cost and `evals` into `out` (its
-    /// estimator left as it is; in place: a returned estimate is a stack copy on AVR).
-    #[inline(never)]
+    /// estimator left as it is; in place: a returned estimate is a stack copy on AVR). (Inlined:
+    /// the sink calls it once, and its seven arguments cost more moves than its body.)
+    #[inline(always)]
     fn finish(
         &self,
         obs: &Observations,
