@@ -408,10 +408,10 @@ impl<K: TermKernel> Grid<K> {
     }
 
     /// The sink's search ([`mle_and_mmse_window_into`]) on the grid set up for `obs`: one
-    /// coarse stage, one pass over the fine window for both estimates. (Out of line, the grid
-    /// behind a pointer: in the caller's frame the 240-byte grid would put this function's
-    /// locals beyond AVR's 63-byte displacement, each access then costing 16 bytes of code.)
-    #[inline(never)]
+    /// coarse stage, one pass over the fine window for both estimates ([`TermKernel::search`]).
+    /// (Inlined into its one caller: with the loops in the kernel few locals are left, and a
+    /// frame fewer is 25 bytes of the sink's stack and 14 of flash.)
+    #[inline(always)]
     fn both(&mut self, obs: &Observations, area: AreaCm, sigma: u16, out: &mut [Estimate; 2]) {
         let mut post = Posterior::new(Weights::ZERO, 0);
         K::weights(self.l.s.k26, sigma, &mut post.wts);
