@@ -16,11 +16,12 @@
 //!   coarse winner the window starts from, so under a strict `<` they can never win. (The
 //!   windowed MMSE evaluates them: they need their weights.)
 //!
-//! Size first (the sink links this, SPEC §8): one window routine for the thesis' window and the
-//! sink's one-pass MLE + MMSE, 32-bit arithmetic only on the sink's path, the shared helpers out
-//! of line. Stack too (the sink locates at its deepest): the grid set up in place, results
-//! written into the caller's storage (a by-value struct is a copy on AVR), the sink's window
-//! loop inlined into its one caller (a frame fewer).
+//! Size first (the sink links this, SPEC §8): the sink's setup and search loops are kernel
+//! routines ([`TermKernel::observe`], [`TermKernel::search`]: assembly on AVR, their portable
+//! references in [`super::kernel`]), 32-bit arithmetic only on the sink's path, the rest of its
+//! path inlined into [`mle_and_mmse_window_into`]. Stack too (the sink locates at its
+//! deepest): the grid set up in place, results written into the caller's storage (a by-value
+//! struct is a copy on AVR).
 
 use super::kernel::{
     log2_segment_base, portable_coarse_from, Lattice, LatticeMin, Portable, Posterior, TermKernel,

@@ -690,11 +690,11 @@ impl Setup {
 
 /// The reference of [`TermKernel::observe`]: `k26 = mul_hi(min(|α|, 2^29) << 3, 5·log10 2
 /// (Q.31))`, `inv_k = div_shl(2^30, k26 >> 1, 25)` (0 if flat: `k26 < 2^10`), `job.n = 0`; then
-/// per observation `d = z − P0` (wrapping); the flat cost plus `(w & 7)·q²`, `q = min(|d| >>
-/// 12, 2^14 − 1)` (Q.4 dB, squared into Q.8 dB²), saturating; `ρ = ±min(mul_hi(min(|d|, 2^26 −
-/// 1) << 6, inv_k), 2^30) − log2(1 m²)` (Q.20, negative when `d < 0` and α ≥ 0 or the
-/// reverse); then [`TermKernel::place`]. A flat cost ends with `job.n = 0` (every point costs
-/// the same).
+/// per observation `d = z − P0` (wrapping) and `a = min(|d|, 2^26 − 1) << 6`; the flat cost
+/// plus `(w & 7)·q²`, `q = a >> 18` (`|d|` in Q.4 dB, at most `2^14 − 1`, squared into Q.8
+/// dB²), saturating; `ρ = ±min(mul_hi(a, inv_k), 2^30) − log2(1 m²)` (Q.20, negative when
+/// `d < 0` and α ≥ 0 or the reverse); then [`TermKernel::place`]. A flat cost ends with
+/// `job.n = 0` (every point costs the same).
 pub fn portable_observe<K: TermKernel>(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs]) {
     // |α| ≤ 32 (2^29 in Q.24): Q.27 fits a u32; K < 48.2 in Q.26 too. (P0 needs no clamp:
     // |z − P0| is limited below.)
