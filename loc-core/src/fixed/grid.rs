@@ -413,16 +413,17 @@ impl<K: TermKernel> Grid<K> {
     /// (Inlined into its one caller: with the loops in the kernel few locals are left, and a
     /// frame fewer is 25 bytes of the sink's stack and 14 of flash.)
     #[inline(always)]
-    fn both(&mut self, obs: &Observations, area: AreaCm, sigma: u16, out: &mut [Estimate; 2]) {
-        let mut post = Posterior::new(Weights::ZERO, 0);
+    fn both(
+        &mut self,
+        f: &mut SinkLocals,
+        obs: &Observations,
+        area: AreaCm,
+        sigma: u16,
+        out: &mut [Estimate; 2],
+    ) {
+        let (best, post) = (&mut f.best, &mut f.post);
         K::weights(self.l.s.k26, sigma, &mut post.wts);
-        // (Zero, not NONE: zeroed memory, not a copy from flash; `search` sets both.)
-        let mut best = [LatticeMin {
-            i: 0,
-            j: 0,
-            cost: 0,
-        }; 2];
-        K::search(&mut self.l, &mut best, &mut post);
+        K::search(&mut self.l, best, post);
         let evals = window_evals(best[0].i, best[0].j);
         let best = &best[1];
         let [mle, mmse] = out;
@@ -434,6 +435,33 @@ impl<K: TermKernel> Grid<K> {
         mmse.estimator = Estimator::MmseWindow { sigma };
         mmse.evaluations = evals[1];
     }
+}
+
+/// [`Grid::both`]'s locals in one block (first in the sink's frame, where AVR reaches them with
+/// a displacement, not pointer arithmetic; zeroed memory, not a copy from flash;
+/// [`TermKernel::search`] sets the points and the posterior's reference).
+#[repr(C)]
+struct SinkLocals {
+    best: [LatticeMin; 2],
+    post: Posterior,
+}
+
+impl SinkLocals {
+    const ZERO: SinkLocals = SinkLocals {
+        best: [LatticeMin {
+            i: 0,
+            j: 0,
+            cost: 0,
+        }; 2],
+        post: Posterior {
+            cref: 0,
+            wts: Weights::ZERO,
+            col: 0,
+            s: 0,
+            sx: 0,
+            sy: 0,
+        },
+    };
 }
 
 /// `side·(o + f/2^12)/5` rounded: fine index `o` plus a fraction (`f ≤ 10·2^12`) in mm along a
@@ -626,9 +654,18 @@ pub fn mle_and_mmse_window_into<K: TermKernel>(
     out: &mut [Estimate; 2],
 ) -> Result<(), LocError> {
     check(obs)?;
-    let mut g = Grid::<K>::EMPTY;
-    g.setup(obs, model, area);
-    g.both(obs, area, sigma, out);
+    // One block: the small locals first, within AVR's displacement of the frame pointer.
+    #[repr(C)]
+    struct Frame<K> {
+        f: SinkLocals,
+        g: Grid<K>,
+    }
+    let mut fr = Frame {
+        f: SinkLocals::ZERO,
+        g: Grid::<K>::EMPTY,
+    };
+    fr.g.setup(obs, model, area);
+    fr.g.both(&mut fr.f, obs, area, sigma, out);
     Ok(())
 }
 
