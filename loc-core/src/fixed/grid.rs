@@ -16,14 +16,16 @@
 //!   coarse winner the window starts from, so under a strict `<` they can never win. (The
 //!   windowed MMSE evaluates them: they need their weights.)
 //!
-//! Size first (the sink links this, SPEC §8): one window routine for the thesis' window and the
-//! sink's one-pass MLE + MMSE, 32-bit arithmetic only on the sink's path, the shared helpers out
-//! of line. Stack too (the sink locates at its deepest): the grid set up in place, results
-//! written into the caller's storage (a by-value struct is a copy on AVR), the sink's window
-//! loop inlined into its one caller (a frame fewer).
+//! Size first (the sink links this, SPEC §8): the sink's setup and search loops are kernel
+//! routines ([`TermKernel::observe`], [`TermKernel::search`]: assembly on AVR, their portable
+//! references in [`super::kernel`]), 32-bit arithmetic only on the sink's path, the rest of its
+//! path inlined into [`mle_and_mmse_window_into`]. Stack too (the sink locates at its
+//! deepest): the grid set up in place, results written into the caller's storage (a by-value
+//! struct is a copy on AVR).
 
 use super::kernel::{
-    log2_segment_base, ColumnJob, Placement, Portable, Posterior, TermKernel, Weights,
+    log2_segment_base, portable_coarse_from, Lattice, LatticeMin, Portable, Posterior, TermKernel,
+    Weights, WINDOW_ROWS,
 };
 use super::refine::observations;
 use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
@@ -33,7 +35,7 @@ use core::marker::PhantomData;
 
 const RATIO: usize = FINE_DIVS / COARSE_DIVS;
 /// Rows a search window holds: ± one coarse step.
-const ROWS: usize = 2 * RATIO + 1;
+const ROWS: usize = WINDOW_ROWS;
 /// Coarse starting points of [`Search::MultiStart`].
 const STARTS: usize = 4;
 /// Most cost evaluations [`Search::MultiStart`] may spend: the thesis search's worst case.
@@ -48,11 +50,6 @@ const COARSE_EVALS: u16 = 1 + (C8 as u16 + 1) * (C8 as u16 + 1);
 const INF: u32 = u32::MAX;
 /// Largest real cost.
 const COST_MAX: u32 = u32::MAX - 1;
-
-/// `log2(1 m²)` in lattice units `(1/50 cm)²`: `log2(5000²)`, Q.20.
-const LOG2_M2: i32 = 25_769_201;
-/// `5·log10(2)`, Q.31.
-const FIVE_LOG10_2_Q31: u32 = 3_232_284_966;
 
 /// Which estimator produced a fixed-point fix.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -107,14 +104,6 @@ impl Estimate {
     };
 }
 
-/// A lattice point (fine indices) and its cost.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct LatticeMin {
-    i: u8,
-    j: u8,
-    cost: u32,
-}
-
 impl LatticeMin {
     const NONE: LatticeMin = LatticeMin {
         i: 0,
@@ -143,105 +132,42 @@ fn window_evals(i: u8, j: u8) -> [u16; 2] {
     [all - (n * m) as u16, all]
 }
 
-/// One estimate's search: the position-independent part of the cost (in the kernel's job: per
-/// anchor `ρ`, weight, shift, offsets from the current window's origin), one column of sums, the
-/// evaluations spent by the host's searches (240 bytes on AVR, most of the sink's search
-/// stack). `repr(C)`, the scalars and the job's header first: AVR reaches 63 bytes from a
-/// pointer in one instruction, farther fields cost pointer arithmetic. Indices are `u8` (≤ 50):
-/// on AVR every `usize` is a register pair.
-#[repr(C)]
+/// One estimate's search: its [`Lattice`] (the model's constants, the kernel's job, one column
+/// of sums; 250 bytes on AVR, most of the sink's search stack) and the kernel.
 struct Grid<K> {
-    /// The current window's first column and row (fine indices) and its rows.
-    i0: u8,
-    j0: u8,
-    rows: u8,
-    /// Evaluations (the host's multi-start, exhaustive and full MMSE searches count here).
-    evals: u16,
-    /// Observations and the sum of their weights (the estimate's `anchors`, `total_weight`).
-    anchors: u8,
-    weight: u8,
-    /// `|K|` in Q.26 (`K = 5·α·log10 2`); below `2^10` the cost is flat (`job.n = 0`).
-    k26: u32,
-    /// The cost if flat (α = 0): `Σ w·(z − P0)²`, Q.8 dB², saturating.
-    flat_cost: u32,
-    job: ColumnJob,
-    sums: [u32; ROWS],
+    l: Lattice,
     kernel: PhantomData<K>,
 }
 
 impl<K: TermKernel> Grid<K> {
     /// No anchors, all zero.
     const EMPTY: Self = Grid {
-        i0: 0,
-        j0: 0,
-        rows: 0,
-        evals: 0,
-        anchors: 0,
-        weight: 0,
-        k26: 0,
-        flat_cost: 0,
-        job: ColumnJob::EMPTY,
-        sums: [0; ROWS],
+        l: Lattice::EMPTY,
         kernel: PhantomData,
     };
 
     /// Sets the cost of `obs` up: `ρ = (z − P0)/K − log2(1 m²)` per anchor (Q.20, `(z − P0)/K`
-    /// clamped to ±2^30), the anchors strongest (largest `ρ`) first, and each anchor's shift: the fewest
-    /// bits that bring its offsets anywhere in the area below 2^16.
-    /// (Callers bind [`Grid::EMPTY`] and set it up in place: a grid returned by value is
-    /// copied on AVR, and two 240-byte grids on the stack are too many.)
-    #[inline(never)]
+    /// clamped to ±2^30), the anchors strongest (largest `ρ`) first, and each anchor's shift:
+    /// the fewest bits that bring its offsets anywhere in the area below 2^16
+    /// ([`TermKernel::observe`]). (Callers bind [`Grid::EMPTY`] and set it up in place: a grid
+    /// returned by value is copied on AVR, and two 250-byte grids on the stack are too many.
+    /// Inlined: a few stores around one call, smaller than a call's argument moves.)
+    #[inline(always)]
     fn setup(&mut self, obs: &Observations, model: PathLoss, area: AreaCm) {
-        // |α| ≤ 32 (ALPHA_LIMIT, 2^29 in Q.24): Q.27 fits a u32; K < 48.2 in Q.26 too. (P0
-        // needs no clamp: |z − P0| is limited below.)
-        let k26 = K::mul_hi(
-            model.alpha.unsigned_abs().min(super::ALPHA_LIMIT as u32) << 3,
-            FIVE_LOG10_2_Q31,
-        );
-        let flat = k26 < 1 << 10;
-        // 2^30/|K| (saturating below |K| = 1/4, where only the flatness of the cost matters).
-        let inv_k = if flat {
-            0
-        } else {
-            K::div_shl(1 << 30, k26 >> 1, 25)
-        };
         let g = self;
-        g.k26 = k26;
         // The fine steps in lattice units: `W`, `H` (cm).
-        (g.job.xstep, g.job.ystep) = (area.width, area.height);
-        g.job.seg_base = log2_segment_base();
-        g.job.n = 0;
-        for o in obs.as_slice() {
-            let d = o.z.wrapping_sub(model.p0);
-            let ad = d.unsigned_abs();
-            // The flat cost: Q.4 dB residuals (< 2^14) squared into Q.8 dB², w ≤ 4. (Here, not
-            // where it is used: one loop over the observations.)
-            let q = (ad >> 12).min(0x3FFF);
-            g.flat_cost = g.flat_cost.saturating_add(q * q * (o.weight & 7) as u32);
-            g.anchors += 1;
-            g.weight = g.weight.wrapping_add(o.weight);
-            // |z − P0| Q.16 (< 2^26) as Q.22, × 2^30/K → Q.20.
-            let r = K::mul_hi(ad.min((1 << 26) - 1) << 6, inv_k).min(1 << 30) as i32;
-            let r = if (d < 0) != (model.alpha < 0) { -r } else { r };
-            // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32. Strongest
-            // anchor first: its term grows fastest away from the winner, so evaluations stop
-            // after fewer terms. A completed cost is the same sum in any order, and one that
-            // reaches its bound is set to the bound: no result depends on it.
-            let p = Placement {
-                rho: r - LOG2_M2,
-                x: o.pos.x,
-                y: o.pos.y,
-                weight: o.weight,
-            };
-            K::place(&mut g.job, &p);
-        }
-        if flat {
-            g.job.n = 0;
-        }
+        (g.l.job.xstep, g.l.job.ystep) = (area.width, area.height);
+        g.l.job.seg_base = log2_segment_base();
+        // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32. Strongest anchor
+        // first (`place`): its term grows fastest away from the winner, so evaluations stop
+        // after fewer terms. A completed cost is the same sum in any order, and one that
+        // reaches its bound is set to the bound: no result depends on it.
+        (g.l.s.p0, g.l.s.alpha) = (model.p0, model.alpha);
+        K::observe(&mut g.l.job, &mut g.l.s, obs.as_slice());
     }
 
     fn flat(&self) -> bool {
-        self.job.n == 0
+        self.l.job.n == 0
     }
 
     /// Moves the window to first column `i0`, first row `j0`, `rows` rows `stride` fine rows
@@ -251,17 +177,17 @@ impl<K: TermKernel> Grid<K> {
         // (Indices ≤ 50: the steps fit an i8. |offsets| < 2^23 anywhere in the area: 24 bits
         // hold them.)
         K::move_window(
-            &mut self.job,
-            i0.wrapping_sub(self.i0) as i8,
-            j0.wrapping_sub(self.j0) as i8,
+            &mut self.l.job,
+            i0.wrapping_sub(self.l.i0) as i8,
+            j0.wrapping_sub(self.l.j0) as i8,
         );
-        (self.i0, self.j0, self.rows) = (i0, j0, rows);
-        self.job.stride = stride;
+        (self.l.i0, self.l.j0, self.l.rows) = (i0, j0, rows);
+        self.l.job.stride = stride;
     }
 
     /// The window's sums in use.
     fn sums(&self) -> &[u32] {
-        &self.sums[..(self.rows as usize).min(ROWS)]
+        &self.l.sums[..(self.l.rows as usize).min(ROWS)]
     }
 
     /// The costs of column `i`'s rows into `sums` (rows whose bit is set in `skip` are not
@@ -270,22 +196,22 @@ impl<K: TermKernel> Grid<K> {
     /// bound (`INF`) it is the cost saturated at [`COST_MAX`].
     #[inline(never)]
     fn column(&mut self, i: u8, bound: u32, skip: u16) {
-        self.job.col = i.wrapping_sub(self.i0);
-        self.job.bound = bound.min(COST_MAX);
-        self.job.skip = skip;
-        let rows = (self.rows as usize).min(ROWS);
-        K::column(&mut self.sums[..rows], &mut self.job);
+        self.l.job.col = i.wrapping_sub(self.l.i0);
+        self.l.job.bound = bound.min(COST_MAX);
+        self.l.job.skip = skip;
+        let rows = (self.l.rows as usize).min(ROWS);
+        K::column(&mut self.l.sums[..rows], &mut self.l.job);
     }
 
     /// Takes the last column's first smallest cost (column `i`) into `best` if it is below
     /// `bound` (which the column was evaluated with, or a smaller one).
     #[inline(never)]
     fn take(&self, i: u8, bound: u32, best: &mut LatticeMin) {
-        if self.job.min < bound {
+        if self.l.job.min < bound {
             *best = LatticeMin {
                 i,
-                j: self.j0.wrapping_add(self.job.min_row),
-                cost: self.job.min,
+                j: self.l.j0.wrapping_add(self.l.job.min_row),
+                cost: self.l.job.min,
             };
         }
     }
@@ -296,68 +222,40 @@ impl<K: TermKernel> Grid<K> {
     /// bounds every column's evaluations from the start. ([`COARSE_EVALS`] evaluations.)
     #[inline(never)]
     fn coarse(&mut self) -> LatticeMin {
-        let (gi, gj) = K::guess(&self.job);
+        let (gi, gj) = K::guess(&self.l.job);
         self.coarse_from(gi, gj)
     }
 
     /// [`Grid::coarse`] starting from coarse point `(gi, gj)` (the same result from any).
     fn coarse_from(&mut self, gi: u8, gj: u8) -> LatticeMin {
-        self.window(0, 0, R8, C8 + 1);
-        self.column(gi * R8, INF, !(1 << gj));
-        let mut best = LatticeMin {
-            i: gi * R8,
-            j: gj * R8,
-            cost: self.sums[(gj as usize).min(ROWS - 1)],
-        };
-        let mut i = 0;
-        while i <= F8 {
-            // Up to the best point's column a tie comes first in the reference's scan.
-            let bound = if i <= best.i {
-                best.cost.saturating_add(1)
-            } else {
-                best.cost
-            };
-            self.column(i, bound, 0);
-            self.take(i, bound, &mut best);
-            i += R8;
-        }
+        let mut best = LatticeMin::NONE;
+        portable_coarse_from::<K>(&mut self.l, gi, gj, &mut best);
         best
     }
 
     /// The thesis' fine window (± one coarse step, clipped) around the coarse winner `best`:
     /// the thesis MLE (strict `<` from it) into `best` (in place: a returned point is a stack
-    /// copy on AVR). Alone it skips the window's coarse points (they cannot beat `start`); with
-    /// `POST` it evaluates every point up to the posterior's bound (or the MLE's, if larger)
-    /// and adds it to `post`, and the MLE is the same (a coarse point is never strictly below
-    /// `start`). Evaluations: [`window_evals`]. (Two copies: the sink links only the one with
-    /// `POST`, inlined into [`Grid::both`].)
-    #[inline(always)]
-    fn fine<const POST: bool>(&mut self, best: &mut LatticeMin, post: &mut Posterior) {
+    /// copy on AVR). It skips the window's coarse points (they cannot beat `start`).
+    /// ([`portable_fine_post`] is the same window with the posterior, every point evaluated
+    /// up to the posterior's bound or the MLE's, if larger: the same MLE, as a coarse point is
+    /// never strictly below `start`.) Evaluations: [`window_evals`].
+    #[inline(never)]
+    fn fine_mle(&mut self, best: &mut LatticeMin) {
         let (i0, j0) = (best.i.saturating_sub(R8), best.j.saturating_sub(R8));
         let i1 = (best.i + R8).min(F8);
         let rows = (best.j + R8).min(F8) - j0 + 1;
         self.window(i0, j0, 1, rows);
         // The window's coarse rows (j a multiple of RATIO; `j0` is one).
-        let coarse = if POST {
-            0
-        } else {
-            let mut coarse = 0u16;
-            let mut r = 0;
-            while r < rows {
-                coarse |= 1 << r;
-                r += R8;
-            }
-            coarse
-        };
+        let mut coarse = 0u16;
+        let mut r = 0;
+        while r < rows {
+            coarse |= 1 << r;
+            r += R8;
+        }
         let mut i = i0;
         while i <= i1 {
-            if POST {
-                self.column(i, post.bound().max(best.cost), 0);
-                K::posterior(self.sums(), i - i0, post);
-            } else {
-                let mask = if i % R8 == 0 { coarse } else { 0 };
-                self.column(i, best.cost, mask);
-            }
+            let mask = if i % R8 == 0 { coarse } else { 0 };
+            self.column(i, best.cost, mask);
             self.take(i, best.cost, best);
             i += 1;
         }
@@ -366,15 +264,9 @@ impl<K: TermKernel> Grid<K> {
     /// The thesis search; its evaluations into `evals`.
     fn thesis(&mut self) -> LatticeMin {
         let mut best = self.coarse();
-        self.evals = window_evals(best.i, best.j)[0];
+        self.l.evals = window_evals(best.i, best.j)[0];
         self.fine_mle(&mut best);
         best
-    }
-
-    /// [`Grid::fine`] without the posterior, out of line (the MLE searches' copy).
-    #[inline(never)]
-    fn fine_mle(&mut self, best: &mut LatticeMin) {
-        self.fine::<false>(best, &mut Posterior::new(Weights::ZERO, 0));
     }
 
     fn multi_start(&mut self) -> LatticeMin {
@@ -383,8 +275,8 @@ impl<K: TermKernel> Grid<K> {
         for i in (0..=F8).step_by(RATIO) {
             self.column(i, top[STARTS - 1].cost, 0);
             for r in 0..=C8 {
-                self.evals += 1;
-                let c = self.sums[r as usize];
+                self.l.evals += 1;
+                let c = self.l.sums[r as usize];
                 if let Some(k) = top.iter().position(|t| c < t.cost) {
                     top.copy_within(k..STARTS - 1, k + 1);
                     top[k] = LatticeMin {
@@ -436,8 +328,8 @@ impl<K: TermKernel> Grid<K> {
                     for r in 0..rows {
                         if skip & (1 << r) == 0 {
                             *spent += 1;
-                            self.evals += 1;
-                            next.offer(i, j0 + r, self.sums[r as usize]);
+                            self.l.evals += 1;
+                            next.offer(i, j0 + r, self.l.sums[r as usize]);
                         }
                     }
                 }
@@ -464,8 +356,8 @@ impl<K: TermKernel> Grid<K> {
             for i in 0..=F8 {
                 self.column(i, best.cost.saturating_add(1), 0);
                 for r in 0..rows {
-                    self.evals += 1;
-                    let (j, c) = (j0 + r, self.sums[r as usize]);
+                    self.l.evals += 1;
+                    let (j, c) = (j0 + r, self.l.sums[r as usize]);
                     if c < best.cost || (c == best.cost && (i, j) < (best.i, best.j)) {
                         best = LatticeMin { i, j, cost: c };
                     }
@@ -476,8 +368,9 @@ impl<K: TermKernel> Grid<K> {
     }
 
     /// The estimate at `best`'s lattice point with its cost and `evals` into `out` (its
-    /// estimator left as it is; in place: a returned estimate is a stack copy on AVR).
-    #[inline(never)]
+    /// estimator left as it is; in place: a returned estimate is a stack copy on AVR). (Inlined:
+    /// the sink calls it once, and its seven arguments cost more moves than its body.)
+    #[inline(always)]
     fn finish(
         &self,
         obs: &Observations,
@@ -487,17 +380,17 @@ impl<K: TermKernel> Grid<K> {
         out: &mut Estimate,
     ) {
         let cost = if self.flat() {
-            self.flat_cost
+            self.l.s.flat_cost
         } else {
             // C = K²·C': K² Q.20 (< 2^32) × C' Q.20 → Q.8.
-            K::mul_hi(best.cost, K::mul_hi(self.k26, self.k26))
+            K::mul_hi(best.cost, K::mul_hi(self.l.s.k26, self.l.s.k26))
         };
         out.pos.x = to_mm(area.width, best.i, 0);
         out.pos.y = to_mm(area.height, best.j, 0);
         out.lattice = (best.i, best.j);
         out.min_cost = cost.saturating_add(obs.const_cost);
-        out.anchors = self.anchors;
-        out.total_weight = self.weight;
+        out.anchors = self.l.s.anchors;
+        out.total_weight = self.l.s.weight;
         out.evaluations = evals;
     }
 
@@ -510,31 +403,65 @@ impl<K: TermKernel> Grid<K> {
         estimator: Estimator,
     ) -> Estimate {
         let mut e = Estimate::NONE;
-        self.finish(obs, area, best, self.evals, &mut e);
+        self.finish(obs, area, best, self.l.evals, &mut e);
         e.estimator = estimator;
         e
     }
 
     /// The sink's search ([`mle_and_mmse_window_into`]) on the grid set up for `obs`: one
-    /// coarse stage, one pass over the fine window for both estimates. (Out of line, the grid
-    /// behind a pointer: in the caller's frame the 240-byte grid would put this function's
-    /// locals beyond AVR's 63-byte displacement, each access then costing 16 bytes of code.)
-    #[inline(never)]
-    fn both(&mut self, obs: &Observations, area: AreaCm, sigma: u16, out: &mut [Estimate; 2]) {
-        let mut best = self.coarse();
-        let evals = window_evals(best.i, best.j);
-        let mut post = Posterior::new(Weights::ZERO, best.cost);
-        K::weights(self.k26, sigma, &mut post.wts);
-        self.fine::<true>(&mut best, &mut post);
+    /// coarse stage, one pass over the fine window for both estimates ([`TermKernel::search`]).
+    /// (Inlined into its one caller: with the loops in the kernel few locals are left, and a
+    /// frame fewer is 25 bytes of the sink's stack and 14 of flash.)
+    #[inline(always)]
+    fn both(
+        &mut self,
+        f: &mut SinkLocals,
+        obs: &Observations,
+        area: AreaCm,
+        sigma: u16,
+        out: &mut [Estimate; 2],
+    ) {
+        let (best, post) = (&mut f.best, &mut f.post);
+        K::weights(self.l.s.k26, sigma, &mut post.wts);
+        K::search(&mut self.l, best, post);
+        let evals = window_evals(best[0].i, best[0].j);
+        let best = &best[1];
         let [mle, mmse] = out;
-        self.finish(obs, area, &best, evals[0], mle);
+        self.finish(obs, area, best, evals[0], mle);
         mle.estimator = Estimator::Mle(Search::Thesis);
         // The same lattice point and cost; its own position, estimator and evaluations.
         *mmse = *mle;
-        post.mean::<K>(area, self.i0, self.j0, &mut mmse.pos);
+        post.mean::<K>(area, self.l.i0, self.l.j0, &mut mmse.pos);
         mmse.estimator = Estimator::MmseWindow { sigma };
         mmse.evaluations = evals[1];
     }
+}
+
+/// [`Grid::both`]'s locals in one block (first in the sink's frame, where AVR reaches them with
+/// a displacement, not pointer arithmetic; zeroed memory, not a copy from flash;
+/// [`TermKernel::search`] sets the points and the posterior's reference).
+#[repr(C)]
+struct SinkLocals {
+    best: [LatticeMin; 2],
+    post: Posterior,
+}
+
+impl SinkLocals {
+    const ZERO: SinkLocals = SinkLocals {
+        best: [LatticeMin {
+            i: 0,
+            j: 0,
+            cost: 0,
+        }; 2],
+        post: Posterior {
+            cref: 0,
+            wts: Weights::ZERO,
+            col: 0,
+            s: 0,
+            sx: 0,
+            sy: 0,
+        },
+    };
 }
 
 /// `side·(o + f/2^12)/5` rounded: fine index `o` plus a fraction (`f ≤ 10·2^12`) in mm along a
@@ -628,7 +555,7 @@ pub fn mmse_with<K: TermKernel>(
     g.setup(obs, model, area);
     let mut best = g.thesis();
     let mut wts = Weights::ZERO;
-    K::weights(g.k26, sigma, &mut wts);
+    K::weights(g.l.s.k26, sigma, &mut wts);
     let mut cref = best.cost;
     // Σw (< 2^32), Σw·i and Σw·j (< 2^38), relative to `cref`.
     let (mut s, mut sx, mut sy) = (0u64, 0u64, 0u64);
@@ -640,7 +567,7 @@ pub fn mmse_with<K: TermKernel>(
             for i in i0..=(i0 + ROWS as u8 - 1).min(F8) {
                 // The smallest cost so far is the reference: costs below it are exact.
                 g.column(i, post.bound(), 0);
-                g.evals += rows as u16;
+                g.l.evals += rows as u16;
                 K::posterior(g.sums(), i - i0, &mut post);
                 g.take(i, best.cost, &mut best);
             }
@@ -727,9 +654,18 @@ pub fn mle_and_mmse_window_into<K: TermKernel>(
     out: &mut [Estimate; 2],
 ) -> Result<(), LocError> {
     check(obs)?;
-    let mut g = Grid::<K>::EMPTY;
-    g.setup(obs, model, area);
-    g.both(obs, area, sigma, out);
+    // One block: the small locals first, within AVR's displacement of the frame pointer.
+    #[repr(C)]
+    struct Frame<K> {
+        f: SinkLocals,
+        g: Grid<K>,
+    }
+    let mut fr = Frame {
+        f: SinkLocals::ZERO,
+        g: Grid::<K>::EMPTY,
+    };
+    fr.g.setup(obs, model, area);
+    fr.g.both(&mut fr.f, obs, area, sigma, out);
     Ok(())
 }
 
@@ -803,7 +739,7 @@ mod tests {
         for i in (0..=F8).step_by(RATIO) {
             s.column(i, INF, 0);
             for r in 0..=C8 {
-                best.offer(i, r * R8, s.sums[r as usize]);
+                best.offer(i, r * R8, s.l.sums[r as usize]);
             }
         }
         best
@@ -930,7 +866,7 @@ mod tests {
             for i in i0..=i1 {
                 g.column(i, INF, 0);
                 for r in 0..rows {
-                    costs.push((i, j0 + r, g.sums[r as usize] as f64));
+                    costs.push((i, j0 + r, g.l.sums[r as usize] as f64));
                 }
             }
             let min = costs.iter().map(|c| c.2).fold(f64::MAX, f64::min);

@@ -16,7 +16,9 @@
 //! equal, bit for bit.
 
 use super::math::{exp2_neg_q26, log2_fast, sq16, sq_q18};
+use super::refine::Obs;
 use super::tables;
+use crate::grid::{COARSE_DIVS, FINE_DIVS};
 use crate::MAX_ANCHORS;
 
 /// `|u|` at which [`portable_term`] saturates, Q.20: 32 log2 units (`|z − p| ≥ 32·K` dB).
@@ -85,6 +87,31 @@ pub trait TermKernel {
         Self: Sized,
     {
         portable_place(job, p)
+    }
+
+    /// A search's observations set up (`job`'s window at the origin, its steps set): `|K|`
+    /// and its inverse, each observation's `ρ`, sign and clamp, the flat cost, the counts, and
+    /// the anchor placed in `job` ([`TermKernel::place`]): exactly
+    /// [`portable_observe`]`::<Self>(job, s, obs)` (the default; `obs.len() ≤ MAX_ANCHORS`). A kernel overrides it: LLVM's AVR loop is most of ≈ 900 bytes of `Grid::setup`.
+    #[inline(always)]
+    fn observe(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs])
+    where
+        Self: Sized,
+    {
+        portable_observe::<Self>(job, s, obs)
+    }
+
+    /// The sink's search: the thesis' coarse stage from [`TermKernel::guess`] into `best[0]`,
+    /// then the fine window around it with the windowed posterior (`post`'s weights set, its
+    /// reference the coarse winner's cost) into `best[1]`: exactly
+    /// [`portable_search`]`::<Self>(l, best, post)` (the default). A kernel overrides it: LLVM
+    /// spends ≈ 1 KB of AVR flash on these loops and their helpers.
+    #[inline(always)]
+    fn search(l: &mut Lattice, best: &mut [LatticeMin; 2], post: &mut Posterior)
+    where
+        Self: Sized,
+    {
+        portable_search::<Self>(l, best, post)
     }
 
     /// A search's coarse starting point (coarse indices, each ≤ 10) for `job` with its window
@@ -470,6 +497,238 @@ pub struct Placement {
     pub y: i16,
     /// Observation weight (1 to 3 kept, anything else is 4).
     pub weight: u8,
+}
+
+/// `log2(1 m²)` in lattice units `(1/50 cm)²`: `log2(5000²)`, Q.20.
+pub const LOG2_M2: i32 = 25_769_201;
+
+/// Rows a search window holds: ± one coarse step of the thesis' lattice.
+pub const WINDOW_ROWS: usize = 2 * (FINE_DIVS / COARSE_DIVS) + 1;
+
+/// A lattice point (fine indices) and its cost. `repr(C)` (on AVR: `i` 0, `j` 1, `cost` 2).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LatticeMin {
+    /// Fine column.
+    pub i: u8,
+    /// Fine row.
+    pub j: u8,
+    /// Its cost (`u32::MAX`: none yet).
+    pub cost: u32,
+}
+
+/// A search's state: its window, the model's constants ([`Setup`]), the kernel's job and one
+/// column of sums. `repr(C)`, the scalars and the job's header first: AVR reaches 63 bytes from
+/// a pointer in one instruction, farther fields cost pointer arithmetic; an assembly kernel
+/// reads it by offset. Indices are `u8` (≤ 50): on AVR every `usize` is a register pair.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct Lattice {
+    /// The current window's first column and row (fine indices) and its rows.
+    pub i0: u8,
+    /// See `i0`.
+    pub j0: u8,
+    /// See `i0`.
+    pub rows: u8,
+    /// Evaluations (the host's multi-start, exhaustive and full MMSE searches count here).
+    pub evals: u16,
+    /// The model in, and what [`TermKernel::observe`] sums and derives.
+    pub s: Setup,
+    /// The kernel's job: per anchor `ρ`, weight, shift, offsets from the window's origin.
+    pub job: ColumnJob,
+    /// The last column's costs.
+    pub sums: [u32; WINDOW_ROWS],
+}
+
+impl Lattice {
+    /// No anchors, all zero.
+    pub const EMPTY: Lattice = Lattice {
+        i0: 0,
+        j0: 0,
+        rows: 0,
+        evals: 0,
+        s: Setup::ZERO,
+        job: ColumnJob::EMPTY,
+        sums: [0; WINDOW_ROWS],
+    };
+}
+
+/// The reference of [`TermKernel::search`]: the coarse stage from [`TermKernel::guess`]'s
+/// point ([`portable_coarse_from`]) into `best[0]`, `post`'s reference its cost, then
+/// [`portable_fine_post`] from it into `best[1]`.
+pub fn portable_search<K: TermKernel>(
+    l: &mut Lattice,
+    best: &mut [LatticeMin; 2],
+    post: &mut Posterior,
+) {
+    let (gi, gj) = K::guess(&l.job);
+    portable_coarse_from::<K>(l, gi, gj, &mut best[0]);
+    post.cref = best[0].cost;
+    best[1] = best[0];
+    portable_fine_post::<K>(l, &mut best[1], post);
+}
+
+/// Column `i` of `l`'s window into its sums (rows whose bit is set in `skip` are not
+/// evaluated), evaluations stopped at `min(bound, u32::MAX − 1)`.
+fn column_of<K: TermKernel>(l: &mut Lattice, i: u8, bound: u32, skip: u16) {
+    l.job.col = i.wrapping_sub(l.i0);
+    l.job.bound = bound.min(u32::MAX - 1);
+    l.job.skip = skip;
+    let rows = (l.rows as usize).min(WINDOW_ROWS);
+    K::column(&mut l.sums[..rows], &mut l.job);
+}
+
+/// The thesis' coarse stage into `best`: the 11 × 11 coarse grid (the window moved to the
+/// origin, stride 5) with the reference's outcome (`i` outer, strict `<`), coarse point `(gi,
+/// gj)` (each ≤ 10) evaluated first: its cost bounds every column's evaluations from the start
+/// (the same result from any). Up to the best point's column a tie comes first in the
+/// reference's scan: those columns are bounded one above the best cost.
+pub fn portable_coarse_from<K: TermKernel>(l: &mut Lattice, gi: u8, gj: u8, best: &mut LatticeMin) {
+    const R: u8 = (FINE_DIVS / COARSE_DIVS) as u8;
+    K::move_window(
+        &mut l.job,
+        0u8.wrapping_sub(l.i0) as i8,
+        0u8.wrapping_sub(l.j0) as i8,
+    );
+    (l.i0, l.j0, l.rows) = (0, 0, COARSE_DIVS as u8 + 1);
+    l.job.stride = R;
+    column_of::<K>(l, gi * R, u32::MAX, !(1 << gj));
+    *best = LatticeMin {
+        i: gi * R,
+        j: gj * R,
+        cost: l.sums[(gj as usize).min(COARSE_DIVS)],
+    };
+    let mut i = 0;
+    while i <= FINE_DIVS as u8 {
+        let bound = if i <= best.i {
+            best.cost.saturating_add(1)
+        } else {
+            best.cost
+        };
+        column_of::<K>(l, i, bound, 0);
+        if l.job.min < bound {
+            *best = LatticeMin {
+                i,
+                j: l.j0.wrapping_add(l.job.min_row),
+                cost: l.job.min,
+            };
+        }
+        i += R;
+    }
+}
+
+/// The fine stage of [`portable_search`]: the thesis' fine window (± one coarse step,
+/// clipped) around the coarse winner `best`, each column evaluated up to the posterior's bound
+/// or `best`'s cost if larger (capped at `u32::MAX − 1`), added to `post`, and its first
+/// strictly smaller cost taken into `best` (the window moved there first: stride 1).
+pub fn portable_fine_post<K: TermKernel>(
+    l: &mut Lattice,
+    best: &mut LatticeMin,
+    post: &mut Posterior,
+) {
+    const R: u8 = (FINE_DIVS / COARSE_DIVS) as u8;
+    let (i0, j0) = (best.i.saturating_sub(R), best.j.saturating_sub(R));
+    let i1 = best.i.wrapping_add(R).min(FINE_DIVS as u8);
+    let rows = best.j.wrapping_add(R).min(FINE_DIVS as u8).wrapping_sub(j0) + 1;
+    K::move_window(
+        &mut l.job,
+        i0.wrapping_sub(l.i0) as i8,
+        j0.wrapping_sub(l.j0) as i8,
+    );
+    (l.i0, l.j0, l.rows) = (i0, j0, rows);
+    l.job.stride = 1;
+    let rows = (rows as usize).min(WINDOW_ROWS);
+    let mut i = i0;
+    while i <= i1 {
+        column_of::<K>(l, i, post.bound().max(best.cost), 0);
+        K::posterior(&l.sums[..rows], i - i0, post);
+        if l.job.min < best.cost {
+            *best = LatticeMin {
+                i,
+                j: l.j0.wrapping_add(l.job.min_row),
+                cost: l.job.min,
+            };
+        }
+        i += 1;
+    }
+}
+
+/// `5·log10(2)`, Q.31.
+const FIVE_LOG10_2_Q31: u32 = 3_232_284_966;
+
+/// A search's setup over its observations, for [`TermKernel::observe`]: its inputs (`P0`, α)
+/// and outputs (`|K|`, the flat cost, the counts). `repr(C)` (on AVR: `p0` 0, `alpha` 4, `k26`
+/// 8, `flat_cost` 12, `anchors` 16, `weight` 17): an assembly kernel reads it by offset.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Setup {
+    /// Input: P0, Q.16 dBm.
+    pub p0: i32,
+    /// Input: α, Q.24 (its magnitude clamped to 32).
+    pub alpha: i32,
+    /// Output: `|K|`, Q.26 (`K = 5·α·log10 2`); below `2^10` the cost is flat.
+    pub k26: u32,
+    /// Sum: the cost if flat (α = 0), `Σ w·(z − P0)²`, Q.8 dB², saturating (`w` is `weight & 7`).
+    pub flat_cost: u32,
+    /// Sum: the observations.
+    pub anchors: u8,
+    /// Sum: their weights (wrapping).
+    pub weight: u8,
+}
+
+impl Setup {
+    /// All zero (zeroed memory, not a copy from flash, initialises it).
+    pub const ZERO: Setup = Setup {
+        p0: 0,
+        alpha: 0,
+        k26: 0,
+        flat_cost: 0,
+        anchors: 0,
+        weight: 0,
+    };
+}
+
+/// The reference of [`TermKernel::observe`]: `k26 = mul_hi(min(|α|, 2^29) << 3, 5·log10 2
+/// (Q.31))`, `inv_k = div_shl(2^30, k26 >> 1, 25)` (0 if flat: `k26 < 2^10`), `job.n = 0`; then
+/// per observation `d = z − P0` (wrapping) and `a = min(|d|, 2^26 − 1) << 6`; the flat cost
+/// plus `(w & 7)·q²`, `q = a >> 18` (`|d|` in Q.4 dB, at most `2^14 − 1`, squared into Q.8
+/// dB²), saturating; `ρ = ±min(mul_hi(a, inv_k), 2^30) − log2(1 m²)` (Q.20, negative when
+/// `d < 0` and α ≥ 0 or the reverse); then [`TermKernel::place`]. A flat cost ends with
+/// `job.n = 0` (every point costs the same).
+pub fn portable_observe<K: TermKernel>(job: &mut ColumnJob, s: &mut Setup, obs: &[Obs]) {
+    // |α| ≤ 32 (2^29 in Q.24): Q.27 fits a u32; K < 48.2 in Q.26 too. (P0 needs no clamp:
+    // |z − P0| is limited below.)
+    s.k26 = K::mul_hi(s.alpha.unsigned_abs().min(1 << 29) << 3, FIVE_LOG10_2_Q31);
+    let flat = s.k26 < 1 << 10;
+    // 2^30/|K| (saturating below |K| = 1/4, where only the flatness of the cost matters).
+    let inv_k = if flat {
+        0
+    } else {
+        K::div_shl(1 << 30, s.k26 >> 1, 25)
+    };
+    job.n = 0;
+    for o in obs {
+        let d = o.z.wrapping_sub(s.p0);
+        let ad = d.unsigned_abs();
+        // |z − P0| Q.16 (< 2^26) as Q.22, × 2^30/K → Q.20 (and Q.4 dB for the flat cost).
+        let a = ad.min((1 << 26) - 1) << 6;
+        let q = a >> 18;
+        s.flat_cost = s.flat_cost.saturating_add(q * q * (o.weight & 7) as u32);
+        s.anchors = s.anchors.wrapping_add(1);
+        s.weight = s.weight.wrapping_add(o.weight);
+        let r = K::mul_hi(a, inv_k).min(1 << 30) as i32;
+        let r = if (d < 0) != (s.alpha < 0) { -r } else { r };
+        let p = Placement {
+            rho: r - LOG2_M2,
+            x: o.pos.x,
+            y: o.pos.y,
+            weight: o.weight,
+        };
+        K::place(job, &p);
+    }
+    if flat {
+        job.n = 0;
+    }
 }
 
 /// The reference of [`TermKernel::place`]: `p` goes after the anchors whose sort key (`ρ`

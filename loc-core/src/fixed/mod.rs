@@ -114,9 +114,10 @@ pub use grid::{
 };
 pub use kernel::{
     div_shl, exp2_segment_table, log2_segment_base, log2_segment_table, mul_hi, offset_square,
-    portable_column, portable_guess, portable_move, portable_place, portable_posterior,
-    portable_term, portable_weights, AnchorTerm, ColumnJob, Placement, Portable, Posterior,
-    TermKernel, Weights, I24, LOG2_CLAMP, SQ_SAT, U_SAT,
+    portable_coarse_from, portable_column, portable_fine_post, portable_guess, portable_move,
+    portable_observe, portable_place, portable_posterior, portable_search, portable_term,
+    portable_weights, AnchorTerm, ColumnJob, Lattice, LatticeMin, Placement, Portable, Posterior,
+    Setup, TermKernel, Weights, I24, LOG2_CLAMP, LOG2_M2, SQ_SAT, U_SAT, WINDOW_ROWS,
 };
 pub use params::{
     distance_x, fit, fit_grid, fit_least_squares, fit_least_squares_with, portable_ar1_update,

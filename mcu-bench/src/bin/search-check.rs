@@ -3,13 +3,15 @@
 //! on 20 000 jobs: half set up as a search sets them up (random observations placed by
 //! `portable_place`: sorted keys, real shifts), half garbage (any `n`, keys in any order, any
 //! shift byte, any offsets and sides, 0 and the extremes among them); prints `badguess n xstep
-//! ystep portable avr` for its first mismatches, then `guess <checked> <mismatches>`. Then
+//! ystep portable avr` for its first mismatches, then `guess <checked> <mismatches>`. Then `AvrTerm::observe` against
+//! `portable_observe` on 10 000 random observation sets (`observe_inputs`); prints `badobserve
+//! <i> …` for its first mismatches, then `observe <checked> <mismatches>`. Then
 //! `mle_and_mmse_window_into` with `AvrTerm` against the same with `Portable` on 150 random
 //! searches (3 to 8 anchors inside and outside the area, rooms of 1 to 65 m and a corner-sized
 //! one, flat (α = 0, tiny), negative and thesis-like models, σ = 0, 1, 65 535 and random; every
 //! field of both estimates, errors included); prints `badsearch <trial>` for its first
 //! mismatches, then `search <checked> <mismatches>`, then `end`. `tests/tests/search_check.rs`
-//! runs it in simavr. Build: `cargo fw-bench`.
+//! runs it in simavr (and `search-check2`, the search driver). Build: `cargo fw-bench`.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]
@@ -113,6 +115,37 @@ fn main() -> ! {
         }
     }
     line(&mut serial, b"guess", &[n, bad]);
+    // ---- observe ----
+    let (mut bad, n) = (0u32, black_box(10_000u32));
+    for i in 0..n {
+        let (mut want_job, mut want_s, all, len) = observe_inputs(i, &mut r);
+        let obs = &all[..len as usize];
+        let (mut got_job, mut got_s) = (want_job, want_s);
+        loc_core::fixed::portable_observe::<loc_core::fixed::Portable>(
+            &mut want_job,
+            &mut want_s,
+            black_box(obs),
+        );
+        uno_board::AvrTerm::observe(&mut got_job, &mut got_s, black_box(obs));
+        let same_anchors = want_job.anchors.iter().zip(&got_job.anchors).all(|(a, b)| {
+            (a.dx0, a.dy0, a.lclamp, a.rho, a.w, a.shift)
+                == (b.dx0, b.dy0, b.lclamp, b.rho, b.w, b.shift)
+        });
+        if want_s != got_s || want_job.n != got_job.n || !same_anchors {
+            bad += 1;
+            if bad <= 5 {
+                let v = [
+                    i,
+                    want_s.flat_cost,
+                    got_s.flat_cost,
+                    want_job.anchors[0].rho as u32,
+                    got_job.anchors[0].rho as u32,
+                ];
+                line(&mut serial, b"badobserve", &v);
+            }
+        }
+    }
+    line(&mut serial, b"observe", &[n, bad]);
     // ---- the sink's whole search ----
     let (mut bad, n) = (0u32, black_box(150u32));
     for t in 0..n {
@@ -142,70 +175,78 @@ fn main() -> ! {
     }
 }
 
-/// Search `t`'s inputs: observations, model, area, σ (Q.8 dB).
+/// Observation job `i`'s inputs: a job with `xstep`, `ystep` of any size and 0 to 5 anchors
+/// already in it (garbage: `observe` starts from `n = 0`), a [`loc_core::fixed::Setup`] with
+/// any `P0` and α (0, tiny, negative, as a search has it, the extremes among them), garbage in
+/// its outputs, sums near saturation or wrapping, and 1 to 8 observations with any `z` (near
+/// `P0` or anywhere), position and weight byte.
 #[cfg(target_arch = "avr")]
 #[inline(never)]
-fn search_inputs(
-    t: u32,
+fn observe_inputs(
+    i: u32,
     r: &mut u32,
 ) -> (
-    loc_core::fixed::Observations,
-    loc_core::fixed::PathLoss,
-    loc_core::fixed::AreaCm,
-    u16,
+    loc_core::fixed::ColumnJob,
+    loc_core::fixed::Setup,
+    [loc_core::fixed::Obs; loc_core::MAX_ANCHORS],
+    u8,
 ) {
-    use loc_core::fixed::{AreaCm, Obs, Observations, PathLoss, PointCm, ALPHA, DB};
+    use loc_core::fixed::{ColumnJob, Obs, Placement, PointCm, Setup};
     use mcu_bench::fw::xorshift;
     let mut next = || xorshift(r);
-    let area = match t % 9 {
-        0 => AreaCm::new(100, 100),
-        1 => AreaCm::new(6_500, 6_500),
-        _ => AreaCm::new(100 + (next() % 3_000) as u16, 100 + (next() % 3_000) as u16),
-    };
-    let mut obs = Observations::new();
-    for k in 0..3 + next() % 6 {
-        let (x, y) = (next(), next());
-        let pos = match (t + k) % 6 {
-            // Area corners.
-            0 => PointCm::new(0, 0),
-            1 => PointCm::new(area.width as i16, area.height as i16),
-            // Outside.
-            2 => PointCm::new(-((x % 500) as i16), (y % 9_000) as i16),
-            _ => PointCm::new(
-                (x % (area.width as u32 + 1)) as i16,
-                (y % (area.height as u32 + 1)) as i16,
-            ),
+    let mut job = ColumnJob::EMPTY;
+    (job.xstep, job.ystep) = (1 + next() as u16 % 6_500, next() as u16);
+    let pre = next() % 6;
+    for _ in 0..pre {
+        let (a, b) = (next(), next());
+        let p = Placement {
+            rho: a as i32 >> (b % 8),
+            x: b as i16,
+            y: (b >> 16) as i16,
+            weight: a as u8,
         };
-        obs.push(Obs {
-            pos,
-            z: -(30 * DB) - (next() % (60 * DB as u32)) as i32,
-            weight: 1 + (x >> 24) as u8 % 4,
-        });
+        loc_core::fixed::portable_place(&mut job, &p);
     }
-    obs.const_cost = next() % 1_000;
-    let model = match t % 6 {
-        0 => PathLoss {
-            p0: -40 * DB,
-            alpha: 0,
+    let (a, b, c) = (next(), next(), next());
+    let s = Setup {
+        p0: match i % 5 {
+            0 => i32::MIN,
+            1 => i32::MAX,
+            2 => a as i32,
+            _ => -((a % (90 << 16)) as i32),
         },
-        1 => PathLoss {
-            p0: -40 * DB,
-            alpha: 1 + (next() % 64) as i32,
+        alpha: match i % 7 {
+            0 => 0,
+            1 => i32::MIN,
+            2 => (b % 1_000) as i32 - 500,
+            3 => b as i32,
+            4 => -2 * loc_core::fixed::ALPHA,
+            _ => loc_core::fixed::ALPHA + (b % (4 * loc_core::fixed::ALPHA as u32)) as i32,
         },
-        2 => PathLoss {
-            p0: -((next() % (60 * DB as u32)) as i32),
-            alpha: -2 * ALPHA,
-        },
-        _ => PathLoss {
-            p0: -(30 * DB) - (next() % (30 * DB as u32)) as i32,
-            alpha: ALPHA + (next() % (4 * ALPHA as u32)) as i32,
-        },
+        k26: a,
+        flat_cost: if c & 2 == 0 { c } else { u32::MAX - (c >> 20) },
+        anchors: (c >> 8) as u8,
+        weight: (c >> 16) as u8,
     };
-    let sigma = match t % 5 {
-        0 => 0,
-        1 => 1,
-        2 => u16::MAX,
-        _ => (next() % (8 << 8)) as u16,
-    };
-    (obs, model, area, sigma)
+    let mut obs = [Obs::default(); loc_core::MAX_ANCHORS];
+    let len = 1 + next() % 8;
+    for o in &mut obs[..len as usize] {
+        let (x, y) = (next(), next());
+        *o = Obs {
+            pos: PointCm::new(x as i16, (x >> 16) as i16),
+            z: if y % 3 == 0 {
+                y as i32
+            } else {
+                s.p0.wrapping_add((y >> 4) as i32 >> (y % 16))
+            },
+            weight: (y >> 8) as u8,
+        };
+    }
+    (job, s, obs, len as u8)
 }
+
+#[cfg(target_arch = "avr")]
+#[path = "common/search_inputs.rs"]
+mod search_inputs;
+#[cfg(target_arch = "avr")]
+use search_inputs::search_inputs;
