@@ -34,6 +34,13 @@ avr_progmem::progmem! {
     static progmem WORDS: [u8; 123] = *b"hoploc anchor agent sink boot radio ok api error try config eeprom built-in id provisioned fix nofix status mle mmse report";
 }
 
+/// Byte `i` of [`WORDS`]. Out of line: on AVR a flash read goes through a stack slot, whose
+/// frame then stays out of [`Out::word`]'s loop.
+#[inline(never)]
+fn word_byte(i: u8) -> u8 {
+    WORDS.load_at(i as usize)
+}
+
 /// Indices into [`WORDS`].
 #[derive(Clone, Copy)]
 #[repr(u8)]
@@ -79,16 +86,13 @@ impl<W: FnMut(u8)> Out<W> {
         Out { out, crc: 0 }
     }
 
-    /// Writes `b`. (crc8 from state `crc` over `b` is crc8 of `crc ^ b` from 0.)
+    /// Writes `b`. (crc8 from state `crc` over `b` is crc8 of `crc ^ b` from 0.) A `u8` bit
+    /// count: an untyped `0..8` is an `i32` loop on AVR.
     #[inline(never)]
     pub(crate) fn byte(&mut self, b: u8) {
         let mut c = self.crc ^ b;
-        for _ in 0..8 {
-            c = if c & 0x80 != 0 {
-                (c << 1) ^ 0x07
-            } else {
-                c << 1
-            };
+        for _ in 0..8u8 {
+            c = (c << 1) ^ if c & 0x80 != 0 { 0x07 } else { 0 };
         }
         self.crc = c;
         (self.out)(b);
@@ -102,20 +106,23 @@ impl<W: FnMut(u8)> Out<W> {
     }
 
     /// A space (none before word 0, `hoploc`, which starts every line) and word `k` of
-    /// [`WORDS`].
+    /// [`WORDS`]. One `u8` position and one `u8` word count: few registers live across `byte`.
     #[inline(never)]
     pub(crate) fn word(&mut self, k: u8) {
         if k != 0 {
             self.byte(b' ');
         }
-        let mut seen = 0;
-        for b in WORDS.iter() {
+        let mut left = k;
+        let mut i = 0u8;
+        while (i as usize) < WORDS.len() {
+            let b = word_byte(i);
+            i += 1;
             if b == b' ' {
-                seen += 1;
-                if seen > k {
+                if left == 0 {
                     return;
                 }
-            } else if seen == k {
+                left -= 1;
+            } else if left == 0 {
                 self.byte(b);
             }
         }
@@ -124,18 +131,23 @@ impl<W: FnMut(u8)> Out<W> {
     /// A space and `n` in decimal.
     #[inline(never)]
     pub(crate) fn num(&mut self, n: u32) {
-        self.byte(b' ');
-        self.decimal(n);
+        self.field(n, false);
     }
 
     /// A space and `n` in decimal, `-` first if negative.
     #[inline(never)]
     pub(crate) fn signed(&mut self, n: i16) {
+        self.field(n.unsigned_abs().into(), n < 0);
+    }
+
+    /// A space, `-` if `neg`, and `n` in decimal: every number field of every line.
+    #[inline(never)]
+    fn field(&mut self, n: u32, neg: bool) {
         self.byte(b' ');
-        if n < 0 {
+        if neg {
             self.byte(b'-');
         }
-        self.decimal(n.unsigned_abs().into());
+        self.decimal(n);
     }
 
     /// `n` in decimal: the digits before the last by recursion (at most ten levels deep), then
