@@ -98,11 +98,12 @@ impl<W: FnMut(u8)> Out<W> {
         (self.out)(b);
     }
 
-    /// `hoploc`, a space and word `second` (the role, or `sink`): how every line starts.
+    /// `hoploc`, word `second` (the role, or `sink`) and word `kind`: how every line starts.
     #[inline(never)]
-    pub(crate) fn head(&mut self, second: u8) {
+    pub(crate) fn head(&mut self, second: u8, kind: u8) {
         self.word(Word::Hoploc as u8);
         self.word(second);
+        self.word(kind);
     }
 
     /// A space (none before word 0, `hoploc`, which starts every line) and word `k` of
@@ -309,11 +310,11 @@ impl BootLine {
     pub fn write(&self, out: impl FnMut(u8)) {
         use Word::*;
         let mut o = Out::new(out);
-        o.head(1 + self.role() as u8);
+        let role = 1 + self.role() as u8;
         match *self {
-            BootLine::Boot { .. } => o.word(Boot as u8),
+            BootLine::Boot { .. } => o.head(role, Boot as u8),
             BootLine::RadioUp { found, .. } => {
-                o.word(Radio as u8);
+                o.head(role, Radio as u8);
                 o.word(Ok as u8);
                 match found {
                     RadioFound::Api => o.word(Api as u8),
@@ -321,22 +322,22 @@ impl BootLine {
                 }
             }
             BootLine::RadioError { code, attempt, .. } => {
-                o.word(Radio as u8);
+                o.head(role, Radio as u8);
                 o.word(Error as u8);
                 o.num(code.into());
                 o.word(Try as u8);
                 o.num(attempt.into());
             }
-            BootLine::Provisioned { .. } => o.word(Provisioned as u8),
+            BootLine::Provisioned { .. } => o.head(role, Provisioned as u8),
             BootLine::Config { source, id, .. } => {
-                o.word(Config as u8);
+                o.head(role, Config as u8);
                 // `built-in` follows `eeprom` in WORDS.
                 o.word(Eeprom as u8 + (source == ConfigSource::BuiltIn) as u8);
                 o.word(Id as u8);
                 o.num(id.into());
             }
             BootLine::ConfigError { code, .. } => {
-                o.word(Config as u8);
+                o.head(role, Config as u8);
                 o.word(Error as u8);
                 o.num(code.into());
             }

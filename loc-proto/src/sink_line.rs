@@ -168,14 +168,6 @@ pub fn crc8(bytes: impl IntoIterator<Item = u8>) -> u8 {
     c
 }
 
-/// `hoploc sink` and the `kind` word: how every sink line starts. Out of line, on the line
-/// in place (returned, it is copied through memory on AVR).
-#[inline(never)]
-fn start<W: FnMut(u8)>(o: &mut Out<W>, kind: u8) {
-    o.head(WORD_SINK);
-    o.word(kind);
-}
-
 impl SinkLine {
     /// Writes the line, checksum and `\r\n` included, one byte at a time (at most
     /// [`MAX_SINK_LINE`] bytes).
@@ -197,7 +189,7 @@ impl SinkLine {
                 anchors,
                 flags,
             } => {
-                start(&mut o, FIX);
+                o.head(WORD_SINK, FIX);
                 o.num(agent.into());
                 o.num(seq.into());
                 o.word(match estimator {
@@ -212,7 +204,7 @@ impl SinkLine {
                 o.num(flags.into());
             }
             SinkLine::NoFix { agent, seq, usable } => {
-                start(&mut o, NOFIX);
+                o.head(WORD_SINK, NOFIX);
                 o.num(agent.into());
                 o.num(seq.into());
                 o.num(usable.into());
@@ -227,7 +219,7 @@ impl SinkLine {
                 fixes,
             } => {
                 // One call each (a loop over an array of them copies it twice on AVR).
-                start(&mut o, STATUS);
+                o.head(WORD_SINK, STATUS);
                 o.num(uptime_s);
                 o.num(frames);
                 o.num(reports);
@@ -352,7 +344,7 @@ impl RawReport {
     /// carries.
     pub fn write(msg: &[u8], out: impl FnMut(u8)) {
         let mut o = Out::new(out);
-        start(&mut o, REPORT);
+        o.head(WORD_SINK, REPORT);
         o.hex(msg);
         o.end(true);
     }
