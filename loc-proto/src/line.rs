@@ -141,24 +141,21 @@ impl<W: FnMut(u8)> Out<W> {
         self.field(n.unsigned_abs().into(), n < 0);
     }
 
-    /// A space, `-` if `neg`, and `n` in decimal: every number field of every line.
+    /// A space, `-` if `neg`, and `n` in decimal: every number field of every line. The digits
+    /// before the last by recursion (at most ten levels deep), the deepest level writing the
+    /// space and sign first, then the last (so nothing else is kept across the calls). One
+    /// 32-bit division per digit: the remainder `n − 10·q` is below 10, so its low 8 bits (one
+    /// hardware multiply on AVR) are all of it.
     #[inline(never)]
     fn field(&mut self, n: u32, neg: bool) {
-        self.byte(b' ');
-        if neg {
-            self.byte(b'-');
-        }
-        self.decimal(n);
-    }
-
-    /// `n` in decimal: the digits before the last by recursion (at most ten levels deep), then
-    /// the last. One 32-bit division per digit: the remainder `n − 10·q` is below 10, so its low
-    /// 8 bits (one hardware multiply on AVR) are all of it.
-    #[inline(never)]
-    fn decimal(&mut self, n: u32) {
         let q = n / 10;
         if q != 0 {
-            self.decimal(q);
+            self.field(q, neg);
+        } else {
+            self.byte(b' ');
+            if neg {
+                self.byte(b'-');
+            }
         }
         self.byte(b'0' + (n as u8).wrapping_sub((q as u8).wrapping_mul(10)));
     }
