@@ -307,11 +307,18 @@ impl BootLine {
     pub fn write(&self, out: impl FnMut(u8)) {
         use Word::*;
         let mut o = Out::new(out);
-        let role = 1 + self.role() as u8;
+        // The kind word first, from the variant: a caller that writes one of two lines of a kind
+        // (the radio's) gets one copy of the line's start.
+        let kind = match *self {
+            BootLine::Boot { .. } => Boot,
+            BootLine::RadioUp { .. } | BootLine::RadioError { .. } => Radio,
+            BootLine::Provisioned { .. } => Provisioned,
+            BootLine::Config { .. } | BootLine::ConfigError { .. } => Config,
+        };
+        o.head(1 + self.role() as u8, kind as u8);
         match *self {
-            BootLine::Boot { .. } => o.head(role, Boot as u8),
+            BootLine::Boot { .. } | BootLine::Provisioned { .. } => {}
             BootLine::RadioUp { found, .. } => {
-                o.head(role, Radio as u8);
                 o.word(Ok as u8);
                 match found {
                     RadioFound::Api => o.word(Api as u8),
@@ -319,22 +326,18 @@ impl BootLine {
                 }
             }
             BootLine::RadioError { code, attempt, .. } => {
-                o.head(role, Radio as u8);
                 o.word(Error as u8);
                 o.num(code.into());
                 o.word(Try as u8);
                 o.num(attempt.into());
             }
-            BootLine::Provisioned { .. } => o.head(role, Provisioned as u8),
             BootLine::Config { source, id, .. } => {
-                o.head(role, Config as u8);
                 // `built-in` follows `eeprom` in WORDS.
                 o.word(Eeprom as u8 + (source == ConfigSource::BuiltIn) as u8);
                 o.word(Id as u8);
                 o.num(id.into());
             }
             BootLine::ConfigError { code, .. } => {
-                o.head(role, Config as u8);
                 o.word(Error as u8);
                 o.num(code.into());
             }
