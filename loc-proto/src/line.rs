@@ -135,6 +135,13 @@ impl<W: FnMut(u8)> Out<W> {
         self.field(n, false);
     }
 
+    /// A space and `n` in decimal: [`Out::num`] for the fields of 16 bits or fewer (most of
+    /// them), whose callers then pass two bytes, not four.
+    #[inline(never)]
+    pub(crate) fn num16(&mut self, n: u16) {
+        self.field(n.into(), false);
+    }
+
     /// A space and `n` in decimal, `-` first if negative.
     #[inline(never)]
     pub(crate) fn signed(&mut self, n: i16) {
@@ -327,19 +334,19 @@ impl BootLine {
             }
             BootLine::RadioError { code, attempt, .. } => {
                 o.word(Error as u8);
-                o.num(code.into());
+                o.num16(code.into());
                 o.word(Try as u8);
-                o.num(attempt.into());
+                o.num16(attempt.into());
             }
             BootLine::Config { source, id, .. } => {
                 // `built-in` follows `eeprom` in WORDS.
                 o.word(Eeprom as u8 + (source == ConfigSource::BuiltIn) as u8);
                 o.word(Id as u8);
-                o.num(id.into());
+                o.num16(id.into());
             }
             BootLine::ConfigError { code, .. } => {
                 o.word(Error as u8);
-                o.num(code.into());
+                o.num16(code.into());
             }
         }
         o.end(false);
@@ -525,6 +532,11 @@ mod tests {
             let mut v = Vec::new();
             Out::new(|b| v.push(b)).num(n);
             assert_eq!(String::from_utf8(v).unwrap(), std::format!(" {n}"));
+            for n in [n as u16, u16::MAX] {
+                let mut v = Vec::new();
+                Out::new(|b| v.push(b)).num16(n);
+                assert_eq!(String::from_utf8(v).unwrap(), std::format!(" {n}"));
+            }
             for n in [n as i16, (n as i16).wrapping_neg(), i16::MIN, i16::MAX, -1] {
                 let mut v = Vec::new();
                 Out::new(|b| v.push(b)).signed(n);

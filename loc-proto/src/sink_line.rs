@@ -190,24 +190,24 @@ impl SinkLine {
                 flags,
             } => {
                 o.head(WORD_SINK, FIX);
-                o.num(agent.into());
-                o.num(seq.into());
+                o.num16(agent.into());
+                o.num16(seq.into());
                 o.word(match estimator {
                     Estimator::Mle => MLE,
                     Estimator::Mmse => MMSE,
                 });
                 o.signed(x);
                 o.signed(y);
-                o.num(alpha_x100.into());
+                o.num16(alpha_x100.into());
                 o.signed(p0_x100);
-                o.num(anchors.into());
-                o.num(flags.into());
+                o.num16(anchors.into());
+                o.num16(flags.into());
             }
             SinkLine::NoFix { agent, seq, usable } => {
                 o.head(WORD_SINK, NOFIX);
-                o.num(agent.into());
-                o.num(seq.into());
-                o.num(usable.into());
+                o.num16(agent.into());
+                o.num16(seq.into());
+                o.num16(usable.into());
             }
             SinkLine::Status {
                 uptime_s,
