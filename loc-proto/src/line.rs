@@ -336,7 +336,7 @@ impl BootLine {
                 o.word(Error as u8);
                 o.num16(code.into());
                 o.word(Try as u8);
-                o.num16(attempt.into());
+                o.num16(attempt);
             }
             BootLine::Config { source, id, .. } => {
                 // `built-in` follows `eeprom` in WORDS.

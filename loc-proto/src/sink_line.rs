@@ -191,14 +191,14 @@ impl SinkLine {
             } => {
                 o.head(WORD_SINK, FIX);
                 o.num16(agent.into());
-                o.num16(seq.into());
+                o.num16(seq);
                 o.word(match estimator {
                     Estimator::Mle => MLE,
                     Estimator::Mmse => MMSE,
                 });
                 o.signed(x);
                 o.signed(y);
-                o.num16(alpha_x100.into());
+                o.num16(alpha_x100);
                 o.signed(p0_x100);
                 o.num16(anchors.into());
                 o.num16(flags.into());
@@ -206,7 +206,7 @@ impl SinkLine {
             SinkLine::NoFix { agent, seq, usable } => {
                 o.head(WORD_SINK, NOFIX);
                 o.num16(agent.into());
-                o.num16(seq.into());
+                o.num16(seq);
                 o.num16(usable.into());
             }
             SinkLine::Status {
