@@ -184,15 +184,29 @@ impl<W: FnMut(u8)> Out<W> {
 
     /// The line's end: ` *XX` (the CRC-8 of every byte so far, in hex) if `checked`, then
     /// `\r\n`.
-    #[inline(never)]
+    #[inline(always)]
     pub(crate) fn end(&mut self, checked: bool) {
         if checked {
-            let c = self.crc;
-            self.byte(b' ');
-            self.byte(b'*');
-            self.hex_digit(c >> 4);
-            self.hex_digit(c & 15);
+            self.end_checked();
+        } else {
+            self.end_plain();
         }
+    }
+
+    /// ` *XX` (the CRC-8 of every byte so far, in hex), then `\r\n`: the sink lines' end.
+    #[inline(never)]
+    fn end_checked(&mut self) {
+        let c = self.crc;
+        self.byte(b' ');
+        self.byte(b'*');
+        self.hex_digit(c >> 4);
+        self.hex_digit(c & 15);
+        self.end_plain();
+    }
+
+    /// `\r\n`: the boot lines' end.
+    #[inline(never)]
+    fn end_plain(&mut self) {
         self.byte(b'\r');
         self.byte(b'\n');
     }
