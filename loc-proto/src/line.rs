@@ -27,11 +27,42 @@ use core::fmt;
 
 use crate::Role;
 
+/// Every word of the boot lines and the sink's lines ([`crate::sink_line`]), space separated;
+/// [`Word`] and `sink_line`'s word numbers index it. One table, one writer ([`Out`]) for every
+/// line a node writes.
+const WORD_LIST: &[u8] =
+    b"hoploc anchor agent sink boot radio ok api error try config eeprom built-in id provisioned fix nofix status mle mmse report";
+
+/// [`WORD_LIST`] without its spaces: each word's last byte has bit 7 set instead (lines are
+/// ASCII), which saves the table a byte per word.
+const fn packed_words<const N: usize>() -> [u8; N] {
+    let mut out = [0u8; N];
+    let (mut i, mut j) = (0, 0);
+    while i < WORD_LIST.len() {
+        if WORD_LIST[i] != b' ' {
+            let last = i + 1 == WORD_LIST.len() || WORD_LIST[i + 1] == b' ';
+            out[j] = WORD_LIST[i] | if last { 0x80 } else { 0 };
+            j += 1;
+        }
+        i += 1;
+    }
+    assert!(j == N);
+    out
+}
+
+/// Bytes of [`WORD_LIST`] that are not spaces.
+const PACKED_LEN: usize = {
+    let (mut i, mut n) = (0, 0);
+    while i < WORD_LIST.len() {
+        n += (WORD_LIST[i] != b' ') as usize;
+        i += 1;
+    }
+    n
+};
+
 avr_progmem::progmem! {
-    /// Every word of the boot lines and the sink's lines ([`crate::sink_line`]), space
-    /// separated; [`Word`] and `sink_line`'s word numbers index it. One table, one writer
-    /// ([`Out`]) for every line a node writes.
-    static progmem WORDS: [u8; 123] = *b"hoploc anchor agent sink boot radio ok api error try config eeprom built-in id provisioned fix nofix status mle mmse report";
+    /// [`WORD_LIST`] packed ([`packed_words`]), in flash on AVR.
+    static progmem WORDS: [u8; PACKED_LEN] = packed_words();
 }
 
 /// Byte `i` of [`WORDS`]. Out of line: on AVR a flash read goes through a stack slot, whose
@@ -118,13 +149,14 @@ impl<W: FnMut(u8)> Out<W> {
         while (i as usize) < WORDS.len() {
             let b = word_byte(i);
             i += 1;
-            if b == b' ' {
+            if left == 0 {
+                self.byte(b & 0x7F);
+            }
+            if b & 0x80 != 0 {
                 if left == 0 {
                     return;
                 }
                 left -= 1;
-            } else if left == 0 {
-                self.byte(b);
             }
         }
     }
@@ -557,6 +589,26 @@ mod tests {
                 assert_eq!(String::from_utf8(v).unwrap(), std::format!(" {n}"));
             }
         }
+    }
+
+    #[test]
+    fn every_word_reads_back_from_the_packed_table() {
+        let words: Vec<&[u8]> = WORD_LIST.split(|&b| b == b' ').collect();
+        assert_eq!(PACKED_LEN + words.len() - 1, WORD_LIST.len());
+        for (k, w) in words.iter().enumerate() {
+            let mut v = Vec::new();
+            Out::new(|b| v.push(b)).word(k as u8);
+            let want = [if k == 0 { &b""[..] } else { b" " }, w].concat();
+            assert_eq!(v, want, "word {k}");
+        }
+        assert_eq!(
+            WORD_FIX as usize,
+            words.iter().position(|w| w == b"fix").unwrap()
+        );
+        assert_eq!(
+            WORD_SINK as usize,
+            words.iter().position(|w| w == b"sink").unwrap()
+        );
     }
 
     #[test]
