@@ -144,19 +144,21 @@ impl<W: FnMut(u8)> Out<W> {
         if k != 0 {
             self.byte(b' ');
         }
-        let mut left = k;
+        // Skip k words (word_byte stops a bad k: the index is checked), then write one.
         let mut i = 0u8;
-        while (i as usize) < WORDS.len() {
+        let mut left = k;
+        while left != 0 {
+            if word_byte(i) & 0x80 != 0 {
+                left -= 1;
+            }
+            i += 1;
+        }
+        loop {
             let b = word_byte(i);
             i += 1;
-            if left == 0 {
-                self.byte(b & 0x7F);
-            }
+            self.byte(b & 0x7F);
             if b & 0x80 != 0 {
-                if left == 0 {
-                    return;
-                }
-                left -= 1;
+                return;
             }
         }
     }
