@@ -144,7 +144,8 @@ impl<W: FnMut(u8)> Out<W> {
         if k != 0 {
             self.byte(b' ');
         }
-        // Skip k words (word_byte stops a bad k: the index is checked), then write one.
+        // Skip k words, then write one (a k past the last word panics in word_byte's index
+        // check: nothing past the table is read).
         let mut i = 0u8;
         let mut left = k;
         while left != 0 {
