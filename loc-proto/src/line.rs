@@ -27,11 +27,49 @@ use core::fmt;
 
 use crate::Role;
 
+/// Every word of the boot lines and the sink's lines ([`crate::sink_line`]), space separated;
+/// [`Word`] and `sink_line`'s word numbers index it. One table, one writer ([`Out`]) for every
+/// line a node writes.
+const WORD_LIST: &[u8] =
+    b"hoploc anchor agent sink boot radio ok api error try config eeprom built-in id provisioned fix nofix status mle mmse report";
+
+/// [`WORD_LIST`] without its spaces: each word's last byte has bit 7 set instead (lines are
+/// ASCII), which saves the table a byte per word.
+const fn packed_words<const N: usize>() -> [u8; N] {
+    let mut out = [0u8; N];
+    let (mut i, mut j) = (0, 0);
+    while i < WORD_LIST.len() {
+        if WORD_LIST[i] != b' ' {
+            let last = i + 1 == WORD_LIST.len() || WORD_LIST[i + 1] == b' ';
+            out[j] = WORD_LIST[i] | if last { 0x80 } else { 0 };
+            j += 1;
+        }
+        i += 1;
+    }
+    assert!(j == N);
+    out
+}
+
+/// Bytes of [`WORD_LIST`] that are not spaces.
+const PACKED_LEN: usize = {
+    let (mut i, mut n) = (0, 0);
+    while i < WORD_LIST.len() {
+        n += (WORD_LIST[i] != b' ') as usize;
+        i += 1;
+    }
+    n
+};
+
 avr_progmem::progmem! {
-    /// Every word of the boot lines and the sink's lines ([`crate::sink_line`]), space
-    /// separated; [`Word`] and `sink_line`'s word numbers index it. One table, one writer
-    /// ([`Out`]) for every line a node writes.
-    static progmem WORDS: [u8; 123] = *b"hoploc anchor agent sink boot radio ok api error try config eeprom built-in id provisioned fix nofix status mle mmse report";
+    /// [`WORD_LIST`] packed ([`packed_words`]), in flash on AVR.
+    static progmem WORDS: [u8; PACKED_LEN] = packed_words();
+}
+
+/// Byte `i` of [`WORDS`]. Out of line: on AVR a flash read goes through a stack slot, whose
+/// frame then stays out of [`Out::word`]'s loop.
+#[inline(never)]
+fn word_byte(i: u8) -> u8 {
+    WORDS.load_at(i as usize)
 }
 
 /// Indices into [`WORDS`].
@@ -79,44 +117,49 @@ impl<W: FnMut(u8)> Out<W> {
         Out { out, crc: 0 }
     }
 
-    /// Writes `b`. (crc8 from state `crc` over `b` is crc8 of `crc ^ b` from 0.)
+    /// Writes `b`. (crc8 from state `crc` over `b` is crc8 of `crc ^ b` from 0.) A `u8` bit
+    /// count: an untyped `0..8` is an `i32` loop on AVR.
     #[inline(never)]
     pub(crate) fn byte(&mut self, b: u8) {
         let mut c = self.crc ^ b;
-        for _ in 0..8 {
-            c = if c & 0x80 != 0 {
-                (c << 1) ^ 0x07
-            } else {
-                c << 1
-            };
+        for _ in 0..8u8 {
+            c = (c << 1) ^ if c & 0x80 != 0 { 0x07 } else { 0 };
         }
         self.crc = c;
         (self.out)(b);
     }
 
-    /// `hoploc`, a space and word `second` (the role, or `sink`): how every line starts.
+    /// `hoploc`, word `second` (the role, or `sink`) and word `kind`: how every line starts.
     #[inline(never)]
-    pub(crate) fn head(&mut self, second: u8) {
+    pub(crate) fn head(&mut self, second: u8, kind: u8) {
         self.word(Word::Hoploc as u8);
         self.word(second);
+        self.word(kind);
     }
 
     /// A space (none before word 0, `hoploc`, which starts every line) and word `k` of
-    /// [`WORDS`].
+    /// [`WORDS`]. One `u8` position and one `u8` word count: few registers live across `byte`.
     #[inline(never)]
     pub(crate) fn word(&mut self, k: u8) {
         if k != 0 {
             self.byte(b' ');
         }
-        let mut seen = 0;
-        for b in WORDS.iter() {
-            if b == b' ' {
-                seen += 1;
-                if seen > k {
-                    return;
-                }
-            } else if seen == k {
-                self.byte(b);
+        // Skip k words, then write one (a k past the last word panics in word_byte's index
+        // check: nothing past the table is read).
+        let mut i = 0u8;
+        let mut left = k;
+        while left != 0 {
+            if word_byte(i) & 0x80 != 0 {
+                left -= 1;
+            }
+            i += 1;
+        }
+        loop {
+            let b = word_byte(i);
+            i += 1;
+            self.byte(b & 0x7F);
+            if b & 0x80 != 0 {
+                return;
             }
         }
     }
@@ -124,28 +167,37 @@ impl<W: FnMut(u8)> Out<W> {
     /// A space and `n` in decimal.
     #[inline(never)]
     pub(crate) fn num(&mut self, n: u32) {
-        self.byte(b' ');
-        self.decimal(n);
+        self.field(n, false);
+    }
+
+    /// A space and `n` in decimal: [`Out::num`] for the fields of 16 bits or fewer (most of
+    /// them), whose callers then pass two bytes, not four.
+    #[inline(never)]
+    pub(crate) fn num16(&mut self, n: u16) {
+        self.field(n.into(), false);
     }
 
     /// A space and `n` in decimal, `-` first if negative.
     #[inline(never)]
     pub(crate) fn signed(&mut self, n: i16) {
-        self.byte(b' ');
-        if n < 0 {
-            self.byte(b'-');
-        }
-        self.decimal(n.unsigned_abs().into());
+        self.field(n.unsigned_abs().into(), n < 0);
     }
 
-    /// `n` in decimal: the digits before the last by recursion (at most ten levels deep), then
-    /// the last. One 32-bit division per digit: the remainder `n − 10·q` is below 10, so its low
-    /// 8 bits (one hardware multiply on AVR) are all of it.
+    /// A space, `-` if `neg`, and `n` in decimal: every number field of every line. The digits
+    /// before the last by recursion (at most ten levels deep), the deepest level writing the
+    /// space and sign first, then the last (so nothing else is kept across the calls). One
+    /// 32-bit division per digit: the remainder `n − 10·q` is below 10, so its low 8 bits (one
+    /// hardware multiply on AVR) are all of it.
     #[inline(never)]
-    fn decimal(&mut self, n: u32) {
+    fn field(&mut self, n: u32, neg: bool) {
         let q = n / 10;
         if q != 0 {
-            self.decimal(q);
+            self.field(q, neg);
+        } else {
+            self.byte(b' ');
+            if neg {
+                self.byte(b'-');
+            }
         }
         self.byte(b'0' + (n as u8).wrapping_sub((q as u8).wrapping_mul(10)));
     }
@@ -167,15 +219,29 @@ impl<W: FnMut(u8)> Out<W> {
 
     /// The line's end: ` *XX` (the CRC-8 of every byte so far, in hex) if `checked`, then
     /// `\r\n`.
-    #[inline(never)]
+    #[inline(always)]
     pub(crate) fn end(&mut self, checked: bool) {
         if checked {
-            let c = self.crc;
-            self.byte(b' ');
-            self.byte(b'*');
-            self.hex_digit(c >> 4);
-            self.hex_digit(c & 15);
+            self.end_checked();
+        } else {
+            self.end_plain();
         }
+    }
+
+    /// ` *XX` (the CRC-8 of every byte so far, in hex), then `\r\n`: the sink lines' end.
+    #[inline(never)]
+    fn end_checked(&mut self) {
+        let c = self.crc;
+        self.byte(b' ');
+        self.byte(b'*');
+        self.hex_digit(c >> 4);
+        self.hex_digit(c & 15);
+        self.end_plain();
+    }
+
+    /// `\r\n`: the boot lines' end.
+    #[inline(never)]
+    fn end_plain(&mut self) {
         self.byte(b'\r');
         self.byte(b'\n');
     }
@@ -297,11 +363,18 @@ impl BootLine {
     pub fn write(&self, out: impl FnMut(u8)) {
         use Word::*;
         let mut o = Out::new(out);
-        o.head(1 + self.role() as u8);
+        // The kind word first, from the variant: a caller that writes one of two lines of a kind
+        // (the radio's) gets one copy of the line's start.
+        let kind = match *self {
+            BootLine::Boot { .. } => Boot,
+            BootLine::RadioUp { .. } | BootLine::RadioError { .. } => Radio,
+            BootLine::Provisioned { .. } => Provisioned,
+            BootLine::Config { .. } | BootLine::ConfigError { .. } => Config,
+        };
+        o.head(1 + self.role() as u8, kind as u8);
         match *self {
-            BootLine::Boot { .. } => o.word(Boot as u8),
+            BootLine::Boot { .. } | BootLine::Provisioned { .. } => {}
             BootLine::RadioUp { found, .. } => {
-                o.word(Radio as u8);
                 o.word(Ok as u8);
                 match found {
                     RadioFound::Api => o.word(Api as u8),
@@ -309,24 +382,20 @@ impl BootLine {
                 }
             }
             BootLine::RadioError { code, attempt, .. } => {
-                o.word(Radio as u8);
                 o.word(Error as u8);
-                o.num(code.into());
+                o.num16(code.into());
                 o.word(Try as u8);
-                o.num(attempt.into());
+                o.num16(attempt);
             }
-            BootLine::Provisioned { .. } => o.word(Provisioned as u8),
             BootLine::Config { source, id, .. } => {
-                o.word(Config as u8);
                 // `built-in` follows `eeprom` in WORDS.
                 o.word(Eeprom as u8 + (source == ConfigSource::BuiltIn) as u8);
                 o.word(Id as u8);
-                o.num(id.into());
+                o.num16(id.into());
             }
             BootLine::ConfigError { code, .. } => {
-                o.word(Config as u8);
                 o.word(Error as u8);
-                o.num(code.into());
+                o.num16(code.into());
             }
         }
         o.end(false);
@@ -512,12 +581,37 @@ mod tests {
             let mut v = Vec::new();
             Out::new(|b| v.push(b)).num(n);
             assert_eq!(String::from_utf8(v).unwrap(), std::format!(" {n}"));
+            for n in [n as u16, u16::MAX] {
+                let mut v = Vec::new();
+                Out::new(|b| v.push(b)).num16(n);
+                assert_eq!(String::from_utf8(v).unwrap(), std::format!(" {n}"));
+            }
             for n in [n as i16, (n as i16).wrapping_neg(), i16::MIN, i16::MAX, -1] {
                 let mut v = Vec::new();
                 Out::new(|b| v.push(b)).signed(n);
                 assert_eq!(String::from_utf8(v).unwrap(), std::format!(" {n}"));
             }
         }
+    }
+
+    #[test]
+    fn every_word_reads_back_from_the_packed_table() {
+        let words: Vec<&[u8]> = WORD_LIST.split(|&b| b == b' ').collect();
+        assert_eq!(PACKED_LEN + words.len() - 1, WORD_LIST.len());
+        for (k, w) in words.iter().enumerate() {
+            let mut v = Vec::new();
+            Out::new(|b| v.push(b)).word(k as u8);
+            let want = [if k == 0 { &b""[..] } else { b" " }, w].concat();
+            assert_eq!(v, want, "word {k}");
+        }
+        assert_eq!(
+            WORD_FIX as usize,
+            words.iter().position(|w| w == b"fix").unwrap()
+        );
+        assert_eq!(
+            WORD_SINK as usize,
+            words.iter().position(|w| w == b"sink").unwrap()
+        );
     }
 
     #[test]

@@ -168,14 +168,6 @@ pub fn crc8(bytes: impl IntoIterator<Item = u8>) -> u8 {
     c
 }
 
-/// `hoploc sink` and the `kind` word: how every sink line starts. Out of line, on the line
-/// in place (returned, it is copied through memory on AVR).
-#[inline(never)]
-fn start<W: FnMut(u8)>(o: &mut Out<W>, kind: u8) {
-    o.head(WORD_SINK);
-    o.word(kind);
-}
-
 /// A `status` line written field by field (uptime, then the counters in [`SinkLine::Status`]'s
 /// order, then [`StatusOut::end`]): for a writer that reads each counter where it lies as it
 /// writes it (the sink firmware: [`SinkLine::write`] of a built line loaded all seven first).
@@ -185,7 +177,7 @@ impl<W: FnMut(u8)> StatusOut<W> {
     /// `hoploc sink status`, to `out`.
     pub fn new(out: W) -> StatusOut<W> {
         let mut o = Out::new(out);
-        start(&mut o, STATUS);
+        o.head(WORD_SINK, STATUS);
         StatusOut(o)
     }
 
@@ -221,25 +213,25 @@ impl SinkLine {
                 anchors,
                 flags,
             } => {
-                start(&mut o, FIX);
-                o.num(agent.into());
-                o.num(seq.into());
+                o.head(WORD_SINK, FIX);
+                o.num16(agent.into());
+                o.num16(seq);
                 o.word(match estimator {
                     Estimator::Mle => MLE,
                     Estimator::Mmse => MMSE,
                 });
                 o.signed(x);
                 o.signed(y);
-                o.num(alpha_x100.into());
+                o.num16(alpha_x100);
                 o.signed(p0_x100);
-                o.num(anchors.into());
-                o.num(flags.into());
+                o.num16(anchors.into());
+                o.num16(flags.into());
             }
             SinkLine::NoFix { agent, seq, usable } => {
-                start(&mut o, NOFIX);
-                o.num(agent.into());
-                o.num(seq.into());
-                o.num(usable.into());
+                o.head(WORD_SINK, NOFIX);
+                o.num16(agent.into());
+                o.num16(seq);
+                o.num16(usable.into());
             }
             SinkLine::Status {
                 uptime_s,
@@ -251,7 +243,7 @@ impl SinkLine {
                 fixes,
             } => {
                 // One call each (a loop over an array of them copies it twice on AVR).
-                start(&mut o, STATUS);
+                o.head(WORD_SINK, STATUS);
                 o.num(uptime_s);
                 o.num(frames);
                 o.num(reports);
@@ -260,6 +252,23 @@ impl SinkLine {
                 o.num(foreign);
                 o.num(fixes);
             }
+        }
+        o.end(true);
+    }
+
+    /// Writes the `status` line of `uptime_s` and `counts` (frames, reports, drops, checksum
+    /// errors, foreign frames, fixes): the same bytes as [`SinkLine::Status`]'s
+    /// [`SinkLine::write`], for a caller that keeps its counters in an array. On AVR it then
+    /// reads each count just before writing it, in a loop, instead of building the line first
+    /// and keeping its seven numbers across the writer's calls (sink-fw's `status`: 296 B,
+    /// 156 B measured with its counts behind a `&[u32; 6]`).
+    #[inline(always)]
+    pub fn write_status(uptime_s: u32, counts: &[u32; 6], out: impl FnMut(u8)) {
+        let mut o = Out::new(out);
+        o.head(WORD_SINK, STATUS);
+        o.num(uptime_s);
+        for &n in counts {
+            o.num(n);
         }
         o.end(true);
     }
@@ -376,7 +385,7 @@ impl RawReport {
     /// carries.
     pub fn write(msg: &[u8], out: impl FnMut(u8)) {
         let mut o = Out::new(out);
-        start(&mut o, REPORT);
+        o.head(WORD_SINK, REPORT);
         o.hex(msg);
         o.end(true);
     }

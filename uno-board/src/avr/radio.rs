@@ -40,27 +40,35 @@ pub fn bring_up_radio(radio: &mut NodeRadio, led: &mut Led, role: Role, config: 
         led.off();
         // A failed search leaves the UART at the last rate it tried; lines go out at 57600.
         let _ = radio.serial_mut().set_bd(xbee_api::driver::BD);
-        match result {
-            Ok(how) => {
-                let found = match how {
-                    BringUp::AlreadyApi => RadioFound::Api,
-                    BringUp::Configured { baud } => RadioFound::Configured { baud },
-                };
-                write_line(radio.serial_mut(), &BootLine::RadioUp { role, found });
-                return;
-            }
+        // One line either way, written in one place: one copy of its start and end. (Error
+        // codes are 1…12, never 0.)
+        let (line, code) = match result {
+            Ok(how) => (
+                BootLine::RadioUp {
+                    role,
+                    found: match how {
+                        BringUp::AlreadyApi => RadioFound::Api,
+                        BringUp::Configured { baud } => RadioFound::Configured { baud },
+                    },
+                },
+                0,
+            ),
             Err(e) => {
                 let code = e.code();
-                write_line(
-                    radio.serial_mut(),
-                    &BootLine::RadioError {
+                (
+                    BootLine::RadioError {
                         role,
                         code,
                         attempt,
                     },
-                );
-                led.blink_code(code);
+                    code,
+                )
             }
+        };
+        write_line(radio.serial_mut(), &line);
+        if code == 0 {
+            return;
         }
+        led.blink_code(code);
     }
 }
