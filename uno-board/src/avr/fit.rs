@@ -43,7 +43,7 @@ const _: () = {
 pub struct AvrFit;
 
 impl FitKernel for AvrFit {
-    #[inline(never)]
+    #[inline(always)]
     fn fit(job: &mut FitJob) {
         fit(job)
     }
@@ -545,130 +545,35 @@ pub fn push(stats: &mut CalStats, x: i32, bytes: &PairBytes) -> u8 {
     k
 }
 
-/// [`loc_core::fixed::portable_ar1_update`] (the AR(1) smoother's step), exactly, on the
-/// smoother at Z: `a·y` and `b·x` by `__muldi3`, their sum, rounding and saturation in
-/// registers (0.24 KB with its caller, LLVM's 0.36 KB; checked by `fit-check`).
+/// [`loc_core::fixed::portable_ar1_update`] (the AR(1) smoother's step), exactly: [`kernel`]'s
+/// second entry (one copy of the register saves and of the 64-bit helpers with the solve; the
+/// step was its own 0.24 KB routine).
 #[inline(always)]
 pub fn ar1_update(s: &mut Ar1, x: i32) -> i32 {
-    let [x0, x1, x2, x3] = x.to_le_bytes();
-    let (y0, y1, y2, y3): (u8, u8, u8, u8);
-    // SAFETY: the assembly reads the smoother (13 bytes: `a` 0, `b` 4, `y` 8, `started` 12,
-    // asserted in loc-core) through Y (Z saved there; Y pushed and restored) and writes its `y`
-    // and `started`; otherwise register arithmetic, and `__muldi3` (A = r25:r18 times
-    // B = r17:r10 into A; it preserves r2–r17 and r28/r29 and leaves r1 at 0). Only the
-    // declared registers, r0, r1 (left at 0), the flags and the stack below SP are written.
-    unsafe {
-        asm!(
-            "clr r1",
-            "push r28",
-            "push r29",
-            "movw r28, r30",
-            // The first input is the output.
-            "movw r20, r6",
-            "movw r22, r8",
-            "ldd r26, Y+12",
-            "tst r26",
-            "breq 3f",
-            // A = b, B = x (sign-extended); A = b·x, kept in r9:r2.
-            "movw r10, r6",
-            "movw r12, r8",
-            "clr r14",
-            "sbrc r13, 7",
-            "com r14",
-            "mov r15, r14",
-            "movw r16, r14",
-            "ldd r18, Y+4",
-            "ldd r19, Y+5",
-            "ldd r20, Y+6",
-            "ldd r21, Y+7",
-            "rcall 5f",
-            "movw r2, r18",
-            "movw r4, r20",
-            "movw r6, r22",
-            "movw r8, r24",
-            // A = a, B = y; A = a·y + b·x + 2^15.
-            "ldd r10, Y+8",
-            "ldd r11, Y+9",
-            "ldd r12, Y+10",
-            "ldd r13, Y+11",
-            "clr r14",
-            "sbrc r13, 7",
-            "com r14",
-            "mov r15, r14",
-            "movw r16, r14",
-            "ldd r18, Y+0",
-            "ldd r19, Y+1",
-            "ldd r20, Y+2",
-            "ldd r21, Y+3",
-            "rcall 5f",
-            "add r18, r2",
-            "adc r19, r3",
-            "adc r20, r4",
-            "adc r21, r5",
-            "adc r22, r6",
-            "adc r23, r7",
-            "adc r24, r8",
-            "adc r25, r9",
-            "subi r19, 0x80",
-            "sbci r20, 0xFF",
-            "sbci r21, 0xFF",
-            "sbci r22, 0xFF",
-            "sbci r23, 0xFF",
-            "sbci r24, 0xFF",
-            "sbci r25, 0xFF",
-            // (A >> 16) = r25:r20 in i32 (r25:r24 the sign of r23), else saturated by r25's sign.
-            "mov r26, r23",
-            "lsl r26",
-            "sbc r26, r26",
-            "cp r24, r26",
-            "cpc r25, r26",
-            "breq 3f",
-            "mov r26, r25",
-            "lsl r26",
-            "sbc r26, r26",
-            "com r26",
-            "mov r20, r26",
-            "mov r21, r26",
-            "mov r22, r26",
-            "ldi r23, 0x80",
-            "eor r23, r26",
-            // y = r23:r20, started.
-            "3:",
-            "std Y+8, r20",
-            "std Y+9, r21",
-            "std Y+10, r22",
-            "std Y+11, r23",
-            "ldi r26, 1",
-            "std Y+12, r26",
-            "pop r29",
-            "pop r28",
-            "rjmp 6f",
-            // A (sign-extended from r21:r18) times B.
-            "5:",
-            "clr r22",
-            "sbrc r21, 7",
-            "com r22",
-            "mov r23, r22",
-            "movw r24, r22",
-            "jmp __muldi3",
-            "6:",
-            inout("Z") s as *mut Ar1 => _,
-            inout("r6") x0 => _, inout("r7") x1 => _, inout("r8") x2 => _, inout("r9") x3 => _,
-            out("r20") y0, out("r21") y1, out("r22") y2, out("r23") y3,
-            out("r2") _, out("r3") _, out("r4") _, out("r5") _,
-            out("r10") _, out("r11") _, out("r12") _, out("r13") _,
-            out("r14") _, out("r15") _, out("r16") _, out("r17") _,
-            out("r18") _, out("r19") _, out("r24") _, out("r25") _, out("X") _,
-        );
-    }
-    i32::from_le_bytes([y0, y1, y2, y3])
+    kernel((s as *mut Ar1).cast(), x, AR1)
 }
 
 /// [`loc_core::fixed::portable_fit`], exactly; see the module docs.
 #[inline(always)]
 pub fn fit(job: &mut FitJob) {
-    // SAFETY: the assembly reads the job (35 bytes, at the offsets asserted above) through Y and
-    // the `CalStats` its `stats` reference points to (40 bytes, offsets asserted in loc-core)
+    kernel((job as *mut FitJob).cast(), 0, FIT);
+}
+
+/// [`kernel`]'s entries.
+const FIT: u8 = 0;
+const AR1: u8 = 1;
+
+/// The solve (`op` = [`FIT`]: the [`FitJob`] at `p`; returns garbage) or the AR(1) step (`op` =
+/// [`AR1`]: the [`Ar1`] at `p` fed `x`; returns the new output) in one routine. Out of line: one
+/// copy of the callee-saved registers' saves.
+#[inline(never)]
+fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
+    let [x0, x1, x2, x3] = x.to_le_bytes();
+    let (y0, y1, y2, y3): (u8, u8, u8, u8);
+    // SAFETY: AR1: the assembly reads the smoother (13 bytes: `a` 0, `b` 4, `y` 8, `started` 12,
+    // asserted in loc-core) through Y and writes its `y` and `started`. FIT: it reads the job
+    // (35 bytes, at the offsets asserted above) through Y and the `CalStats` its `stats`
+    // reference points to (40 bytes, offsets asserted in loc-core)
     // through Z; it writes only the job's `p0`, `alpha`, `sse` and `fitted`, the declared
     // registers, r0, r1 (left at 0), the flags, Y (saved on the stack and restored) and the
     // stack below SP: 24 bytes it reserves by moving SP (interrupts off for the two writes, as
@@ -681,6 +586,74 @@ pub fn fit(job: &mut FitJob) {
             "push r28",
             "push r29",
             "movw r28, r30",
+            "cpi r26, 1",
+            "brne 70f",
+            // ==== AR(1): y = x first, else (a·y + b·x + 2^15) >> 16 saturated to i32 ====
+            "movw r18, r6",
+            "movw r20, r8",
+            "ldd r26, Y+12",
+            "tst r26",
+            "breq 72f",
+            // A = B = x; A = b·x, kept in r9:r2
+            "rcall 64f",
+            "rcall 65f",
+            "movw r30, r28",
+            "adiw r30, 4",
+            "rcall 63f",
+            "call __muldi3",
+            "movw r2, r18",
+            "movw r4, r20",
+            "movw r6, r22",
+            "movw r8, r24",
+            // A = B = y; A = a·y + b·x
+            "movw r30, r28",
+            "adiw r30, 8",
+            "rcall 63f",
+            "rcall 65f",
+            "movw r30, r28",
+            "rcall 63f",
+            "call __muldi3",
+            "movw r10, r2",
+            "movw r12, r4",
+            "movw r14, r6",
+            "movw r16, r8",
+            "rcall 50f",
+            // (A + 2^15) >> 16 = ((A >> 8) + 2^7) >> 8
+            "ldi r26, 8",
+            "rcall 54f",
+            "ldi r26, 0x80",
+            "rcall 52f",
+            "ldi r26, 8",
+            "rcall 54f",
+            // within i32 when r25:r22 is r21's sign, else saturated by r25's sign
+            "mov r26, r21",
+            "lsl r26",
+            "sbc r26, r26",
+            "cp r22, r26",
+            "cpc r23, r26",
+            "cpc r24, r26",
+            "cpc r25, r26",
+            "breq 72f",
+            "mov r26, r25",
+            "lsl r26",
+            "sbc r26, r26",
+            "com r26",
+            "mov r18, r26",
+            "mov r19, r26",
+            "mov r20, r26",
+            "ldi r21, 0x80",
+            "eor r21, r26",
+            // y = r21:r18, started
+            "72:",
+            "std Y+8, r18",
+            "std Y+9, r19",
+            "std Y+10, r20",
+            "std Y+11, r21",
+            "ldi r26, 1",
+            "std Y+12, r26",
+            "rjmp 68f",
+            // ==== the solve ====
+            "70:",
             "in r26, 0x3d",
             "in r27, 0x3e",
             "sbiw r26, 24",
@@ -799,6 +772,7 @@ pub fn fit(job: &mut FitJob) {
             "out 0x3e, r27",
             "out 0x3f, r0",
             "out 0x3d, r26",
+            "68:",
             "pop r29",
             "pop r28",
             "clr r1",
@@ -1452,12 +1426,15 @@ pub fn fit(job: &mut FitJob) {
             "ret",
             "67:",
 
-            inout("Z") job as *mut FitJob => _,
-            out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
-            out("r8") _, out("r10") _, out("r11") _, out("r12") _,
+            inout("Z") p => _,
+            inout("r26") op => _,
+            inout("r6") x0 => _, inout("r7") x1 => _, inout("r8") x2 => _, inout("r9") x3 => _,
+            out("r18") y0, out("r19") y1, out("r20") y2, out("r21") y3,
+            out("r2") _, out("r3") _, out("r4") _, out("r5") _,
+            out("r10") _, out("r11") _, out("r12") _,
             out("r13") _, out("r14") _, out("r15") _, out("r16") _, out("r17") _,
-            out("r18") _, out("r19") _, out("r20") _, out("r21") _, out("r22") _,
-            out("r23") _, out("r24") _, out("r25") _, out("X") _,
+            out("r22") _, out("r23") _, out("r24") _, out("r25") _, out("r27") _,
         );
     }
+    i32::from_le_bytes([y0, y1, y2, y3])
 }
