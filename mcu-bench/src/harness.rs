@@ -10,16 +10,17 @@ use simavr::{Avr, State};
 use crate::{float, run, Inputs, Report, MARKS, N_ANCHORS, N_CHANNELS, SIGMA_DB};
 
 /// The firmwares, baseline first.
-pub const BINS: [&str; 6] = [
+pub const BINS: [&str; 7] = [
     "est-none",
     "est-fixed",
     "est-f32",
     "kernel-check",
     "fit-check",
+    "fit-check2",
     "search-check",
 ];
-/// The benchmark variants among [`BINS`] (`kernel-check`, `fit-check` and `search-check` are
-/// correctness checks).
+/// The benchmark variants among [`BINS`] (`kernel-check`, `fit-check`, `fit-check2` and
+/// `search-check` are correctness checks).
 pub const ESTIMATES: [&str; 3] = ["est-none", "est-fixed", "est-f32"];
 
 /// Simulated time after which a run that has not stopped counts as hung.

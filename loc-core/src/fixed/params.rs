@@ -853,9 +853,9 @@ fn within(v: i32, limit: i32) -> i32 {
 pub struct Smoothers {
     /// The (sane) prior's P0, Q.16.
     prior_p0: i32,
-    /// The (sane) prior's α, Q.24.
-    prior_alpha: i32,
     p0: Ar1,
+    /// The (sane) prior's α, Q.24 (as far from α's smoother as P0's from P0's).
+    prior_alpha: i32,
     alpha: Ar1,
     /// σ of the last fit with `n > fitted`, Q.8 dB (computed when fed: the sink asks each time).
     sigma: u16,
@@ -868,8 +868,8 @@ pub struct Smoothers {
 const _: () = {
     use core::mem::offset_of;
     assert!(offset_of!(Smoothers, prior_p0) == 0);
-    assert!(offset_of!(Smoothers, prior_alpha) == 4);
-    assert!(offset_of!(Smoothers, p0) == 8);
+    assert!(offset_of!(Smoothers, p0) == 4);
+    assert!(offset_of!(Smoothers, prior_alpha) == 17);
     assert!(offset_of!(Smoothers, alpha) == 21);
     assert!(offset_of!(Smoothers, sigma) == 34);
     assert!(offset_of!(Smoothers, spread) == 36);
@@ -958,8 +958,8 @@ impl OnlineParams {
             bounds,
             s: Smoothers {
                 prior_p0: prior.p0,
-                prior_alpha: prior.alpha,
                 p0,
+                prior_alpha: prior.alpha,
                 alpha,
                 sigma: 0,
                 spread: false,

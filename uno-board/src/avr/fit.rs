@@ -22,7 +22,9 @@
 
 use core::arch::asm;
 use core::mem::{offset_of, size_of};
-use loc_core::fixed::{log2_segment_base, Ar1, CalStats, FitJob, FitKernel, PairBytes, PointCm};
+use loc_core::fixed::{
+    log2_segment_base, Ar1, CalStats, FitJob, FitKernel, PairBytes, PointCm, Smoothers,
+};
 
 // The offsets the assembly reads (AVR has no padding).
 const _: () = {
@@ -50,6 +52,11 @@ impl FitKernel for AvrFit {
 
     fn ar1_update(s: &mut Ar1, x: i32) -> i32 {
         ar1_update(s, x)
+    }
+
+    #[inline(always)]
+    fn step(job: &mut FitJob, s: &mut Smoothers) {
+        step(job, s)
     }
 
     #[inline(always)]
@@ -559,9 +566,22 @@ pub fn fit(job: &mut FitJob) {
     kernel((job as *mut FitJob).cast(), 0, FIT);
 }
 
+/// [`loc_core::fixed::portable_step`] (a whole online round: current model, solve, both
+/// smoothers fed, σ, new model), exactly: [`kernel`]'s third entry.
+#[inline(always)]
+pub fn step(job: &mut FitJob, s: &mut Smoothers) {
+    // The smoothers' address in the `x` registers (16 bits on AVR).
+    kernel(
+        (job as *mut FitJob).cast(),
+        s as *mut Smoothers as usize as i32,
+        STEP,
+    );
+}
+
 /// [`kernel`]'s entries.
 const FIT: u8 = 0;
 const AR1: u8 = 1;
+const STEP: u8 = 2;
 
 /// The solve (`op` = [`FIT`]: the [`FitJob`] at `p`; returns garbage) or the AR(1) step (`op` =
 /// [`AR1`]: the [`Ar1`] at `p` fed `x`; returns the new output) in one routine. Out of line: one
@@ -587,10 +607,198 @@ fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
             "push r29",
             "movw r28, r30",
             "cpi r26, 1",
-            "brne 70f",
-            // ==== AR(1): y = x first, else (a·y + b·x + 2^15) >> 16 saturated to i32 ====
+            "brne 73f",
             "movw r18, r6",
             "movw r20, r8",
+            "rcall 71f",
+            "rjmp 68f",
+            "73:",
+            "cpi r26, 2",
+            "breq 74f",
+            "rcall 70f",
+            "rjmp 68f",
+            // ==== STEP: Y = job, r7:r6 = the smoothers (s) ====
+            "74:",
+            "push r6",
+            "push r7",
+            "movw r30, r6",
+            "rcall 75f",
+            // something to fit and no samples: nothing changes
+            "ldd r26, Y+34",
+            "tst r26",
+            "breq 76f",
+            "ldd r30, Y+0",
+            "ldd r31, Y+1",
+            "ld r0, Z+",
+            "ld r27, Z",
+            "or r0, r27",
+            "brne 76f",
+            "rjmp 81f",
+            "76:",
+            "push r26",
+            "rcall 70f",
+            // σ = isqrt(sse/dof) into r19:r18 (r9 = 1) when dof = n − fitted > 0
+            "ldd r30, Y+0",
+            "ldd r31, Y+1",
+            "ld r10, Z+",
+            "ld r11, Z",
+            "ldd r26, Y+34",
+            "clr r9",
+            "sub r10, r26",
+            "sbc r11, r1",
+            "breq 78f",
+            "brcs 78f",
+            "clr r12",
+            "clr r13",
+            "movw r14, r12",
+            "movw r16, r12",
+            "movw r30, r28",
+            "adiw r30, 26",
+            "rcall 59f",
+            "call __udivdi3",
+            "rcall 86f",
+            "inc r9",
+            "78:",
+            "pop r27",
+            "pop r31",
+            "pop r30",
+            "tst r9",
+            "breq 79f",
+            "std Z+34, r18",
+            "std Z+35, r19",
+            "std Z+36, r9",
+            "79:",
+            "push r30",
+            "push r31",
+            // P0's smoother fed the job's P0 (modes 1, 2), α's its α (mode 2)
+            "tst r27",
+            "breq 81f",
+            "push r27",
+            "push r28",
+            "push r29",
+            "ldd r18, Y+18",
+            "ldd r19, Y+19",
+            "ldd r20, Y+20",
+            "ldd r21, Y+21",
+            "movw r28, r30",
+            "adiw r28, 4",
+            "rcall 71f",
+            "pop r29",
+            "pop r28",
+            "pop r27",
+            "cpi r27, 2",
+            "brne 81f",
+            "pop r31",
+            "pop r30",
+            "push r30",
+            "push r31",
+            "push r28",
+            "push r29",
+            "ldd r18, Y+22",
+            "ldd r19, Y+23",
+            "ldd r20, Y+24",
+            "ldd r21, Y+25",
+            "movw r28, r30",
+            "adiw r28, 21",
+            "rcall 71f",
+            "pop r29",
+            "pop r28",
+            // the job's P0 and α: the new current model
+            "81:",
+            "pop r31",
+            "pop r30",
+            "rcall 75f",
+            "rjmp 68f",
+            // ==== CUR: job P0, α = s's current model (s at Z: prior P0 0, P0's smoother 4,
+            // prior α 17, α's smoother 21), each the smoother's output once started, else the
+            // prior's, clamped to ±2^25 and ±2^29 ====
+            "75:",
+            "ldi r27, 0x02",
+            "rcall 77f",
+            "rcall 31f",
+            "adiw r30, 17",
+            "ldi r27, 0x20",
+            "rcall 77f",
+            "rjmp 32f",
+            "77:",
+            "ld r18, Z",
+            "ldd r19, Z+1",
+            "ldd r20, Z+2",
+            "ldd r21, Z+3",
+            "ldd r26, Z+16",
+            "tst r26",
+            "breq 85f",
+            "ldd r18, Z+12",
+            "ldd r19, Z+13",
+            "ldd r20, Z+14",
+            "ldd r21, Z+15",
+            // ==== CLIM: r21:r18 clamped to ±(r27 << 24) ====
+            "85:",
+            "clr r22",
+            "clr r23",
+            "movw r24, r22",
+            "sub r25, r27",
+            "rcall 82f",
+            "clr r22",
+            "clr r23",
+            "movw r24, r22",
+            "mov r25, r27",
+            "rjmp 83f",
+            // ==== ISQ: r19:r18 = ⌊√A⌋ for A < 2^32, else 0xFFFF ====
+            "86:",
+            "ldi r26, 0xFF",
+            "or r22, r23",
+            "or r22, r24",
+            "or r22, r25",
+            "breq 87f",
+            "mov r18, r26",
+            "mov r19, r26",
+            "ret",
+            "87:",
+            "clr r10",
+            "clr r11",
+            "clr r15",
+            "clr r16",
+            "clr r17",
+            "ldi r25, 16",
+            // two bits of A into the remainder r17:r15
+            "88:",
+            "ldi r24, 2",
+            "89:",
+            "lsl r18",
+            "rol r19",
+            "rol r20",
+            "rol r21",
+            "rol r15",
+            "rol r16",
+            "rol r17",
+            "dec r24",
+            "brne 89b",
+            // root r11:r10 doubled; take 2·root + 1 from the remainder if it fits
+            "lsl r10",
+            "rol r11",
+            "movw r12, r10",
+            "clr r14",
+            "lsl r12",
+            "rol r13",
+            "rol r14",
+            "inc r12",
+            "cp r15, r12",
+            "cpc r16, r13",
+            "cpc r17, r14",
+            "brlo 90f",
+            "sub r15, r12",
+            "sbc r16, r13",
+            "sbc r17, r14",
+            "inc r10",
+            "90:",
+            "dec r25",
+            "brne 88b",
+            "movw r18, r10",
+            "ret",
+            // ==== AR1: the smoother at Y fed r21:r18 (y = x first, else
+            // (a·y + b·x + 2^15) >> 16 saturated to i32), y left in r21:r18 ====
+            "71:",
             "ldd r26, Y+12",
             "tst r26",
             "breq 72f",
@@ -651,8 +859,8 @@ fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
             "std Y+11, r21",
             "ldi r26, 1",
             "std Y+12, r26",
-            "rjmp 68f",
-            // ==== the solve ====
+            "ret",
+            // ==== SOLVE: the job at Y ====
             "70:",
             "in r26, 0x3d",
             "in r27, 0x3e",
@@ -772,6 +980,7 @@ fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
             "out 0x3e, r27",
             "out 0x3f, r0",
             "out 0x3d, r26",
+            "ret",
             "68:",
             "pop r29",
             "pop r28",
@@ -1203,29 +1412,12 @@ fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
             "ldd r23, Z+1",
             "ldd r24, Z+2",
             "ldd r25, Z+3",
-            "cp r18, r22",
-            "cpc r19, r23",
-            "cpc r20, r24",
-            "cpc r21, r25",
-            "brge 44f",
-            "movw r18, r22",
-            "movw r20, r24",
-            "set",
-            "44:",
+            "rcall 82f",
             "ldd r22, Z+4",
             "ldd r23, Z+5",
             "ldd r24, Z+6",
             "ldd r25, Z+7",
-            "cp r22, r18",
-            "cpc r23, r19",
-            "cpc r24, r20",
-            "cpc r25, r21",
-            "brge 45f",
-            "movw r18, r22",
-            "movw r20, r24",
-            "set",
-            "45:",
-            "ret",
+            "rjmp 83f",
             // ==== B = Σx = sx[0] − sx[1] (i64) ====
             "46:",
             "movw r30, r2",
@@ -1423,6 +1615,28 @@ fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
             "movw r20, r12",
             "movw r22, r14",
             "movw r24, r16",
+            "ret",
+            // ==== MAX/MIN: r21:r18 = max/min(r21:r18, r25:r22) (i32), T set if it changed ====
+            "82:",
+            "cp r18, r22",
+            "cpc r19, r23",
+            "cpc r20, r24",
+            "cpc r21, r25",
+            "brge 84f",
+            "movw r18, r22",
+            "movw r20, r24",
+            "set",
+            "84:",
+            "ret",
+            "83:",
+            "cp r22, r18",
+            "cpc r23, r19",
+            "cpc r24, r20",
+            "cpc r25, r21",
+            "brge 84b",
+            "movw r18, r22",
+            "movw r20, r24",
+            "set",
             "ret",
             "67:",
 
