@@ -637,9 +637,8 @@ fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
             "76:",
             "push r26",
             "rcall 70f",
-            // σ = isqrt(sse/dof) into r19:r18 (r9 = 1) when dof = n − fitted > 0
-            "ldd r30, Y+0",
-            "ldd r31, Y+1",
+            // σ = isqrt(sse/dof) into r19:r18 (r9 = 1) when dof = n − fitted > 0 (stats at r3:r2)
+            "movw r30, r2",
             "ld r10, Z+",
             "ld r11, Z",
             "ldd r26, Y+34",
@@ -708,7 +707,11 @@ fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
             "pop r31",
             "pop r30",
             "rcall 75f",
-            "rjmp 68f",
+            "68:",
+            "pop r29",
+            "pop r28",
+            "clr r1",
+            "rjmp 67f",
             // ==== CUR: job P0, α = s's current model (s at Z: prior P0 0, P0's smoother 4,
             // prior α 17, α's smoother 21), each the smoother's output once started, else the
             // prior's, clamped to ±2^25 and ±2^29 ====
@@ -966,11 +969,6 @@ fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
             "out 0x3f, r0",
             "out 0x3d, r26",
             "ret",
-            "68:",
-            "pop r29",
-            "pop r28",
-            "clr r1",
-            "rjmp 67f",
             // ==== both: α = (Σx·Σb − n·Σxb)/dxx, P0 for it; inside the box: done ====
             "18:",
             "rcall 47f",
