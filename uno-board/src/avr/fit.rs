@@ -9,6 +9,15 @@
 //! same products, shifts, roundings, saturations and edge rule), which `hoploc-tests` checks in
 //! simavr on random jobs (`mcu-bench`'s `fit-check`).
 //!
+//! The same routine ([`kernel`]) has two more entries that share its helpers and register
+//! saves: the AR(1) step ([`ar1_update`]) and the sink's whole online round ([`step`]: the
+//! current model from the smoothers, clamped to the limits; the solve; both smoothers fed; σ by
+//! `__udivdi3` and a 2-bit-per-step integer square root; the new model into the job), which
+//! replaced ≈ 0.9 KB of Rust around the solve in the sink (`fit-check2` checks both).
+//! Numeric local labels: a forward reference (`Nf`) to a label defined only before it binds to
+//! the next asm block's label of that number, far away (a "relocation truncated" link error
+//! at best): check each reference's direction when moving code.
+//!
 //! The calibration sums come from here too: [`distance_x`] (an anchor pair's `x`, with the
 //! log2 from the flash table) and [`push`] (a pair's bytes into `CalStats`), 8 × 8 `mul`s in
 //! columns instead of LLVM's `log2_u33` and 64-bit library products (sink-fw 0.7 KB smaller).
