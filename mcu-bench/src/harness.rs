@@ -10,18 +10,19 @@ use simavr::{Avr, State};
 use crate::{float, run, Inputs, Report, MARKS, N_ANCHORS, N_CHANNELS, SIGMA_DB};
 
 /// The firmwares, baseline first.
-pub const BINS: [&str; 8] = [
+pub const BINS: [&str; 9] = [
     "est-none",
     "est-fixed",
     "est-f32",
     "kernel-check",
     "fit-check",
+    "fit-check2",
     "search-check",
     "search-check2",
     "report-check",
 ];
-/// The benchmark variants among [`BINS`] (`kernel-check`, `fit-check`, `search-check`,
-/// `search-check2` and `report-check` are correctness checks).
+/// The benchmark variants among [`BINS`] (`kernel-check`, `fit-check`, `fit-check2`,
+/// `search-check`, `search-check2` and `report-check` are correctness checks).
 pub const ESTIMATES: [&str; 3] = ["est-none", "est-fixed", "est-f32"];
 
 /// Simulated time after which a run that has not stopped counts as hung.

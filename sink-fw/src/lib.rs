@@ -24,9 +24,9 @@
 
 use core::marker::PhantomData;
 use loc_core::fixed::{
-    extended, fit_least_squares_with, mle_and_mmse_window_into, observations, AreaCm, Bounds,
-    CalStats, Estimate, FitMethod, LocError, Measurements, Obs, Observations, OnlineParams,
-    ParamMode, PathLoss, PointCm, Refinement, ReportBytes, ReportKernel, TermKernel,
+    extended, mle_and_mmse_window_into, observations, AreaCm, Bounds, CalStats, Estimate, FitJob,
+    FitMethod, LocError, Measurements, Obs, Observations, OnlineParams, ParamMode, PathLoss,
+    PointCm, Refinement, ReportBytes, ReportKernel, TermKernel,
 };
 use loc_proto::msg::{Position, Report, ReportView};
 
@@ -432,22 +432,19 @@ impl<K: TermKernel> Sink<K> {
             *seen = true;
             *next = seq.wrapping_add(1);
         }
-        // The least-squares fit directly (through `OnlineParams::update` the thesis' grid fit
-        // would be linked in too), with the mode and bounds `Sink::new` gave `params` as
-        // constants: the optimiser then drops the other modes' code from the fit.
-        let fitted = match fit_least_squares_with::<Fit>(
-            stats,
-            ParamMode::P0AndAlpha,
-            self.params.current(),
-            &Bounds::THESIS,
-        ) {
-            Ok(f) => {
-                self.params.feed_with::<Fit>(&f);
-                true
-            }
-            Err(_) => false,
+        // The least-squares fit, fed to the smoothers, in one step (through
+        // `OnlineParams::update` the thesis' grid fit would be linked in too), with the mode and
+        // bounds `Sink::new` gave `params` as constants; the job then holds the new model. In a
+        // block: the job's stack slot is then free for the search's (25 B less stack peak).
+        let (fitted, model) = {
+            let mut job = FitJob::for_step(stats, ParamMode::P0AndAlpha, &Bounds::THESIS);
+            let fitted = self.params.step_with::<Fit>(&mut job);
+            let model = PathLoss {
+                p0: job.p0,
+                alpha: job.alpha,
+            };
+            (fitted, model)
         };
-        let model = self.params.current();
         let sigma = self.params.sigma().unwrap_or(DEFAULT_SIGMA);
         // Into storage of our own: a returned pair would be one more copy on the stack.
         let mut est = [Estimate::NONE; 2];

@@ -4,9 +4,9 @@
 
 use mcu_bench::harness;
 
-/// 20 000 random anchor-pair distances (`FitKernel::distance_x`), 6 000 random pushes of a
-/// pair's samples (`FitKernel::push`) and 20 000 random AR(1) steps
-/// (`FitKernel::ar1_update`) equal; over 10 000 random jobs (all
+/// 20 000 random anchor-pair distances (`FitKernel::distance_x`) and 6 000 random pushes of a
+/// pair's samples (`FitKernel::push`) equal (the AR(1) step: `fit_check2.rs`); over 10 000
+/// random jobs (all
 /// three modes; rooms, near-equal distances, Σx² = 0, extreme sums; thesis, narrow, reversed,
 /// out-of-range and unbounded bounds): every result field equal, and the interesting paths all
 /// taken (P0 alone, both in the box, both on an edge of it).
@@ -18,7 +18,6 @@ fn avr_fit_equals_the_portable_one() {
         avr.run_for_ms(500.0);
     }
     let out = avr.uart_output_string();
-    assert!(out.contains("weigh 20000 0\n"), "{out}");
     // 20 000 random anchor pairs' x (`FitKernel::distance_x`) equal, coincident ones among them.
     let dist = out
         .lines()

@@ -121,8 +121,8 @@ pub use kernel::{
 };
 pub use params::{
     distance_x, fit, fit_grid, fit_least_squares, fit_least_squares_with, portable_ar1_update,
-    portable_fit, portable_push, portable_weigh, Ar1, Bounds, CalStats, FitJob, FitKernel,
-    OnlineParams, PairBytes, ParamFit, PortableFit, MAX_SAMPLES,
+    portable_fit, portable_push, portable_step, portable_weigh, Ar1, Bounds, CalStats, FitJob,
+    FitKernel, OnlineParams, PairBytes, ParamFit, PortableFit, Smoothers, MAX_SAMPLES,
 };
 pub use refine::{
     db_mean, extended, linear_avg, max_rssi, observations, observations_of, portable_report_inputs,

@@ -461,6 +461,11 @@ pub trait FitKernel {
     fn ar1_update(s: &mut Ar1, x: i32) -> i32 {
         portable_ar1_update(s, x)
     }
+
+    /// [`OnlineParams::step_with`]'s round on `s` ([`portable_step`]).
+    fn step(job: &mut FitJob, s: &mut Smoothers) {
+        portable_step::<Self>(job, s)
+    }
 }
 
 /// One anchor pair's RSSI bytes as a report carries them: both directions, [`MAX_CHANNELS`]
@@ -511,6 +516,23 @@ pub struct FitJob<'a> {
 }
 
 impl<'a> FitJob<'a> {
+    /// The job for [`OnlineParams::step_with`] in `mode` within `bounds` (sorted and clamped;
+    /// `p0` and `alpha` 0: the step sets them).
+    pub fn for_step(stats: &'a CalStats, mode: ParamMode, bounds: &Bounds) -> FitJob<'a> {
+        let (a, p) = (bounds.alpha(), bounds.p0());
+        FitJob {
+            stats,
+            a_lo: a.0,
+            a_hi: a.1,
+            p_lo: p.0,
+            p_hi: p.1,
+            p0: 0,
+            alpha: 0,
+            sse: 0,
+            fitted: mode as u8,
+        }
+    }
+
     /// The job for [`fit_least_squares`]' arguments (prior made sane, bounds sorted and
     /// clamped); `None` when there is something to fit but no samples.
     pub fn new(
@@ -817,10 +839,88 @@ pub fn portable_weigh(a: i32, p: i32, b: i32, x: i32) -> i32 {
     clamp_i64(v, i32::MIN as i64, i32::MAX as i64) as i32
 }
 
-/// `v` clamped to `[−limit, limit]` ([`OnlineParams::current`]'s two clamps share it).
+/// `v` clamped to `[−limit, limit]` ([`Smoothers::current`]'s two clamps share it).
 #[inline(never)]
 fn within(v: i32, limit: i32) -> i32 {
     clamp_i32(v, -limit, limit)
+}
+
+/// What [`OnlineParams`] keeps between fits: the prior, P0's and α's smoothers and the σ of the
+/// last fit that had one. `repr(C)`: a [`FitKernel`] in assembly runs a whole
+/// [`FitKernel::step`] on it in place (offsets on AVR asserted below).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(C)]
+pub struct Smoothers {
+    /// The (sane) prior's P0, Q.16.
+    prior_p0: i32,
+    p0: Ar1,
+    /// The (sane) prior's α, Q.24 (as far from α's smoother as P0's from P0's).
+    prior_alpha: i32,
+    alpha: Ar1,
+    /// σ of the last fit with `n > fitted`, Q.8 dB (computed when fed: the sink asks each time).
+    sigma: u16,
+    /// Whether there has been such a fit.
+    spread: bool,
+}
+
+// The layout a [`FitKernel`] in assembly reads and writes (AVR: no padding).
+#[cfg(target_arch = "avr")]
+const _: () = {
+    use core::mem::offset_of;
+    assert!(offset_of!(Smoothers, prior_p0) == 0);
+    assert!(offset_of!(Smoothers, p0) == 4);
+    assert!(offset_of!(Smoothers, prior_alpha) == 17);
+    assert!(offset_of!(Smoothers, alpha) == 21);
+    assert!(offset_of!(Smoothers, sigma) == 34);
+    assert!(offset_of!(Smoothers, spread) == 36);
+    assert!(core::mem::size_of::<Smoothers>() == 37);
+};
+
+impl Smoothers {
+    /// The smoothed model (the prior for parameters not yet estimated), made sane. Out of line:
+    /// asked for before and after each fit.
+    #[inline(never)]
+    pub fn current(&self) -> PathLoss {
+        // [`PathLoss::sane`], with one out-of-line clamp for both (0.15 KB less AVR flash).
+        PathLoss {
+            p0: within(self.p0.value().unwrap_or(self.prior_p0), P0_LIMIT),
+            alpha: within(self.alpha.value().unwrap_or(self.prior_alpha), ALPHA_LIMIT),
+        }
+    }
+
+    /// σ of the last fit that had one, Q.8 dB.
+    pub fn sigma(&self) -> Option<u16> {
+        self.spread.then_some(self.sigma)
+    }
+
+    /// Takes the residual sum `sse` of a fit with `dof` degrees of freedom (none: kept as is).
+    fn spread(&mut self, sse: u64, dof: u16) {
+        if let Some(sigma) = sigma_of(sse, dof) {
+            (self.sigma, self.spread) = (sigma, true);
+        }
+    }
+}
+
+/// [`FitKernel::step`] by `K`'s [`FitKernel::fit`] and [`FitKernel::ar1_update`]: the job's
+/// prior from [`Smoothers::current`]; unless there is something to fit and no samples (then
+/// nothing changes), the solve, P0's smoother fed (modes 1 and 2), α's (mode 2), σ of the result
+/// (when `n > fitted`); then the job's `p0` and `alpha` the new [`Smoothers::current`].
+pub fn portable_step<K: FitKernel + ?Sized>(job: &mut FitJob, s: &mut Smoothers) {
+    let mode = job.fitted;
+    let m = s.current();
+    (job.p0, job.alpha) = (m.p0, m.alpha);
+    if mode == 0 || !job.stats.is_empty() {
+        K::fit(job);
+        if mode != 0 {
+            K::ar1_update(&mut s.p0, job.p0);
+        }
+        if mode == 2 {
+            K::ar1_update(&mut s.alpha, job.alpha);
+        }
+        s.spread(job.sse, job.stats.n.saturating_sub(job.fitted as u16));
+    }
+    let m = s.current();
+    (job.p0, job.alpha) = (m.p0, m.alpha);
 }
 
 /// Online parameter estimation: a fit per round, smoothed per parameter by [`Ar1`] (as
@@ -833,12 +933,7 @@ pub struct OnlineParams {
     pub method: FitMethod,
     /// Parameter range.
     pub bounds: Bounds,
-    prior: PathLoss,
-    p0: Ar1,
-    alpha: Ar1,
-    /// Residual sum and degrees of freedom of the last fit with `n > fitted`: its σ, computed
-    /// only when asked for.
-    spread: Option<(u64, u16)>,
+    s: Smoothers,
 }
 
 impl OnlineParams {
@@ -856,32 +951,31 @@ impl OnlineParams {
         p0: Ar1,
         alpha: Ar1,
     ) -> Self {
+        let prior = prior.sane();
         OnlineParams {
             mode,
             method,
             bounds,
-            prior: prior.sane(),
-            p0,
-            alpha,
-            spread: None,
+            s: Smoothers {
+                prior_p0: prior.p0,
+                p0,
+                prior_alpha: prior.alpha,
+                alpha,
+                sigma: 0,
+                spread: false,
+            },
         }
     }
 
-    /// The smoothed model (the prior for parameters not yet estimated). Out of line: a sink
-    /// asks twice per report.
-    #[inline(never)]
+    /// The smoothed model (the prior for parameters not yet estimated).
     pub fn current(&self) -> PathLoss {
-        // [`PathLoss::sane`], with one out-of-line clamp for both (0.15 KB less AVR flash).
-        PathLoss {
-            p0: within(self.p0.value().unwrap_or(self.prior.p0), P0_LIMIT),
-            alpha: within(self.alpha.value().unwrap_or(self.prior.alpha), ALPHA_LIMIT),
-        }
+        self.s.current()
     }
 
     /// σ of the last successful fit that had one (Q.8 dB, [`ParamFit::sigma`]), for an MMSE with
     /// estimated σ.
     pub fn sigma(&self) -> Option<u16> {
-        self.spread.and_then(|(sse, dof)| sigma_of(sse, dof))
+        self.s.sigma()
     }
 
     /// Fits `stats` and feeds the smoothers; returns the raw fit. On error the state is unchanged.
@@ -889,6 +983,17 @@ impl OnlineParams {
         let f = fit(stats, self.mode, self.method, self.current(), &self.bounds)?;
         self.feed(&f);
         Ok(f)
+    }
+
+    /// One least-squares round in place by `K` ([`FitKernel::step`]: the sink's is one AVR
+    /// routine): `job` ([`FitJob::for_step`] of this mode and these bounds) solved from
+    /// [`OnlineParams::current`] and fed to the smoothers, as [`fit_least_squares`] then
+    /// [`OnlineParams::feed`] (`tests`); then the job's `p0` and `alpha` are the new current
+    /// model. Returns whether there was a fit (not: something to fit and no samples).
+    pub fn step_with<K: FitKernel>(&mut self, job: &mut FitJob) -> bool {
+        let fitted = job.fitted == 0 || !job.stats.is_empty();
+        K::step(job, &mut self.s);
+        fitted
     }
 
     /// Feeds the smoothers with a fit made elsewhere (e.g. [`fit_least_squares`] with
@@ -901,15 +1006,12 @@ impl OnlineParams {
     pub fn feed_with<K: FitKernel>(&mut self, f: &ParamFit) {
         // One call site per smoother (the mode is not known at compile time on the sink).
         if self.mode != ParamMode::Fixed {
-            self.p0.update_with::<K>(f.model.p0);
+            self.s.p0.update_with::<K>(f.model.p0);
         }
         if self.mode == ParamMode::P0AndAlpha {
-            self.alpha.update_with::<K>(f.model.alpha);
+            self.s.alpha.update_with::<K>(f.model.alpha);
         }
-        let dof = f.n.saturating_sub(f.fitted as u16);
-        if dof > 0 {
-            self.spread = Some((f.sse, dof));
-        }
+        self.s.spread(f.sse, f.n.saturating_sub(f.fitted as u16));
     }
 }
 
@@ -1326,5 +1428,51 @@ mod tests {
                 assert_eq!(on.sigma(), o.sigma);
             }
         }
+    }
+
+    /// A [`OnlineParams::step_with`] round is [`fit_least_squares`] from the current model, then
+    /// [`OnlineParams::feed`] on success: the same state, result flag and (new current) model,
+    /// in every mode, with and without samples.
+    #[test]
+    fn steps_are_fits_then_feeds() {
+        let mut r = Rng(0x5EED_0F57_E95E_ED00);
+        let (mut empty, mut spread) = (0, 0);
+        for _ in 0..400 {
+            let mode = r.pick(&MODES);
+            let (b, prior) = (bounds(&mut r), model(&mut r));
+            let w = |r: &mut Rng| r.range(-(5 << 16), 5 << 16) as i32;
+            let (p, a) = (
+                Ar1::new(w(&mut r), w(&mut r)),
+                Ar1::new(w(&mut r), w(&mut r)),
+            );
+            let mut want =
+                OnlineParams::with_smoothers(mode, FitMethod::LeastSquares, b, prior, p, a);
+            let mut got = want;
+            for _ in 0..r.range(1, 5) {
+                let s = if r.below(6) == 0 {
+                    CalStats::new()
+                } else {
+                    stats_pair(&mut r).0
+                };
+                empty += s.is_empty() as u32;
+                let fitted = match fit_least_squares(&s, mode, want.current(), &b) {
+                    Ok(f) => {
+                        want.feed(&f);
+                        true
+                    }
+                    Err(_) => false,
+                };
+                let mut job = FitJob::for_step(&s, mode, &b);
+                assert_eq!(got.step_with::<PortableFit>(&mut job), fitted);
+                assert_eq!(got, want);
+                let m = PathLoss {
+                    p0: job.p0,
+                    alpha: job.alpha,
+                };
+                assert_eq!(m, want.current());
+                spread += want.sigma().is_some() as u32;
+            }
+        }
+        assert!(empty >= 50 && spread >= 300, "{empty} {spread}");
     }
 }

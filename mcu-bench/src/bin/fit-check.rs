@@ -5,9 +5,7 @@
 //! everything). Prints
 //! the first mismatches (`bad mode n p0 alpha sse_hi sse_lo fitted`, the twin's then the
 //! assembly's), then `fit <jobs> <mismatches> <fitted 0> <fitted 1> <fitted 2> <on an edge>`
-//! and `end`; before that the AR(1) step (`FitKernel::ar1_update`): `weigh <checked>
-//! <mismatches>` after its first mismatches (`badweigh a b first x portable avr`), and before
-//! that a pair's samples into the sums (`FitKernel::push`): `push <checked> <mismatches> <cut
+//! and `end`; before that a pair's samples into the sums (`FitKernel::push`): `push <checked> <mismatches> <cut
 //! short by the 256-sample limit>` after `badpush x n_portable n_avr k`, and before that the
 //! anchor-pair distance (`FitKernel::distance_x`): `dist <checked> <mismatches> <coincident>`
 //! after `baddist ax ay bx by`.
@@ -30,8 +28,8 @@ fn main() -> ! {
 mod avr {
     use core::hint::black_box;
     use loc_core::fixed::{
-        distance_x, portable_ar1_update, portable_push, Ar1, Bounds, CalStats, FitJob, FitKernel,
-        ParamMode, PathLoss, PointCm, PortableFit, ALPHA, DB,
+        distance_x, portable_push, Bounds, CalStats, FitJob, FitKernel, ParamMode, PathLoss,
+        PointCm, PortableFit, ALPHA, DB,
     };
     use mcu_bench::fw::{write_u32, xorshift};
     use uno_board::{AvrFit, Board};
@@ -331,43 +329,6 @@ mod avr {
             write_u32(&mut serial, v);
             serial.write_byte(b' ');
         }
-        serial.write_byte(b'\n');
-        // The AR(1) step on a fresh or a started smoother, with the weights `Ar1::new` allows
-        // (±4 in Q.16) and any values.
-        let (mut wbad, wn) = (0u32, black_box(20_000u32));
-        for _ in 0..wn {
-            let mut w = || match r.below(4) {
-                0 => r.pick(&[-(4 << 16), 4 << 16, 0, 1, -1, 1 << 16, 52_429, 13_107]),
-                _ => r.range(-(5 << 16), 5 << 16),
-            };
-            let mut want = Ar1::new(w(), w());
-            let mut v = || match r.below(4) {
-                0 => r.pick(&[i32::MIN, i32::MAX, 0, -1, 1, -(90 << 16), 3 << 24]),
-                1 => r.next() as i32,
-                _ => r.range(-(100 << 16), 6 << 24),
-            };
-            let (first, x) = (v(), v());
-            if r.below(8) != 0 {
-                portable_ar1_update(&mut want, first);
-            }
-            let mut got = want;
-            let y = portable_ar1_update(black_box(&mut want), x);
-            if AvrFit::ar1_update(black_box(&mut got), x) != y || got != want {
-                wbad += 1;
-                if wbad <= 5 {
-                    serial.write_bytes(b"badweigh");
-                    for v in [want.a, want.b, first, x, y, got.value().unwrap_or(0)] {
-                        serial.write_byte(b' ');
-                        write_u32(&mut serial, v as u32);
-                    }
-                    serial.write_byte(b'\n');
-                }
-            }
-        }
-        serial.write_bytes(b"weigh ");
-        write_u32(&mut serial, wn);
-        serial.write_byte(b' ');
-        write_u32(&mut serial, wbad);
         serial.write_byte(b'\n');
         serial.write_bytes(b"fit ");
         for v in [jobs, bad, counts[0], counts[1], counts[2], counts[3]] {
