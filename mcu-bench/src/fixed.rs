@@ -2,9 +2,9 @@
 
 use crate::{Inputs, Pipeline, Report, N_ANCHORS, N_CHANNELS, SIGMA_DB};
 use loc_core::fixed::{
-    estimate_with, fit_least_squares_with, mle_with, mmse_window_with, observations_of, AreaCm,
-    Bounds, CalStats, ChannelBytes, Estimator, FitMethod, Observations, OnlineParams, PairBytes,
-    ParamMode, PathLoss, PointCm, Refinement, Search,
+    estimate_with, mle_with, mmse_window_with, observations_of, AreaCm, Bounds, CalStats,
+    ChannelBytes, Estimator, FitJob, FitMethod, Observations, OnlineParams, PairBytes, ParamMode,
+    PathLoss, PointCm, Refinement, Search,
 };
 
 /// The cost kernel: the AVR assembly one on the MCU (what the sink runs), the portable one on
@@ -116,11 +116,12 @@ impl Pipeline for Fixed {
         stats
     }
 
+    /// The sink's round (`sink_fw::Sink::locate`): fit, both smoothers fed and σ, in one step
+    /// (one AVR routine on the MCU); the same model as `fit_least_squares` then `feed`.
     fn fit(&mut self, stats: &CalStats) {
         let p = &mut self.params;
-        if let Ok(f) = fit_least_squares_with::<Fit>(stats, p.mode, p.current(), &p.bounds) {
-            p.feed_with::<Fit>(&f);
-        }
+        let mut job = FitJob::for_step(stats, p.mode, &p.bounds);
+        p.step_with::<Fit>(&mut job);
     }
 
     fn refine(&mut self, inp: &Inputs) -> Observations {
