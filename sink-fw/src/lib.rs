@@ -28,7 +28,7 @@ use loc_core::fixed::{
     CalStats, Estimate, FitMethod, LocError, Measurements, Obs, Observations, OnlineParams,
     ParamMode, PathLoss, PointCm, Refinement, ReportBytes, ReportKernel, TermKernel,
 };
-use loc_proto::msg::{Position, Report, ReportView};
+use loc_proto::msg::{NotReport, Position, Report, ReportView};
 
 /// The least-squares solve, the AR(1) smoothers and the anchor pairs' sums (distance and
 /// bytes): AVR assembly on the MCU (3.1 KB less flash), the portable twin on the host; the same
@@ -200,6 +200,17 @@ impl BadFrame {
         match e {
             Error::BadMagic | Error::BadVersion { .. } | Error::BadKind { .. } => BadFrame::Foreign,
             _ => BadFrame::Corrupt,
+        }
+    }
+}
+
+/// [`ReportView::accept`]'s reject, counted as [`BadFrame::of`] its error from
+/// [`ReportView::parse`] (the firmware's parser).
+impl From<NotReport> for BadFrame {
+    fn from(r: NotReport) -> BadFrame {
+        match r {
+            NotReport::Corrupt => BadFrame::Corrupt,
+            NotReport::Foreign => BadFrame::Foreign,
         }
     }
 }

@@ -63,7 +63,7 @@ fn run(
     config: &loc_proto::config::Config,
 ) -> ! {
     use loc_proto::msg::ReportView;
-    use sink_fw::{BadFrame, Sink};
+    use sink_fw::Sink;
     use uno_board::node::{self, Event};
     use uno_board::{now_ms, rx_pending, sleep_unless, AvrTerm};
 
@@ -89,12 +89,12 @@ fn run(
             // each) keep this loop busy for longer than the watchdog's 1 s.
             watchdog.feed();
             if let Some(len) = got {
-                match ReportView::parse(&raw[..len]) {
+                match ReportView::accept(&raw[..len]) {
                     Ok(report) => {
                         led.toggle();
                         on_report(&mut sink, &report, radio);
                     }
-                    Err(e) => sink.on_bad_frame(BadFrame::of(e)),
+                    Err(e) => sink.on_bad_frame(e.into()),
                 }
             }
         }
