@@ -648,7 +648,7 @@ impl<'a> ReportView<'a> {
         }
         // The channels (the length above holds them): 1…16, a bit each for the duplicates.
         let mut seen = 0u16;
-        for &ch in channels.iter().take(c as usize) {
+        for &ch in channels.get(..c as usize).ok_or(Corrupt)? {
             let k = ch.wrapping_sub(1);
             if k >= MAX_CHANNEL || seen & (1 << k) != 0 {
                 return Err(Corrupt);
