@@ -507,6 +507,21 @@ impl Report {
     }
 }
 
+/// Whether `chans` are testbed channels (1…16), none twice: a bit each for the duplicates.
+/// Out of line: [`ReportView::accept`] keeps fewer registers across a call than across the loop.
+#[inline(never)]
+fn distinct_channels(chans: &[u8]) -> bool {
+    let mut seen = 0u16;
+    for &ch in chans {
+        let k = ch.wrapping_sub(1);
+        if k >= MAX_CHANNEL || seen & (1 << k) != 0 {
+            return false;
+        }
+        seen |= 1 << k;
+    }
+    true
+}
+
 /// Why a frame is not a report, as a receiver counts it ([`ReportView::accept`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum NotReport {
@@ -631,6 +646,7 @@ impl<'a> ReportView<'a> {
         let c = cf & 0x07;
         if cf & !(RELAY_FLAG | 0x07) != 0
             || !(1..=MAX_CHANNELS as u8).contains(&c)
+            || !channels.get(..c as usize).is_some_and(distinct_channels)
             || agent == 0
             || !(3..=MAX_ANCHORS as u8).contains(&anchors)
         {
@@ -645,15 +661,6 @@ impl<'a> ReportView<'a> {
         // `Report::wire_size` (N ≤ 8, C ≤ 4: the one product that can pass 255 in 16 bits).
         if len as u16 != (9 + c + 4 * anchors) as u16 + c as u16 * per_channel as u16 {
             return Err(Corrupt);
-        }
-        // The channels (the length above holds them): 1…16, a bit each for the duplicates.
-        let mut seen = 0u16;
-        for &ch in channels.get(..c as usize).ok_or(Corrupt)? {
-            let k = ch.wrapping_sub(1);
-            if k >= MAX_CHANNEL || seen & (1 << k) != 0 {
-                return Err(Corrupt);
-            }
-            seen |= 1 << k;
         }
         Ok(ReportView {
             buf,
