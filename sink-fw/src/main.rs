@@ -88,8 +88,9 @@ fn run(
             // Fed per packet too: reports arriving faster than the sink handles them (≈ 70 ms
             // each) keep this loop busy for longer than the watchdog's 1 s.
             watchdog.feed();
-            if let Some(len) = got {
-                match ReportView::accept(&raw[..len]) {
+            // (`get`: `len` is at most `raw.len()`, but not known so here.)
+            if let Some(bytes) = got.and_then(|len| raw.get(..len)) {
+                match ReportView::accept(bytes) {
                     Ok(report) => {
                         led.toggle();
                         on_report(&mut sink, &report, radio);
