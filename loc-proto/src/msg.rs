@@ -1039,7 +1039,10 @@ mod tests {
             }
             accept_is_parse(&buf[..len]);
             let v = ReportView::accept(&buf[..len]).unwrap();
-            assert_eq!((v.anchors(), v.channels(), v.has_relay()), (n as usize, c, relay));
+            assert_eq!(
+                (v.anchors(), v.channels(), v.has_relay()),
+                (n as usize, c, relay)
+            );
         }
     }
 }
