@@ -623,7 +623,8 @@ impl<'a> ReportView<'a> {
     /// where it gives one, else only whether the frame is [`NotReport::Foreign`] (what `parse`
     /// calls [`Error::BadMagic`], [`Error::BadVersion`] or [`Error::BadKind`]) or
     /// [`NotReport::Corrupt`] (any other error). With no error order to keep, the checks fold
-    /// into one condition: the sink firmware's parser, ≈ 200 B less AVR flash than `parse`.
+    /// into one condition: the sink firmware's parser, 86 B less AVR flash than `parse` (408 B
+    /// with its helper, against 494 B).
     #[inline(never)]
     pub fn accept(buf: &'a [u8]) -> Result<ReportView<'a>, NotReport> {
         use NotReport::{Corrupt, Foreign};
