@@ -28,7 +28,7 @@ use loc_core::fixed::{
     FitMethod, LocError, Measurements, Obs, Observations, OnlineParams, ParamMode, PathLoss,
     PointCm, Refinement, ReportBytes, ReportKernel, TermKernel,
 };
-use loc_proto::msg::{Position, Report, ReportView};
+use loc_proto::msg::{NotReport, Position, Report, ReportView};
 
 /// The least-squares solve, the AR(1) smoothers and the anchor pairs' sums (distance and
 /// bytes): AVR assembly on the MCU (3.1 KB less flash), the portable twin on the host; the same
@@ -204,6 +204,17 @@ impl BadFrame {
     }
 }
 
+/// [`ReportView::accept`]'s reject, counted as [`BadFrame::of`] its error from
+/// [`ReportView::parse`] (the firmware's parser).
+impl From<NotReport> for BadFrame {
+    fn from(r: NotReport) -> BadFrame {
+        match r {
+            NotReport::Corrupt => BadFrame::Corrupt,
+            NotReport::Foreign => BadFrame::Foreign,
+        }
+    }
+}
+
 /// The room of a sink whose config `position` is `p` (SPEC §4: the sink's position is the room's
 /// size, cm): `Some` area `[0, x] × [0, y]` when both are positive, else `None` — the room is
 /// then the anchors' bounding box from the origin, per report ([`anchors_box`]).
@@ -328,10 +339,13 @@ impl Counters {
 
 /// The sink state machine over cost kernel `K`.
 #[derive(Clone, Debug)]
+// In this order (`repr(C)`): of the orders tried, the one the AVR code is smallest with (the
+// params' constants at near offsets of the firmware loop's frame): 8 B less flash.
+#[repr(C)]
 pub struct Sink<K> {
+    params: OnlineParams,
     /// The room, or `None`: each report's anchors' bounding box.
     area: Option<AreaCm>,
-    params: OnlineParams,
     counters: Counters,
     /// Next expected sequence per agent (index agent − 1), valid where `seen`: all zeros at
     /// first (no `Option` array to build field by field).

@@ -63,7 +63,7 @@ fn run(
     config: &loc_proto::config::Config,
 ) -> ! {
     use loc_proto::msg::ReportView;
-    use sink_fw::{BadFrame, Sink};
+    use sink_fw::Sink;
     use uno_board::node::{self, Event};
     use uno_board::{now_ms, rx_pending, sleep_unless, AvrTerm};
 
@@ -88,13 +88,14 @@ fn run(
             // Fed per packet too: reports arriving faster than the sink handles them (≈ 70 ms
             // each) keep this loop busy for longer than the watchdog's 1 s.
             watchdog.feed();
-            if let Some(len) = got {
-                match ReportView::parse(&raw[..len]) {
+            // (`get`: `len` is at most `raw.len()`, but not known so here.)
+            if let Some(bytes) = got.and_then(|len| raw.get(..len)) {
+                match ReportView::accept(bytes) {
                     Ok(report) => {
                         led.toggle();
                         on_report(&mut sink, &report, radio);
                     }
-                    Err(e) => sink.on_bad_frame(BadFrame::of(e)),
+                    Err(e) => sink.on_bad_frame(e.into()),
                 }
             }
         }

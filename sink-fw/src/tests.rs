@@ -458,6 +458,29 @@ fn decode_errors_are_foreign_or_corrupt() {
         Report::decode(&buf[..n - 1]).map_err(BadFrame::of),
         Err(BadFrame::Corrupt)
     );
+    // The firmware's parser (`ReportView::accept`) counts each error as `BadFrame::of` does.
+    use loc_proto::msg::NotReport;
+    for e in [
+        Error::BadMagic,
+        Error::BadVersion { found: 9 },
+        Error::BadKind { found: 0x7F },
+        Error::TooShort,
+        Error::BadLength,
+        Error::BadCrc,
+        Error::BadValue {
+            field: Field::Anchors,
+        },
+    ] {
+        assert_eq!(BadFrame::from(NotReport::of(e)), BadFrame::of(e), "{e:?}");
+    }
+    assert_eq!(
+        ReportView::accept(b"not a hoploc message").map_err(BadFrame::from),
+        Err(BadFrame::Foreign)
+    );
+    assert_eq!(
+        ReportView::accept(&buf[..n - 1]).map_err(BadFrame::from),
+        Err(BadFrame::Corrupt)
+    );
 }
 
 /// The firmware's `status` line, written counter by counter ([`Counters::write_line`]), is the

@@ -1,10 +1,11 @@
 //! Arbitrary radio payloads through the message decoders: they never panic, and whatever
 //! decodes re-encodes to the very same bytes (one encoding per message, so nothing a node
-//! accepts can differ from what a node sends).
+//! accepts can differ from what a node sends); the sink's in-place parsers agree with the
+//! decoder (`ReportView::parse` its error, `ReportView::accept` how that error counts).
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use loc_proto::msg::{decode_any, Beacon, Message, Report, MAX_PAYLOAD};
+use loc_proto::msg::{decode_any, Beacon, Message, NotReport, Report, ReportView, MAX_PAYLOAD};
 
 fuzz_target!(|data: &[u8]| {
     let mut buf = [0u8; 2 * MAX_PAYLOAD];
@@ -21,4 +22,7 @@ fuzz_target!(|data: &[u8]| {
         let n = r.encode(&mut buf).expect("a decoded report re-encodes");
         assert_eq!(&buf[..n], data);
     }
+    let view = ReportView::parse(data);
+    assert_eq!(view.map(|_| ()), Report::decode(data).map(|_| ()));
+    assert_eq!(ReportView::accept(data), view.map_err(NotReport::of));
 });
