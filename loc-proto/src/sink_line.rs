@@ -256,22 +256,6 @@ impl SinkLine {
         o.end(true);
     }
 
-    /// Writes the `status` line of `uptime_s` and `counts` (frames, reports, drops, checksum
-    /// errors, foreign frames, fixes): the same bytes as [`SinkLine::Status`]'s
-    /// [`SinkLine::write`], for a caller that keeps its counters in an array. On AVR it then
-    /// reads each count just before writing it, in a loop, instead of building the line first
-    /// and keeping its seven numbers across the writer's calls (sink-fw's `status`: 296 B,
-    /// 156 B measured with its counts behind a `&[u32; 6]`).
-    #[inline(always)]
-    pub fn write_status(uptime_s: u32, counts: &[u32; 6], out: impl FnMut(u8)) {
-        let mut o = Out::new(out);
-        o.head(WORD_SINK, STATUS);
-        o.num(uptime_s);
-        for &n in counts {
-            o.num(n);
-        }
-        o.end(true);
-    }
 
     /// Reads a line (with or without its `\r\n`). Never panics; any line not starting with
     /// `hoploc sink ` is [`SinkLineError::NotSinkLine`].
