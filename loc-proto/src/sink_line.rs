@@ -256,7 +256,6 @@ impl SinkLine {
         o.end(true);
     }
 
-
     /// Reads a line (with or without its `\r\n`). Never panics; any line not starting with
     /// `hoploc sink ` is [`SinkLineError::NotSinkLine`].
     pub fn parse(line: &str) -> Result<SinkLine, SinkLineError> {
