@@ -50,6 +50,20 @@ def symbols(elf):
     return {p[2]: int(p[0], 16) for p in (l.split() for l in out.splitlines()) if len(p) == 3}
 
 
+def flash_objects(elf):
+    """Address ranges of the data objects in flash (progmem tables): their bytes may decode as
+    branches, which are not code to map."""
+    out = subprocess.run(["avr-readelf", "-sW", elf], capture_output=True, text=True, check=True).stdout
+    ranges = []
+    for line in out.splitlines():
+        p = line.split()
+        if len(p) >= 8 and p[3] == "OBJECT" and p[2].isdigit():
+            start, size = int(p[1], 16), int(p[2])
+            if start < 0x800000 and size > 0:
+                ranges.append((start, start + size))
+    return ranges
+
+
 def section(elf, name):
     out = subprocess.run(
         ["avr-objcopy", "-O", "binary", "-j", name, elf, "/dev/stdout"],
@@ -97,8 +111,14 @@ def check(unrelaxed, relaxed):
     if i != len(a) or j != len(b):
         problems.append(f"unpaired instructions at the end: {len(a) - i} / {len(b) - j}")
     copy = sa.get("__do_copy_data")
+    data = flash_objects(unrelaxed)
     relaxed_count = 0
     for x, y in pairs:
+        if any(lo <= x[1] < hi for lo, hi in data):
+            # A table in flash: its bytes must be the same, whatever they decode as.
+            if x[2] != y[2]:
+                problems.append(f"table bytes {x} | {y}")
+            continue
         tx, ty = target(x), target(y)
         if tx is None and x[2] == y[2]:
             continue
