@@ -1,5 +1,7 @@
 //! The AVR half of the crate: peripherals, interrupt handlers, panic handler.
 
+#[macro_use]
+mod asm_common;
 mod cell;
 mod config;
 mod cost_term;
