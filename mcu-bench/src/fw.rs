@@ -13,14 +13,7 @@ fn mark(serial: &mut Serial, b: u8) {
     serial.flush_blocking();
 }
 
-/// One step of the check firmwares' xorshift32 generator (their random inputs).
-#[inline(always)]
-pub fn xorshift(r: &mut u32) -> u32 {
-    *r ^= *r << 13;
-    *r ^= *r >> 17;
-    *r ^= *r << 5;
-    *r
-}
+pub use crate::rng::xorshift;
 
 /// `v` in decimal on `serial`.
 pub fn write_u32(serial: &mut Serial, v: u32) {
@@ -37,13 +30,18 @@ pub fn write_u32(serial: &mut Serial, v: u32) {
     serial.write_bytes(&buf[k..]);
 }
 
-fn write_report(serial: &mut Serial, tag: &[u8], r: &Report) {
+/// The line `tag v0 v1 …` (decimal) and `\n` on `serial`: how the check firmwares report.
+pub fn write_line(serial: &mut Serial, tag: &[u8], vals: &[u32]) {
     serial.write_bytes(tag);
-    for v in [r.x, r.y, r.p0, r.alpha] {
+    for &v in vals {
         serial.write_byte(b' ');
         write_u32(serial, v);
     }
     serial.write_byte(b'\n');
+}
+
+fn write_report(serial: &mut Serial, tag: &[u8], r: &Report) {
+    write_line(serial, tag, &[r.x, r.y, r.p0, r.alpha]);
 }
 
 /// Runs the benchmark with `p` and stops: markers, then `\n`, the lines `mle x y p0 alpha` and

@@ -33,6 +33,7 @@ pub mod fw;
 #[cfg(not(target_arch = "avr"))]
 pub mod harness;
 pub mod report_case;
+pub mod rng;
 pub mod sink;
 
 /// Anchors.

@@ -51,16 +51,12 @@ impl Case {
     }
 }
 
-/// xorshift32 (as `fw::xorshift`).
+/// xorshift32 ([`crate::rng::xorshift`]) over the caller's seed.
 struct Rng<'a>(&'a mut u32);
 
 impl Rng<'_> {
     fn next(&mut self) -> u32 {
-        let r = &mut *self.0;
-        *r ^= *r << 13;
-        *r ^= *r >> 17;
-        *r ^= *r << 5;
-        *r
+        crate::rng::xorshift(self.0)
     }
 
     fn below(&mut self, n: u32) -> u32 {

@@ -31,34 +31,13 @@ mod avr {
         distance_x, portable_push, Bounds, CalStats, FitJob, FitKernel, ParamMode, PathLoss,
         PointCm, PortableFit, ALPHA, DB,
     };
-    use mcu_bench::fw::{write_u32, xorshift};
+    use mcu_bench::fw::write_u32;
+    use mcu_bench::rng::Rng;
     use uno_board::{AvrFit, Board};
 
     /// Sums drawn, four jobs each (those with no samples and something to fit are skipped:
     /// `FitJob::new` refuses them): over 10 000 jobs.
     const SUMS: u32 = 2_600;
-
-    /// xorshift32.
-    struct Rng(u32);
-
-    impl Rng {
-        fn next(&mut self) -> u32 {
-            xorshift(&mut self.0)
-        }
-
-        fn below(&mut self, n: u32) -> u32 {
-            self.next() % n
-        }
-
-        /// A value in `[lo, hi]`.
-        fn range(&mut self, lo: i32, hi: i32) -> i32 {
-            lo.wrapping_add(self.below(hi.wrapping_sub(lo) as u32 + 1) as i32)
-        }
-
-        fn pick<T: Copy>(&mut self, v: &[T]) -> T {
-            v[self.below(v.len() as u32) as usize]
-        }
-    }
 
     /// [`CalStats::push_pair`] as a firmware with one copy of the sums' code has it.
     fn push_pair(s: &mut CalStats, a: PointCm, c: PointCm, b: &[Option<u8>]) {
@@ -86,7 +65,7 @@ mod avr {
                 *b = match r.below(8) {
                     0 => None,
                     1 => Some(r.pick(&[0, 255, 1, 254])),
-                    2 => Some(r.next() as u8),
+                    2 => Some(r.bits() as u8),
                     _ => Some(base.wrapping_add(r.below(9) as u8)),
                 };
             }
@@ -114,7 +93,7 @@ mod avr {
                     s.push_at(x, &[Some(r.pick(&[0, 255])); 16][..len]);
                 }
                 _ => {
-                    let p = |r: &mut Rng| PointCm::new(r.next() as i16, r.next() as i16);
+                    let p = |r: &mut Rng| PointCm::new(r.bits() as i16, r.bits() as i16);
                     let (a, c) = (p(r), p(r));
                     if r.below(2) == 0 {
                         push_pair(&mut s, a, c, b);
@@ -130,7 +109,7 @@ mod avr {
     /// Mostly plausible, sometimes anything, sometimes an edge.
     fn around(r: &mut Rng, lo: i32, hi: i32, limit: i32) -> i32 {
         match r.below(8) {
-            0 => r.next() as i32,
+            0 => r.bits() as i32,
             1 => r.pick(&[i32::MIN, i32::MAX, 0, -1, 1, -limit, limit]),
             2 => r.range(-limit - 2, limit + 2),
             _ => r.range(lo, hi),
@@ -241,7 +220,7 @@ mod avr {
         for _ in 0..dn {
             let c = |r: &mut Rng| match r.below(5) {
                 0 => r.pick(&[i16::MIN, i16::MAX, 0, -1, 1, i16::MIN + 1, i16::MAX - 1]),
-                1 => r.next() as i16,
+                1 => r.bits() as i16,
                 _ => r.range(-300, 2300) as i16,
             };
             let a = PointCm::new(c(&mut r), c(&mut r));
@@ -293,7 +272,7 @@ mod avr {
                 0 => r.pick(&[-X, X, X - 1, -X + 1, 0, 1, -1, 255, -256, 65_535, -65_536]),
                 1 => r.range(-X, X),
                 2 => {
-                    let p = |r: &mut Rng| PointCm::new(r.next() as i16, r.next() as i16);
+                    let p = |r: &mut Rng| PointCm::new(r.bits() as i16, r.bits() as i16);
                     distance_x(p(&mut r), p(&mut r)).unwrap_or(0)
                 }
                 _ => r.range(-(30 << 18), 20 << 18),
@@ -303,7 +282,7 @@ mod avr {
                 *b = match r.below(6) {
                     0 | 1 => 0,
                     2 => r.pick(&[1, 255, 254, 128]),
-                    _ => r.next() as u8,
+                    _ => r.bits() as u8,
                 };
             }
             let heard = bytes.iter().filter(|&&b| b != 0).count() as u8;

@@ -30,33 +30,12 @@ mod avr {
         portable_ar1_update, Ar1, Bounds, CalStats, FitJob, FitKernel, FitMethod, OnlineParams,
         ParamMode, PathLoss, PortableFit, ALPHA, ALPHA_LIMIT, DB, P0_LIMIT,
     };
-    use mcu_bench::fw::{write_u32, xorshift};
+    use mcu_bench::fw::write_u32;
+    use mcu_bench::rng::Rng;
     use uno_board::{AvrFit, Board};
 
     /// Smoother states drawn (1 to 6 rounds each): over 10 000 rounds.
     const STATES: u32 = 2_900;
-
-    /// xorshift32.
-    struct Rng(u32);
-
-    impl Rng {
-        fn next(&mut self) -> u32 {
-            xorshift(&mut self.0)
-        }
-
-        fn below(&mut self, n: u32) -> u32 {
-            self.next() % n
-        }
-
-        /// A value in `[lo, hi]`.
-        fn range(&mut self, lo: i32, hi: i32) -> i32 {
-            lo.wrapping_add(self.below(hi.wrapping_sub(lo) as u32 + 1) as i32)
-        }
-
-        fn pick<T: Copy>(&mut self, v: &[T]) -> T {
-            v[self.below(v.len() as u32) as usize]
-        }
-    }
 
     /// Random sums: none, one sample, or pushes at room-like, nearly equal or extreme x with
     /// plausible or extreme bytes.
@@ -93,7 +72,7 @@ mod avr {
     /// Mostly plausible, sometimes anything, sometimes an edge.
     fn around(r: &mut Rng, lo: i32, hi: i32, limit: i32) -> i32 {
         match r.below(8) {
-            0 => r.next() as i32,
+            0 => r.bits() as i32,
             1 => r.pick(&[i32::MIN, i32::MAX, 0, -1, 1, -limit, limit]),
             2 => r.range(-limit - 2, limit + 2),
             _ => r.range(lo, hi),
@@ -205,7 +184,7 @@ mod avr {
             let mut want = Ar1::new(w(), w());
             let mut v = || match r.below(4) {
                 0 => r.pick(&[i32::MIN, i32::MAX, 0, -1, 1, -(90 << 16), 3 << 24]),
-                1 => r.next() as i32,
+                1 => r.bits() as i32,
                 _ => r.range(-(100 << 16), 6 << 24),
             };
             let (first, x) = (v(), v());

@@ -25,21 +25,14 @@ uno_board::link_avr_libc!();
 fn main() -> ! {
     use core::hint::black_box;
     use loc_core::fixed::{ColumnJob, Placement, TermKernel, I24};
-    use mcu_bench::fw::{write_u32, xorshift};
+    use mcu_bench::fw::xorshift;
     let Some(board) = uno_board::Board::take() else {
         uno_board::reset()
     };
     avr_device::interrupt::disable();
     let mut serial = board.serial;
     let mut r = 0x2545_F491u32;
-    let line = |serial: &mut uno_board::Serial, tag: &[u8], vals: &[u32]| {
-        serial.write_bytes(tag);
-        for &v in vals {
-            serial.write_byte(b' ');
-            write_u32(serial, v);
-        }
-        serial.write_byte(b'\n');
-    };
+    let line = mcu_bench::fw::write_line;
     // ---- guess ----
     let (mut bad, n) = (0u32, black_box(20_000u32));
     let mut job = ColumnJob::EMPTY;

@@ -22,21 +22,13 @@ use search_inputs::search_inputs;
 #[uno_board::entry]
 fn main() -> ! {
     use core::hint::black_box;
-    use mcu_bench::fw::write_u32;
     let Some(board) = uno_board::Board::take() else {
         uno_board::reset()
     };
     avr_device::interrupt::disable();
     let mut serial = board.serial;
     let mut r = 0x7F4A_7C15u32;
-    let line = |serial: &mut uno_board::Serial, tag: &[u8], vals: &[u32]| {
-        serial.write_bytes(tag);
-        for &v in vals {
-            serial.write_byte(b' ');
-            write_u32(serial, v);
-        }
-        serial.write_byte(b'\n');
-    };
+    let line = mcu_bench::fw::write_line;
     // ---- the search driver (the same kernels under both) ----
     let (mut bad, n) = (0u32, black_box(2_000u32));
     for t in 0..n {
