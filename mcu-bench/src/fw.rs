@@ -369,16 +369,21 @@ fn weights_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
         if want != got {
             bad += 1;
             if bad <= 5 {
-                serial.write_bytes(b"badwts");
-                for v in [k26, sigma as u32, want.span, got.span, want.b, got.b] {
-                    serial.write_byte(b' ');
-                    write_u32(serial, v);
-                }
-                for v in [want.ra, got.ra] {
-                    serial.write_byte(b' ');
-                    write_u32(serial, v as u32);
-                }
-                serial.write_byte(b'\n');
+                let (wra, gra) = (want.ra as u32, got.ra as u32);
+                write_line(
+                    serial,
+                    b"badwts",
+                    &[
+                        k26,
+                        sigma as u32,
+                        want.span,
+                        got.span,
+                        want.b,
+                        got.b,
+                        wra,
+                        gra,
+                    ],
+                );
             }
         }
     }
@@ -403,12 +408,7 @@ fn div_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
         if want != got {
             bad += 1;
             if bad <= 5 {
-                serial.write_bytes(b"baddiv");
-                for v in [a, b, e, want, got] {
-                    serial.write_byte(b' ');
-                    write_u32(serial, v);
-                }
-                serial.write_byte(b'\n');
+                write_line(serial, b"baddiv", &[a, b, e, want, got]);
             }
         }
     }
@@ -437,12 +437,7 @@ fn mul_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
         if want != got {
             bad += 1;
             if bad <= 5 {
-                serial.write_bytes(b"badmul");
-                for v in [a, b, want, got] {
-                    serial.write_byte(b' ');
-                    write_u32(serial, v);
-                }
-                serial.write_byte(b'\n');
+                write_line(serial, b"badmul", &[a, b, want, got]);
             }
         }
     }
@@ -491,21 +486,21 @@ fn move_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
         if !ok {
             bad += 1;
             if bad <= 5 {
-                serial.write_bytes(b"badmove");
-                for v in [
-                    jw.xstep as u32,
-                    jw.ystep as u32,
-                    di as u32,
-                    dj as u32,
-                    jw.anchors[0].dx0.get() as u32,
-                    jg.anchors[0].dx0.get() as u32,
-                    jw.anchors[0].dy0.get() as u32,
-                    jg.anchors[0].dy0.get() as u32,
-                ] {
-                    serial.write_byte(b' ');
-                    write_u32(serial, v);
-                }
-                serial.write_byte(b'\n');
+                let (w, g) = (&jw.anchors[0], &jg.anchors[0]);
+                write_line(
+                    serial,
+                    b"badmove",
+                    &[
+                        jw.xstep as u32,
+                        jw.ystep as u32,
+                        di as u32,
+                        dj as u32,
+                        w.dx0.get() as u32,
+                        g.dx0.get() as u32,
+                        w.dy0.get() as u32,
+                        g.dy0.get() as u32,
+                    ],
+                );
             }
         }
     }
@@ -581,7 +576,6 @@ fn place_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
             if !ok {
                 bad += 1;
                 if bad <= 5 {
-                    serial.write_bytes(b"badplace");
                     let k = jw
                         .anchors
                         .iter()
@@ -589,20 +583,20 @@ fn place_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
                         .position(|(w, g)| !same(w, g));
                     let k = k.unwrap_or(0);
                     let (w, g) = (&jw.anchors[k], &jg.anchors[k]);
-                    for v in [
-                        jg.n as u32,
-                        k as u32,
-                        w.dx0.get() as u32,
-                        g.dx0.get() as u32,
-                        w.rho as u32,
-                        g.rho as u32,
-                        (w.w as u32) << 8 | w.shift as u32,
-                        (g.w as u32) << 8 | g.shift as u32,
-                    ] {
-                        serial.write_byte(b' ');
-                        write_u32(serial, v);
-                    }
-                    serial.write_byte(b'\n');
+                    write_line(
+                        serial,
+                        b"badplace",
+                        &[
+                            jg.n as u32,
+                            k as u32,
+                            w.dx0.get() as u32,
+                            g.dx0.get() as u32,
+                            w.rho as u32,
+                            g.rho as u32,
+                            (w.w as u32) << 8 | w.shift as u32,
+                            (g.w as u32) << 8 | g.shift as u32,
+                        ],
+                    );
                 }
                 // One report per job.
                 break;
@@ -630,12 +624,11 @@ pub fn kernel_check() -> ! {
         if want != got {
             bad += 1;
             if bad <= 5 {
-                serial.write_bytes(b"bad");
-                for v in [lo, carry as u32, rho as u32, clamp as u32, want, got] {
-                    serial.write_byte(b' ');
-                    write_u32(&mut serial, v);
-                }
-                serial.write_byte(b'\n');
+                write_line(
+                    &mut serial,
+                    b"bad",
+                    &[lo, carry as u32, rho as u32, clamp as u32, want, got],
+                );
             }
         }
     }

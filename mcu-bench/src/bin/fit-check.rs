@@ -31,7 +31,7 @@ mod avr {
         distance_x, portable_push, Bounds, CalStats, FitJob, FitKernel, ParamMode, PathLoss,
         PointCm, PortableFit, ALPHA, DB,
     };
-    use mcu_bench::fw::write_u32;
+    use mcu_bench::fw::{write_line, write_u32};
     use mcu_bench::rng::Rng;
     use uno_board::{AvrFit, Board};
 
@@ -237,21 +237,15 @@ mod avr {
             if AvrFit::distance_x(black_box(a), b) != want {
                 dbad += 1;
                 if dbad <= 5 {
-                    serial.write_bytes(b"baddist");
-                    for v in [a.x, a.y, b.x, b.y] {
-                        serial.write_byte(b' ');
-                        write_u32(&mut serial, v as u32);
-                    }
-                    serial.write_byte(b'\n');
+                    write_line(
+                        &mut serial,
+                        b"baddist",
+                        &[a.x as u32, a.y as u32, b.x as u32, b.y as u32],
+                    );
                 }
             }
         }
-        serial.write_bytes(b"dist ");
-        for v in [dn, dbad, dnone] {
-            write_u32(&mut serial, v);
-            serial.write_byte(b' ');
-        }
-        serial.write_byte(b'\n');
+        write_line(&mut serial, b"dist", &[dn, dbad, dnone]);
         // A pair's samples into the sums (`FitKernel::push`): random sums (some full or nearly),
         // x from ±2^23 (extremes, 0, ±1, a room's pairs, anything), bytes 0 (not heard) or not.
         let (mut pbad, pn, mut plimited) = (0u32, black_box(6_000u32), 0u32);
@@ -294,27 +288,21 @@ mod avr {
             if AvrFit::push(black_box(&mut got), x, &bytes) != k || got != want {
                 pbad += 1;
                 if pbad <= 5 {
-                    serial.write_bytes(b"badpush");
-                    for v in [x as u32, want.len() as u32, got.len() as u32, k as u32] {
-                        serial.write_byte(b' ');
-                        write_u32(&mut serial, v);
-                    }
-                    serial.write_byte(b'\n');
+                    write_line(
+                        &mut serial,
+                        b"badpush",
+                        &[x as u32, want.len() as u32, got.len() as u32, k as u32],
+                    );
                 }
             }
         }
-        serial.write_bytes(b"push ");
-        for v in [pn, pbad, plimited] {
-            write_u32(&mut serial, v);
-            serial.write_byte(b' ');
-        }
-        serial.write_byte(b'\n');
-        serial.write_bytes(b"fit ");
-        for v in [jobs, bad, counts[0], counts[1], counts[2], counts[3]] {
-            write_u32(&mut serial, v);
-            serial.write_byte(b' ');
-        }
-        serial.write_bytes(b"\nend\n");
+        write_line(&mut serial, b"push", &[pn, pbad, plimited]);
+        write_line(
+            &mut serial,
+            b"fit",
+            &[jobs, bad, counts[0], counts[1], counts[2], counts[3]],
+        );
+        serial.write_bytes(b"end\n");
         serial.flush_blocking();
         loop {
             avr_device::interrupt::disable();

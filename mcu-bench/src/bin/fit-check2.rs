@@ -30,7 +30,7 @@ mod avr {
         portable_ar1_update, Ar1, Bounds, CalStats, FitJob, FitKernel, FitMethod, OnlineParams,
         ParamMode, PathLoss, PortableFit, ALPHA, ALPHA_LIMIT, DB, P0_LIMIT,
     };
-    use mcu_bench::fw::write_u32;
+    use mcu_bench::fw::write_line;
     use mcu_bench::rng::Rng;
     use uno_board::{AvrFit, Board};
 
@@ -158,11 +158,7 @@ mod avr {
                 if w != (gf, gj.p0, gj.alpha, gj.sse, gj.fitted) || want != got {
                     bad += 1;
                     if bad <= 5 {
-                        serial.write_bytes(b"badstep ");
-                        write_u32(&mut serial, round as u32);
-                        serial.write_byte(b' ');
-                        write_u32(&mut serial, mode as u32);
-                        serial.write_byte(b'\n');
+                        write_line(&mut serial, b"badstep", &[round as u32, mode as u32]);
                     }
                     // Go on from equal states.
                     got = want;
@@ -196,26 +192,28 @@ mod avr {
             if AvrFit::ar1_update(black_box(&mut got), x) != y || got != want {
                 wbad += 1;
                 if wbad <= 5 {
-                    serial.write_bytes(b"badweigh");
-                    for v in [want.a, want.b, first, x, y, got.value().unwrap_or(0)] {
-                        serial.write_byte(b' ');
-                        write_u32(&mut serial, v as u32);
-                    }
-                    serial.write_byte(b'\n');
+                    write_line(
+                        &mut serial,
+                        b"badweigh",
+                        &[
+                            want.a as u32,
+                            want.b as u32,
+                            first as u32,
+                            x as u32,
+                            y as u32,
+                            got.value().unwrap_or(0) as u32,
+                        ],
+                    );
                 }
             }
         }
-        serial.write_bytes(b"weigh ");
-        write_u32(&mut serial, wn);
-        serial.write_byte(b' ');
-        write_u32(&mut serial, wbad);
-        serial.write_byte(b'\n');
-        serial.write_bytes(b"step ");
-        for v in [rounds, bad, counts[0], counts[1], counts[2], counts[3]] {
-            write_u32(&mut serial, v);
-            serial.write_byte(b' ');
-        }
-        serial.write_bytes(b"\nend\n");
+        write_line(&mut serial, b"weigh", &[wn, wbad]);
+        write_line(
+            &mut serial,
+            b"step",
+            &[rounds, bad, counts[0], counts[1], counts[2], counts[3]],
+        );
+        serial.write_bytes(b"end\n");
         serial.flush_blocking();
         loop {
             avr_device::interrupt::disable();
