@@ -122,16 +122,7 @@ macro_rules! distance_x_asm {
             "lsr r15\n",
             "ror r14\n",
             "ror r13\n",
-            "ldi r17, 6\n",
-            "mul r15, r17\n",
-            "add r30, r0\n",
-            "adc r31, r1\n",
-            "lpm r3, Z+\n",
-            "lpm r4, Z+\n",
-            "lpm r5, Z+\n",
-            "lpm r6, Z+\n",
-            "lpm r7, Z+\n",
-            "lpm r8, Z\n",
+            log2_segment_asm!(),
             // log2 d² (Q.20) in r16:r5:r4:r3
             log2_interpolate_asm!(),
             // l = log2 d² − log2 1 m² (0xD49A78); T = l < 0; |l| (below 2^25)
