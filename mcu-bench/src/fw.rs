@@ -15,6 +15,17 @@ fn mark(serial: &mut Serial, b: u8) {
 
 pub use crate::rng::xorshift;
 
+/// Writes `end`, waits until it has left and stops: the MCU sleeps with interrupts off, where
+/// simavr ends the run ("done").
+pub fn end(serial: &mut Serial) -> ! {
+    serial.write_bytes(b"end\n");
+    serial.flush_blocking();
+    loop {
+        avr_device::interrupt::disable();
+        avr_device::asm::sleep();
+    }
+}
+
 /// `v` in decimal on `serial`.
 pub fn write_u32(serial: &mut Serial, v: u32) {
     let mut buf = [0u8; 10];
@@ -60,12 +71,7 @@ pub fn main<P: Pipeline>(mut p: P) -> ! {
     serial.write_byte(b'\n');
     write_report(&mut serial, b"mle", &mle);
     write_report(&mut serial, b"mmse", &mmse);
-    serial.write_bytes(b"end\n");
-    serial.flush_blocking();
-    loop {
-        avr_device::interrupt::disable();
-        avr_device::asm::sleep();
-    }
+    end(&mut serial)
 }
 
 /// Runs [`crate::sink::run_sink`] with the AVR cost kernel and stops: the two markers, `\n`, the
@@ -79,12 +85,7 @@ pub fn sink_main() -> ! {
     let inp = black_box(Inputs::BENCH);
     let lines = crate::sink::run_sink::<uno_board::AvrTerm>(&inp, |b| mark(&mut serial, b));
     crate::sink::write_lines(&lines, |b| serial.write_byte(b));
-    serial.write_bytes(b"end\n");
-    serial.flush_blocking();
-    loop {
-        avr_device::interrupt::disable();
-        avr_device::asm::sleep();
-    }
+    end(&mut serial)
 }
 
 /// The inputs of [`kernel_check`]: every `(d², carry)` edge of the normalisation and the
@@ -678,10 +679,6 @@ pub fn kernel_check() -> ! {
     write_u32(&mut serial, n);
     serial.write_byte(b' ');
     write_u32(&mut serial, bad);
-    serial.write_bytes(b"\nend\n");
-    serial.flush_blocking();
-    loop {
-        avr_device::interrupt::disable();
-        avr_device::asm::sleep();
-    }
+    serial.write_byte(b'\n');
+    end(&mut serial)
 }

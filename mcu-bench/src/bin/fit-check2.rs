@@ -213,11 +213,6 @@ mod avr {
             b"step",
             &[rounds, bad, counts[0], counts[1], counts[2], counts[3]],
         );
-        serial.write_bytes(b"end\n");
-        serial.flush_blocking();
-        loop {
-            avr_device::interrupt::disable();
-            avr_device::asm::sleep();
-        }
+        mcu_bench::fw::end(&mut serial)
     }
 }

@@ -60,11 +60,6 @@ mod avr {
             }
             serial.write_byte(b'\n');
         }
-        serial.write_bytes(b"end\n");
-        serial.flush_blocking();
-        loop {
-            avr_device::interrupt::disable();
-            avr_device::asm::sleep();
-        }
+        mcu_bench::fw::end(&mut serial)
     }
 }

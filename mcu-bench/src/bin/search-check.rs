@@ -160,12 +160,7 @@ fn main() -> ! {
         }
     }
     line(&mut serial, b"search", &[n, bad]);
-    serial.write_bytes(b"end\n");
-    serial.flush_blocking();
-    loop {
-        avr_device::interrupt::disable();
-        avr_device::asm::sleep();
-    }
+    mcu_bench::fw::end(&mut serial)
 }
 
 /// Observation job `i`'s inputs: a job with `xstep`, `ystep` of any size and 0 to 5 anchors

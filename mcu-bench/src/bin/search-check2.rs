@@ -41,12 +41,7 @@ fn main() -> ! {
         }
     }
     line(&mut serial, b"driver", &[n, bad]);
-    serial.write_bytes(b"end\n");
-    serial.flush_blocking();
-    loop {
-        avr_device::interrupt::disable();
-        avr_device::asm::sleep();
-    }
+    mcu_bench::fw::end(&mut serial)
 }
 
 /// Driver trial `t`: a lattice set up for [`search_inputs`]`(t)`'s observations (its window
