@@ -547,13 +547,13 @@ pub fn push(stats: &mut CalStats, x: i32, bytes: &PairBytes) -> u8 {
 /// step was its own 0.24 KB routine).
 #[inline(always)]
 pub fn ar1_update(s: &mut Ar1, x: i32) -> i32 {
-    kernel((s as *mut Ar1).cast(), x, AR1)
+    kernel::<AR1>((s as *mut Ar1).cast(), x)
 }
 
 /// [`loc_core::fixed::portable_fit`], exactly; see the module docs.
 #[inline(always)]
 pub fn fit(job: &mut FitJob) {
-    kernel((job as *mut FitJob).cast(), 0, FIT);
+    kernel::<FIT>((job as *mut FitJob).cast(), 0);
 }
 
 /// [`loc_core::fixed::portable_step`] (a whole online round: current model, solve, both
@@ -561,10 +561,9 @@ pub fn fit(job: &mut FitJob) {
 #[inline(always)]
 pub fn step(job: &mut FitJob, s: &mut Smoothers) {
     // The smoothers' address in the `x` registers (16 bits on AVR).
-    kernel(
+    kernel::<STEP>(
         (job as *mut FitJob).cast(),
         s as *mut Smoothers as usize as i32,
-        STEP,
     );
 }
 
@@ -577,7 +576,7 @@ const STEP: u8 = 2;
 /// [`AR1`]: the [`Ar1`] at `p` fed `x`; returns the new output) in one routine. Out of line: one
 /// copy of the callee-saved registers' saves.
 #[inline(never)]
-fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
+fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
     let [x0, x1, x2, x3] = x.to_le_bytes();
     let (y0, y1, y2, y3): (u8, u8, u8, u8);
     // SAFETY: AR1: the assembly reads the smoother (13 bytes: `a` 0, `b` 4, `y` 8, `started` 12,
@@ -596,19 +595,14 @@ fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
             "push r28",
             "push r29",
             "movw r28, r30",
-            "cpi r26, 1",
-            "brne 73f",
+            ".if {op} == 1",
             "movw r18, r6",
             "movw r20, r8",
             "rcall 71f",
-            "rjmp 68f",
-            "73:",
-            "cpi r26, 2",
-            "breq 74f",
+            ".elseif {op} == 0",
             "rcall 70f",
-            "rjmp 68f",
+            ".else",
             // ==== STEP: Y = job, r7:r6 = the smoothers (s) ====
-            "74:",
             "push r6",
             "push r7",
             "movw r30, r6",
@@ -657,11 +651,34 @@ fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
             "ldi r26, 1",
             "std Z+36, r26",
             "79:",
-            "push r30",
-            "push r31",
             // P0's smoother fed the job's P0 (modes 1, 2), α's its α (mode 2)
             "tst r27",
-            "breq 81f",
+            "breq 113f",
+            "rcall 114f",
+            "cpi r27, 2",
+            "brne 113f",
+            "adiw r28, 4",
+            "adiw r30, 17",
+            "rcall 114f",
+            "sbiw r28, 4",
+            "sbiw r30, 17",
+            "rjmp 113f",
+            // the job's P0 and α: the new current model
+            "81:",
+            "pop r31",
+            "pop r30",
+            "113:",
+            "rcall 75f",
+            ".endif",
+            "68:",
+            "pop r29",
+            "pop r28",
+            "clr r1",
+            "rjmp 67f",
+            ".if {op} == 2",
+            "114:",
+            "push r30",
+            "push r31",
             "push r27",
             "push r28",
             "push r29",
@@ -669,39 +686,16 @@ fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
             "ldd r19, Y+19",
             "ldd r20, Y+20",
             "ldd r21, Y+21",
+            "adiw r30, 4",
             "movw r28, r30",
-            "adiw r28, 4",
             "rcall 71f",
             "pop r29",
             "pop r28",
             "pop r27",
-            "cpi r27, 2",
-            "brne 81f",
             "pop r31",
             "pop r30",
-            "push r30",
-            "push r31",
-            "push r28",
-            "push r29",
-            "ldd r18, Y+22",
-            "ldd r19, Y+23",
-            "ldd r20, Y+24",
-            "ldd r21, Y+25",
-            "movw r28, r30",
-            "adiw r28, 21",
-            "rcall 71f",
-            "pop r29",
-            "pop r28",
-            // the job's P0 and α: the new current model
-            "81:",
-            "pop r31",
-            "pop r30",
-            "rcall 75f",
-            "68:",
-            "pop r29",
-            "pop r28",
-            "clr r1",
-            "rjmp 67f",
+            "ret",
+            ".endif",
             // ==== CUR: job P0, α = s's current model (s at Z: prior P0 0, P0's smoother 4,
             // prior α 17, α's smoother 21), each the smoother's output once started, else the
             // prior's, clamped to ±2^25 and ±2^29 ====
@@ -1199,8 +1193,10 @@ fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
             "35:",
             "push r27",
             "bst r25, 7",
+            "mov r0, r26",
             "sbrc r25, 7",
             "rcall 53f",
+            "mov r26, r0",
             "36:",
             "tst r26",
             "breq 38f",
@@ -1385,15 +1381,9 @@ fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
             "com r21",
             "com r20",
             "com r19",
-            "neg r18",
-            "sbci r19, 0xFF",
-            "sbci r20, 0xFF",
-            "sbci r21, 0xFF",
-            "sbci r22, 0xFF",
-            "sbci r23, 0xFF",
-            "sbci r24, 0xFF",
-            "sbci r25, 0xFF",
-            "ret",
+            "com r18",
+            "ldi r26, 1",
+            "rjmp 52b",
             // ==== A >>= r26 (arithmetic) ====
             "54:",
             "cpi r26, 8",
@@ -1661,7 +1651,8 @@ fn kernel(p: *mut u8, x: i32, op: u8) -> i32 {
             "67:",
 
             inout("Z") p => _,
-            inout("r26") op => _,
+            op = const OP,
+            out("r26") _,
             inout("r6") x0 => _, inout("r7") x1 => _, inout("r8") x2 => _, inout("r9") x3 => _,
             out("r18") y0, out("r19") y1, out("r20") y2, out("r21") y3,
             out("r2") _, out("r3") _, out("r4") _, out("r5") _,
