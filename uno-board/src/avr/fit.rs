@@ -3,17 +3,21 @@
 //! `loc_core::fixed`'s fit (`CalStats::sse_at`, `p0_for`, `alpha_for`, `div_scaled`,
 //! `box_least_squares`) is 64-bit integer arithmetic, which LLVM's AVR backend turns into ≈ 30 B
 //! per operation (argument shuffling around each library call, spills, unrolled shifts): ≈ 3.8 KB.
-//! Here the whole solve is one routine that keeps two 64-bit accumulators in registers, calls
-//! libgcc's `__muldi3`/`__udivdi3` (linked anyway) for products and quotients, and shares small
-//! local subroutines for the rest. It computes exactly [`loc_core::fixed::portable_fit`] (the
+//! Here the whole solve is one routine that keeps two 64-bit accumulators in registers and
+//! shares small local subroutines, products and quotients included: every product has one factor
+//! of at most 32 bits (a 32-step shift-add multiply, `MUL`), and every quotient is below 2^32 or
+//! saturates (a 32-step shift-subtract division from the dividend's upper half, `DIV`), so
+//! libgcc's general `__muldi3`/`__udivdi3` (0.35 KB, only the fit used them) are not linked. It computes exactly [`loc_core::fixed::portable_fit`] (the
 //! same products, shifts, roundings, saturations and edge rule), which `hoploc-tests` checks in
 //! simavr on random jobs (`mcu-bench`'s `fit-check`).
 //!
 //! The same routine ([`kernel`]) has two more entries that share its helpers and register
 //! saves: the AR(1) step ([`ar1_update`]) and the sink's whole online round ([`step`]: the
 //! current model from the smoothers, clamped to the limits; the solve; both smoothers fed; σ by
-//! `__udivdi3` and a 2-bit-per-step integer square root; the new model into the job), which
-//! replaced ≈ 0.9 KB of Rust around the solve in the sink (`fit-check2` checks both).
+//! `DIV` and a 2-bit-per-step integer square root; the new model into the job), which
+//! replaced ≈ 0.9 KB of Rust around the solve in the sink (`fit-check2` checks both). The entry
+//! is a const generic and `.if` in the assembly: a firmware assembles only the dispatch of the
+//! entries it uses (the sink: the step's), one copy of the routine per entry used.
 //! Numeric local labels: a forward reference (`Nf`) to a label defined only before it binds to
 //! the next asm block's label of that number, far away (a "relocation truncated" link error
 //! at best): check each reference's direction when moving code.
@@ -23,9 +27,10 @@
 //! columns instead of LLVM's `log2_u33` and 64-bit library products (sink-fw 0.7 KB smaller).
 //!
 //! The solve's register plan: the job in Y (r29:r28, saved on the stack), its `stats` pointer in r3:r2;
-//! A = r25:r18 (`__muldi3`'s first operand and result, `__udivdi3`'s dividend and quotient),
-//! B = r17:r10 (their second operand, which they preserve); r26/r27 scratch and shift counts,
-//! r6/r7 the division's sign and saturation, r8 the edge counter; two 64-bit temporaries and
+//! A = r25:r18 (`MUL`'s multiplicand and product, `DIV`'s dividend and quotient), B = r17:r10
+//! (`MUL`'s 32-bit factor in r13:r10, clobbered; `DIV`'s divisor, below 2^63, kept); r26/r27
+//! scratch and shift counts, T the division's sign, r8 the edge counter and r7:r6 its bound
+//! pointer; two 64-bit temporaries and
 //! the best candidate in 24 bytes of stack the routine reserves (at r5:r4: T, U, best), not in
 //! the job, which lives in the sink's frame during the position search; r1 is zero throughout.
 
@@ -572,9 +577,10 @@ const FIT: u8 = 0;
 const AR1: u8 = 1;
 const STEP: u8 = 2;
 
-/// The solve (`op` = [`FIT`]: the [`FitJob`] at `p`; returns garbage) or the AR(1) step (`op` =
-/// [`AR1`]: the [`Ar1`] at `p` fed `x`; returns the new output) in one routine. Out of line: one
-/// copy of the callee-saved registers' saves.
+/// The solve (`OP` = [`FIT`]: the [`FitJob`] at `p`; returns garbage), the AR(1) step (`OP` =
+/// [`AR1`]: the [`Ar1`] at `p` fed `x`; returns the new output) or the online round (`OP` =
+/// [`STEP`]: the job at `p`, the smoothers at `x`) in one routine. Out of line: one copy of the
+/// callee-saved registers' saves.
 #[inline(never)]
 fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
     let [x0, x1, x2, x3] = x.to_le_bytes();
@@ -586,8 +592,8 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
     // through Z; it writes only the job's `p0`, `alpha`, `sse` and `fitted`, the declared
     // registers, r0, r1 (left at 0), the flags, Y (saved on the stack and restored) and the
     // stack below SP: 24 bytes it reserves by moving SP (interrupts off for the two writes, as
-    // avr-gcc does; restored at the end), its own calls and libgcc's `__muldi3`/`__udivdi3`,
-    // which follow the registers above and preserve r2–r17, r28, r29.
+    // avr-gcc does; restored at the end) and its own calls. STEP: both, on the `Smoothers` at
+    // r7:r6 (37 bytes, offsets asserted in loc-core), which it reads and writes.
     unsafe {
         asm!(
             // ==== entry: Z = job; Y = job (saved), r3:r2 = stats, r5:r4 = 24 bytes of stack, r1 = 0 ====
@@ -1423,6 +1429,10 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "movw r14, r22",
             "movw r16, r24",
             "ret",
+            // ==== MUL: A = A·(r13:r10) mod 2^64, the factor unsigned (101) or i32 (102); B, r0,
+            // r26, r27, Z, T clobbered. Shift-add over the factor's 32 bits, the product's upper
+            // bytes in r31:r26:r0:r17:r14 shifting down into r13:r10; for a negative i32 factor
+            // A << 32 taken off (the factor read unsigned is 2^32 more); then A = B ====
             "101:",
             "clt",
             "rjmp 103f",
@@ -1473,6 +1483,10 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "movw r22, r14",
             "movw r24, r16",
             "ret",
+            // ==== DIV: A = A / B (u64, B < 2^63) when the quotient is below 2^32, else A left as
+            // it is (upper half ≥ B, so nonzero: the callers saturate on it); r0, r26, r27, Z
+            // clobbered. Shift-subtract over A's lower half, the remainder r31:r26:r25:r22
+            // starting from its upper half ====
             "107:",
             "cp r22, r10",
             "cpc r23, r11",
