@@ -672,7 +672,6 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "68:",
             "pop r29",
             "pop r28",
-            "clr r1",
             "rjmp 67f",
             ".if {op} == 2",
             "114:",
