@@ -674,6 +674,7 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "pop r28",
             "rjmp 67f",
             ".if {op} == 2",
+            // ==== FEED: the smoother at Z+4 fed the i32 at Y+18 (AR1; Y, Z, r27 kept) ====
             "114:",
             "push r30",
             "push r31",
@@ -1421,7 +1422,7 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "ret",
             // ==== MUL: A = A·(r13:r10) mod 2^64, the factor unsigned (101) or i32 (102); B, r0,
             // r26, r27, Z, T clobbered. Shift-add over the factor's 32 bits, the product's upper
-            // bytes in r31:r26:r0:r17:r14 shifting down into r13:r10; for a negative i32 factor
+            // bytes in r31, r27, r26, r0, r17–r14 shifting down into r13:r10; for a negative i32 factor
             // A << 32 taken off (the factor read unsigned is 2^32 more); then A = B ====
             "101:",
             "clt",
@@ -1475,8 +1476,8 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "ret",
             // ==== DIV: A = A / B (u64, B < 2^63) when the quotient is below 2^32, else A left as
             // it is (upper half ≥ B, so nonzero: the callers saturate on it); r0, r26, r27, Z
-            // clobbered. Shift-subtract over A's lower half, the remainder r31:r26:r25:r22
-            // starting from its upper half ====
+            // clobbered. Shift-subtract over A's lower half, the remainder in r31, r30, r27,
+            // r26, r25–r22 starting from its upper half ====
             "107:",
             "cp r22, r10",
             "cpc r23, r11",
