@@ -130,7 +130,7 @@ enum Step {
 /// The parser's buffer: a whole frame, rounded up to a power of two so that an index masked
 /// with `BUF - 1` needs no bounds check (on AVR each costs dozens of bytes of flash).
 const BUF: usize = 32;
-const _: () = assert!(MAX_FRAME <= BUF && BUF.is_power_of_two());
+const _: () = assert!(MAX_FRAME <= BUF && 5 + MAX_LEN <= BUF && BUF.is_power_of_two());
 
 /// The byte at `i` of `b` (masked into the buffer; callers stay below `MAX_FRAME`).
 #[inline(always)]
@@ -216,6 +216,19 @@ impl ProvisionParser {
         // Clamped into the buffer (no panic path); a frame's L is at most MAX_LEN.
         let l = (self.buf[4] as usize).min(BUF - 5);
         &self.buf[5..5 + l]
+    }
+
+    /// The buffer's config area (where a frame's config sits, [`MAX_LEN`] bytes) for the node
+    /// to read its EEPROM block into and decode with [`read_into`]: one buffer for both, not a
+    /// second one on the stack. Forgets any frame begun (the next byte starts afresh).
+    pub fn eeprom_block(&mut self) -> &mut [u8; MAX_LEN] {
+        self.n = 0;
+        let (_, area) = self.buf.split_at_mut(5);
+        match area.first_chunk_mut::<MAX_LEN>() {
+            Some(block) => block,
+            // 5 + MAX_LEN ≤ BUF (checked below): never taken, and folded away.
+            None => unreachable!(),
+        }
     }
 
     /// Feeds one byte. Returns `Some(Ok(config))` at the end of a good frame, `Some(Err(_))` when a

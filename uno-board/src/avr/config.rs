@@ -1,7 +1,7 @@
 //! The node config at boot: a provisioning window on the UART, then the config in EEPROM or the
 //! firmware's built-in one (`loc_proto::config` says which; `loc_proto::provision` the frame).
 
-use loc_proto::config::{read_into, Config, MAX_LEN};
+use loc_proto::config::{read_into, Config};
 use loc_proto::line::{BootLine, ConfigSource};
 use loc_proto::provision::{ProvisionParser, Reply, PROVISION_WINDOW_MS, WRITE_FAILED};
 use loc_proto::{xbee_channel, Role};
@@ -95,14 +95,14 @@ pub fn load_config(
             // The window is over, a config was stored, or a round of the code: what the
             // EEPROM holds now. Erased (first byte 0xFF) means the built-in config, which
             // `config` still holds (it is only written with a valid one).
-            // (The block's scope ends here: its stack slot is reused by the line's writer.)
+            // (Read into the parser's buffer: its frame, if any, is answered already.)
             let (code, source) = {
-                let mut block = [0; MAX_LEN];
-                let _ = eeprom.read(0, &mut block);
+                let block = parser.eeprom_block();
+                let _ = eeprom.read(0, block);
                 if block[0] == 0xFF {
                     (0, ConfigSource::BuiltIn)
                 } else {
-                    (read_into(&block, role, Some(config)), ConfigSource::Eeprom)
+                    (read_into(block, role, Some(config)), ConfigSource::Eeprom)
                 }
             };
             // One line either way (one round of the code per error line).
