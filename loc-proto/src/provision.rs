@@ -236,7 +236,7 @@ impl ProvisionParser {
     /// (garbage is skipped silently). Never panics.
     pub fn push(&mut self, byte: u8) -> Option<Result<Config, Error>> {
         let out = self
-            .frame(byte)?
+            .frame::<true>(byte)?
             .and_then(|()| Config::from_bytes(self.config_bytes()));
         Some(out.inspect_err(|e| self.count_invalid(e)))
     }
@@ -246,13 +246,25 @@ impl ProvisionParser {
     /// [`ProvisionParser::config_bytes`]). The node's path: the frame's config is checked by
     /// [`read_into`] (the decoder the node reads its EEPROM with), and no [`Config`] is built.
     pub fn reply(&mut self, byte: u8, role: Role) -> Option<Reply> {
-        Some(match self.frame(byte)? {
+        self.reply_counted::<true>(byte, role)
+    }
+
+    /// [`ProvisionParser::reply`] without the count of broken frames, which a node never reads:
+    /// the node's path (on AVR each count is a call and the counter a field to keep).
+    pub fn node_reply(&mut self, byte: u8, role: Role) -> Option<Reply> {
+        self.reply_counted::<false>(byte, role)
+    }
+
+    /// [`ProvisionParser::reply`], counting broken frames if `COUNT`.
+    #[inline(always)]
+    fn reply_counted<const COUNT: bool>(&mut self, byte: u8, role: Role) -> Option<Reply> {
+        Some(match self.frame::<COUNT>(byte)? {
             Err(e) => Reply::Nak(e.code()),
             Ok(()) => match read_into(self.config_bytes(), role, None) {
                 0 => Reply::Ack,
                 code => {
                     // Only a bad field gets here with the code of a bad value.
-                    if code == BAD_VALUE {
+                    if COUNT && code == BAD_VALUE {
                         self.count();
                     }
                     Reply::Nak(code)
@@ -280,8 +292,9 @@ impl ProvisionParser {
 
     /// Feeds one byte: `Some(Ok(()))` at the end of a frame with a good CRC (its config, valid or
     /// not, is [`ProvisionParser::config_bytes`]), `Some(Err(_))` when a frame turns out broken,
-    /// `None` otherwise.
-    fn frame(&mut self, byte: u8) -> Option<Result<(), Error>> {
+    /// `None` otherwise. Broken frames are counted if `COUNT`.
+    #[inline(always)]
+    fn frame<const COUNT: bool>(&mut self, byte: u8) -> Option<Result<(), Error>> {
         // `n` < MAX_FRAME here (a frame is complete at MAX_FRAME bytes); the masked indices
         // would keep any other value in bounds too.
         let mut n = self.n;
@@ -298,21 +311,19 @@ impl ProvisionParser {
                 s => {
                     if let Step::Fail(e) = s {
                         failed = Some(e);
-                        self.count();
+                        if COUNT {
+                            self.count();
+                        }
                     }
-                    // Resynchronise: the next frame may start inside what was buffered, at the
-                    // next delimiter byte after the first.
-                    let mut next = 1;
-                    while next < n && at(&self.buf, next) != DELIMITER[0] {
-                        next += 1;
+                    // Resynchronise: drop the first byte and look again, so the next frame
+                    // may start inside what was buffered (`step` skips bytes up to the next
+                    // delimiter byte one at a time, silently).
+                    n -= 1;
+                    let mut i = 0;
+                    while i < n {
+                        self.buf[i as usize & (BUF - 1)] = at(&self.buf, i + 1);
+                        i += 1;
                     }
-                    let mut kept = 0;
-                    while next < n {
-                        self.buf[kept as usize & (BUF - 1)] = at(&self.buf, next);
-                        kept += 1;
-                        next += 1;
-                    }
-                    n = kept;
                     if n == 0 {
                         break failed.map(Err);
                     }

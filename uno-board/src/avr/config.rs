@@ -75,7 +75,7 @@ pub fn load_config(
     loop {
         let mut stored = false;
         while let Some(byte) = serial.try_read() {
-            let Some(mut reply) = parser.reply(byte, role) else {
+            let Some(mut reply) = parser.node_reply(byte, role) else {
                 continue;
             };
             // The frame's own config bytes (checked by the parser), written and read back.
