@@ -115,18 +115,6 @@ pub fn answer(outcome: Result<Config, Error>, role: Role) -> (Reply, Option<Conf
     }
 }
 
-/// What the bytes buffered so far are.
-enum Step {
-    /// A frame's beginning; more bytes needed.
-    More,
-    /// Not a frame start: skip silently.
-    Skip,
-    /// A frame start, but broken (bad version, length or CRC).
-    Fail(Error),
-    /// A whole frame with a good CRC: its config (valid or not) is `buf[5..5 + buf[4]]`.
-    Done,
-}
-
 /// The parser's buffer: a whole frame, rounded up to a power of two so that an index masked
 /// with `BUF - 1` needs no bounds check (on AVR each costs dozens of bytes of flash).
 const BUF: usize = 32;
@@ -136,48 +124,6 @@ const _: () = assert!(MAX_FRAME <= BUF && 5 + MAX_LEN <= BUF && BUF.is_power_of_
 #[inline(always)]
 fn at(b: &[u8; BUF], i: u8) -> u8 {
     b[i as usize & (BUF - 1)]
-}
-
-/// What the first `n` bytes of `b` are (`n` ≥ 1). `u8` lengths and masked indices: half the code of
-/// `usize` ones on AVR, and no panic paths.
-fn step(b: &[u8; BUF], n: u8) -> Step {
-    // The delimiter, then the version, one byte at a time as far as they have come.
-    if at(b, 0) != DELIMITER[0] {
-        return Step::Skip;
-    }
-    if n < 2 {
-        return Step::More;
-    }
-    if at(b, 1) != DELIMITER[1] {
-        return Step::Skip;
-    }
-    if n < 3 {
-        return Step::More;
-    }
-    if at(b, 2) != DELIMITER[2] {
-        return Step::Skip;
-    }
-    if n < 4 {
-        return Step::More;
-    }
-    if at(b, 3) != VERSION {
-        return Step::Fail(Error::BadVersion { found: at(b, 3) });
-    }
-    if n < 5 {
-        return Step::More;
-    }
-    let l = at(b, 4);
-    if !(MIN_LEN as u8..=MAX_LEN as u8).contains(&l) {
-        return Step::Fail(Error::BadLength);
-    }
-    if n < l + 7 {
-        return Step::More;
-    }
-    // The CRC follows its bytes big endian: the CRC over both is 0 exactly when it matches.
-    if crc16(&b[3..l as usize + 7]) != 0 {
-        return Step::Fail(Error::BadCrc);
-    }
-    Step::Done
 }
 
 /// Finds provisioning frames in a byte stream, one byte at a time, in a 29-byte buffer.
@@ -301,33 +247,71 @@ impl ProvisionParser {
         self.buf[n as usize & (BUF - 1)] = byte;
         n += 1;
         let mut failed = None;
-        let out = loop {
-            match step(&self.buf, n) {
-                Step::More => break failed.map(Err),
-                Step::Done => {
-                    n = 0;
-                    break Some(Ok(()));
+        // What the first `n` bytes (`n` ≥ 1) are: a frame's beginning (return, more bytes
+        // needed), a whole frame with a good CRC (return it), or not a frame: none at all
+        // (skip silently) or a broken one (bad version, length or CRC). The delimiter, then
+        // the version, one byte at a time as far as they have come. Written as one block of
+        // early exits, not a step function returning a verdict to dispatch on: on AVR the
+        // verdict was materialised and matched again.
+        let out = 'scan: loop {
+            let broken = 'check: {
+                if at(&self.buf, 0) != DELIMITER[0] {
+                    break 'check None;
                 }
-                s => {
-                    if let Step::Fail(e) = s {
-                        failed = Some(e);
-                        if COUNT {
-                            self.count();
-                        }
-                    }
-                    // Resynchronise: drop the first byte and look again, so the next frame
-                    // may start inside what was buffered (`step` skips bytes up to the next
-                    // delimiter byte one at a time, silently).
-                    n -= 1;
-                    let mut i = 0;
-                    while i < n {
-                        self.buf[i as usize & (BUF - 1)] = at(&self.buf, i + 1);
-                        i += 1;
-                    }
-                    if n == 0 {
-                        break failed.map(Err);
-                    }
+                if n < 2 {
+                    break 'scan failed.map(Err);
                 }
+                if at(&self.buf, 1) != DELIMITER[1] {
+                    break 'check None;
+                }
+                if n < 3 {
+                    break 'scan failed.map(Err);
+                }
+                if at(&self.buf, 2) != DELIMITER[2] {
+                    break 'check None;
+                }
+                if n < 4 {
+                    break 'scan failed.map(Err);
+                }
+                let version = at(&self.buf, 3);
+                if version != VERSION {
+                    break 'check Some(Error::BadVersion { found: version });
+                }
+                if n < 5 {
+                    break 'scan failed.map(Err);
+                }
+                let l = at(&self.buf, 4);
+                if !(MIN_LEN as u8..=MAX_LEN as u8).contains(&l) {
+                    break 'check Some(Error::BadLength);
+                }
+                if n < l + 7 {
+                    break 'scan failed.map(Err);
+                }
+                // The CRC follows its bytes big endian: the CRC over both is 0 exactly when it
+                // matches.
+                if crc16(&self.buf[3..l as usize + 7]) != 0 {
+                    break 'check Some(Error::BadCrc);
+                }
+                n = 0;
+                break 'scan Some(Ok(()));
+            };
+            if let Some(e) = broken {
+                failed = Some(e);
+                if COUNT {
+                    self.count();
+                }
+            }
+            // Resynchronise: drop the first byte and look again, so the next frame may start
+            // inside what was buffered (bytes up to the next delimiter byte are skipped one at
+            // a time, silently).
+            n -= 1;
+            let mut i = 0;
+            while i < n {
+                self.buf[i as usize & (BUF - 1)] = at(&self.buf, i + 1);
+                i += 1;
+            }
+            if n == 0 {
+                break failed.map(Err);
             }
         };
         self.n = n;
