@@ -395,9 +395,15 @@ mod tests {
         let mut acks = 0;
         for role in [Role::Anchor, Role::Agent, Role::Sink] {
             for s in &streams {
-                let (mut a, mut b) = (ProvisionParser::new(), ProvisionParser::new());
+                let (mut a, mut b, mut c) = (
+                    ProvisionParser::new(),
+                    ProvisionParser::new(),
+                    ProvisionParser::new(),
+                );
                 for &byte in s {
                     let want = a.push(byte).map(|o| answer(o, role).0);
+                    // The node's path answers alike (it only does not count).
+                    assert_eq!(c.node_reply(byte, role), want, "{role:?} {s:?}");
                     let got = b.reply(byte, role);
                     assert_eq!(got, want, "{role:?} {s:?}");
                     acks += usize::from(got == Some(Reply::Ack));
