@@ -201,7 +201,7 @@ pub fn read_into(buf: &[u8], role: Role, out: Option<&mut Config>) -> u8 {
     if anchors.wrapping_sub(3) > MAX_ANCHORS as u8 - 3 {
         return BAD_VALUE;
     }
-    if id == 0 || (b[3] == 0 && id > anchors) {
+    if id == 0 {
         return BAD_VALUE;
     }
     if slot_ms.wrapping_sub(MIN_SLOT_MS) > MAX_SLOT_MS - MIN_SLOT_MS {
@@ -213,8 +213,18 @@ pub fn read_into(buf: &[u8], role: Role, out: Option<&mut Config>) -> u8 {
     if pan_id == 0xFFFF {
         return BAD_VALUE;
     }
+    // An anchor's id is at most N: checked on the stored role where it is another (to tell
+    // a bad field from a wrong role), on `role` where it is the node's (with the one call of a
+    // firmware, a constant: only the anchor checks).
     if b[3] != role_code(role) {
-        return WRONG_ROLE;
+        return if b[3] == 0 && id > anchors {
+            BAD_VALUE
+        } else {
+            WRONG_ROLE
+        };
+    }
+    if role == Role::Anchor && id > anchors {
+        return BAD_VALUE;
     }
     if let Some(out) = out {
         *out = Config {
