@@ -13,14 +13,15 @@ use super::{now_ms, rx_pending, sleep_unless, write_line, Eeprom, Led, Serial};
 /// `CH` = the first anchor channel (anchors, agents: where the first beacons go) or the sink
 /// channel (the sink: where reports come).
 pub fn radio_config(config: &Config) -> BringUpConfig {
+    // Channel 0 (no anchor channel) is no testbed channel: `xbee_channel` says `None`.
     let channel = match config.role {
-        Role::Sink => Some(config.sink_channel),
-        Role::Anchor | Role::Agent => config.channels.as_slice().first().copied(),
+        Role::Sink => config.sink_channel,
+        Role::Anchor | Role::Agent => config.channels.as_slice().first().copied().unwrap_or(0),
     };
     BringUpConfig {
         my: Some(config.role.address(config.id)),
         pan_id: Some(config.pan_id),
-        channel: channel.and_then(xbee_channel),
+        channel: xbee_channel(channel),
         ..BringUpConfig::new()
     }
 }
