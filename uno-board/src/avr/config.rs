@@ -97,13 +97,17 @@ pub fn load_config(
             // EEPROM holds now. Erased (first byte 0xFF) means the built-in config, which
             // `config` still holds (it is only written with a valid one).
             // (Read into the parser's buffer: its frame, if any, is answered already.)
+            // An erased block is decoded too (BadMagic, `config` untouched), then taken as code
+            // 0: no branch with a constant code, so the line below is written in one place.
             let (code, source) = {
                 let block = parser.eeprom_block();
                 let _ = eeprom.read(0, block);
-                if block[0] == 0xFF {
+                let erased = block[0] == 0xFF;
+                let code = read_into(block, role, Some(config));
+                if erased {
                     (0, ConfigSource::BuiltIn)
                 } else {
-                    (read_into(block, role, Some(config)), ConfigSource::Eeprom)
+                    (code, ConfigSource::Eeprom)
                 }
             };
             // One line either way (one round of the code per error line).
