@@ -244,6 +244,42 @@ pub fn read_into(buf: &[u8], role: Role, out: Option<&mut Config>) -> u8 {
     0
 }
 
+/// The node's config line, byte for byte [`BootLine::Config`] (`code` 0: `hoploc <role> config
+/// eeprom|built-in id <id>`) or [`BootLine::ConfigError`] (`hoploc <role> config error
+/// <code>`), written with one start and one end: [`BootLine::write`] of a line that is one of
+/// the two writes both in full (on AVR, two copies of the start and end). Always inlined, as
+/// [`BootLine::write`]: the caller's writer type is the one every line goes through.
+///
+/// [`BootLine::Config`]: crate::line::BootLine::Config
+/// [`BootLine::ConfigError`]: crate::line::BootLine::ConfigError
+/// [`BootLine::write`]: crate::line::BootLine::write
+#[inline(always)]
+pub fn write_config_line(
+    out: impl FnMut(u8),
+    role: Role,
+    code: u8,
+    source: crate::line::ConfigSource,
+    id: u8,
+) {
+    // The words of `line::WORDS` these lines use (checked against `BootLine::write` by the
+    // tests, on every role, source, id and code).
+    const CONFIG: u8 = 10;
+    const EEPROM: u8 = 11;
+    const ERROR: u8 = 8;
+    const ID: u8 = 13;
+    let mut o = crate::line::Out::new(out);
+    o.head(1 + role as u8, CONFIG);
+    if code == 0 {
+        o.word(EEPROM + (source == crate::line::ConfigSource::BuiltIn) as u8);
+        o.word(ID);
+        o.num16(id.into());
+    } else {
+        o.word(ERROR);
+        o.num16(code.into());
+    }
+    o.end(false);
+}
+
 /// The code of every bad field ([`Error::BadValue`]).
 const BAD_VALUE: u8 = Error::BadValue { field: Field::Role }.code();
 
@@ -749,6 +785,37 @@ mod tests {
                 v[len - 2..len].copy_from_slice(&crc.to_be_bytes());
             }
             read_into_agrees(&v)?;
+        }
+    }
+
+    #[test]
+    fn the_config_line_is_the_boot_lines() {
+        use crate::line::{BootLine, ConfigSource};
+        let text = |w: &dyn Fn(&mut std::vec::Vec<u8>)| {
+            let mut v = std::vec::Vec::new();
+            w(&mut v);
+            v
+        };
+        for role in Role::ALL {
+            for source in [ConfigSource::Eeprom, ConfigSource::BuiltIn] {
+                for id in 0..=255u8 {
+                    let got = text(&|v| write_config_line(|b| v.push(b), role, 0, source, id));
+                    let want =
+                        text(&|v| BootLine::Config { role, source, id }.write(|b| v.push(b)));
+                    assert_eq!(got, want);
+                    assert_eq!(
+                        BootLine::parse(core::str::from_utf8(&got).unwrap()),
+                        Ok(BootLine::Config { role, source, id })
+                    );
+                }
+            }
+            for code in 1..=255u8 {
+                let got = text(&|v| {
+                    write_config_line(|b| v.push(b), role, code, ConfigSource::Eeprom, 7)
+                });
+                let want = text(&|v| BootLine::ConfigError { role, code }.write(|b| v.push(b)));
+                assert_eq!(got, want);
+            }
         }
     }
 

@@ -1,13 +1,13 @@
 //! The node config at boot: a provisioning window on the UART, then the config in EEPROM or the
 //! firmware's built-in one (`loc_proto::config` says which; `loc_proto::provision` the frame).
 
-use loc_proto::config::{read_into, Config};
+use loc_proto::config::{read_into, write_config_line, Config};
 use loc_proto::line::{BootLine, ConfigSource};
 use loc_proto::provision::{ProvisionParser, Reply, PROVISION_WINDOW_MS, WRITE_FAILED};
 use loc_proto::{xbee_channel, Role};
 use xbee_api::driver::BringUpConfig;
 
-use super::{now_ms, rx_pending, sleep_unless, write_line, Eeprom, Led, Serial};
+use super::{now_ms, rx_pending, sleep_unless, uart_out, write_line, Eeprom, Led, Serial};
 
 /// The radio settings of `config`: `MY` = the role's address of the node id, `ID` = the PAN,
 /// `CH` = the first anchor channel (anchors, agents: where the first beacons go) or the sink
@@ -104,20 +104,12 @@ pub fn load_config(
                 let _ = eeprom.read(0, block);
                 let erased = block[0] == 0xFF;
                 let code = read_into(block, role, Some(config));
-                if erased {
-                    (0, ConfigSource::BuiltIn)
-                } else {
-                    (code, ConfigSource::Eeprom)
-                }
+                // (Masked, not branched on: no path with a constant code to specialise.)
+                let source = [ConfigSource::Eeprom, ConfigSource::BuiltIn][erased as usize];
+                (code & (erased as u8).wrapping_sub(1), source)
             };
-            // One line either way (one round of the code per error line).
-            let id = config.id;
-            let line = if code == 0 {
-                BootLine::Config { role, source, id }
-            } else {
-                BootLine::ConfigError { role, code }
-            };
-            write_line(serial, &line);
+            // One line either way (one round of the code per error line), written in one place.
+            write_config_line(uart_out(serial), role, code, source, config.id);
             if code == 0 {
                 led.off();
                 return;
