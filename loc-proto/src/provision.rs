@@ -105,6 +105,31 @@ impl Reply {
     }
 }
 
+/// The node's answer on its UART: `reply`'s 4 bytes and `\r\n` (its text lines after it then
+/// start on a line of their own in a terminal), then after an ACK the line
+/// `hoploc <role> provisioned` ([`BootLine::Provisioned`]), all through one line writer.
+/// Always inlined, as [`BootLine::write`]: the caller's writer type is the one every line goes
+/// through.
+///
+/// [`BootLine::Provisioned`]: crate::line::BootLine::Provisioned
+/// [`BootLine::write`]: crate::line::BootLine::write
+#[inline(always)]
+pub fn write_answer(out: impl FnMut(u8), reply: Reply, role: Role) {
+    // The word `provisioned` of `line::WORDS` (checked against `BootLine::write` by the tests).
+    const PROVISIONED: u8 = 14;
+    let mut o = crate::line::Out::new(out);
+    let [h, l, kind, code] = reply.bytes();
+    o.byte(h);
+    o.byte(l);
+    o.byte(kind);
+    o.byte(code);
+    o.end(false);
+    if reply == Reply::Ack {
+        o.head(1 + role as u8, PROVISIONED);
+        o.end(false);
+    }
+}
+
 /// What a node of `role` answers to a [`ProvisionParser`] outcome, and the config to store
 /// (only with [`Reply::Ack`]): a valid config of another role is `Nak(`[`WRONG_ROLE`]`)`.
 pub fn answer(outcome: Result<Config, Error>, role: Role) -> (Reply, Option<Config>) {
@@ -361,6 +386,28 @@ mod tests {
         }
         assert_eq!(Reply::parse(b"HLP\x01"), None);
         assert_eq!(Reply::parse(b"HLA"), None);
+    }
+
+    #[test]
+    fn the_answer_is_the_reply_then_the_boot_line() {
+        use crate::line::BootLine;
+        for role in Role::ALL {
+            for reply in [
+                Reply::Ack,
+                Reply::Nak(1),
+                Reply::Nak(WRONG_ROLE),
+                Reply::Nak(255),
+            ] {
+                let mut got = Vec::new();
+                write_answer(|b| got.push(b), reply, role);
+                let mut want = reply.bytes().to_vec();
+                want.extend_from_slice(b"\r\n");
+                if reply == Reply::Ack {
+                    BootLine::Provisioned { role }.write(|b| want.push(b));
+                }
+                assert_eq!(got, want, "{reply:?} {role:?}");
+            }
+        }
     }
 
     #[test]

@@ -2,12 +2,14 @@
 //! firmware's built-in one (`loc_proto::config` says which; `loc_proto::provision` the frame).
 
 use loc_proto::config::{read_into, write_config_line, Config};
-use loc_proto::line::{BootLine, ConfigSource};
-use loc_proto::provision::{ProvisionParser, Reply, PROVISION_WINDOW_MS, WRITE_FAILED};
+use loc_proto::line::ConfigSource;
+use loc_proto::provision::{
+    write_answer, ProvisionParser, Reply, PROVISION_WINDOW_MS, WRITE_FAILED,
+};
 use loc_proto::{xbee_channel, Role};
 use xbee_api::driver::BringUpConfig;
 
-use super::{now_ms, rx_pending, sleep_unless, uart_out, write_line, Eeprom, Led, Serial};
+use super::{now_ms, rx_pending, sleep_unless, uart_out, Eeprom, Led, Serial};
 
 /// The radio settings of `config`: `MY` = the role's address of the node id, `ID` = the PAN,
 /// `CH` = the first anchor channel (anchors, agents: where the first beacons go) or the sink
@@ -23,16 +25,6 @@ pub fn radio_config(config: &Config) -> BringUpConfig {
         pan_id: Some(config.pan_id),
         channel: xbee_channel(channel),
         ..BringUpConfig::new()
-    }
-}
-
-/// Writes `reply`, then `\r\n` (the lines that follow start on their own in a terminal), then
-/// after an ACK `hoploc <role> provisioned`.
-fn answer(serial: &mut Serial, reply: Reply, role: Role) {
-    let [h, l, kind, code] = reply.bytes();
-    serial.write_bytes(&[h, l, kind, code, b'\r', b'\n']);
-    if reply == Reply::Ack {
-        write_line(serial, &BootLine::Provisioned { role });
     }
 }
 
@@ -83,7 +75,7 @@ pub fn load_config(
             if reply == Reply::Ack && !eeprom.write_verified(0, parser.config_bytes()) {
                 reply = Reply::Nak(WRITE_FAILED);
             }
-            answer(serial, reply, role);
+            write_answer(uart_out(serial), reply, role);
             stored |= reply == Reply::Ack;
         }
         if !stored && (now_ms() as u16).wrapping_sub(start) < ms {
