@@ -87,6 +87,14 @@ impl Reply {
         }
     }
 
+    /// The reply of a node's code: 0 is [`Reply::Ack`], any other `Nak(code)`.
+    pub const fn of_code(code: u8) -> Reply {
+        match code {
+            0 => Reply::Ack,
+            code => Reply::Nak(code),
+        }
+    }
+
     /// The reply's 4 bytes.
     pub const fn bytes(self) -> [u8; REPLY_LEN] {
         match self {
@@ -105,7 +113,8 @@ impl Reply {
     }
 }
 
-/// The node's answer on its UART: `reply`'s 4 bytes and `\r\n` (its text lines after it then
+/// The node's answer on its UART: the 4 bytes of [`Reply::of_code`]`(code)` (`code` as
+/// [`ProvisionParser::node_reply`] gives it, 0 for the ACK) and `\r\n` (its text lines after it then
 /// start on a line of their own in a terminal), then after an ACK the line
 /// `hoploc <role> provisioned` ([`BootLine::Provisioned`]), all through one line writer.
 /// Always inlined, as [`BootLine::write`]: the caller's writer type is the one every line goes
@@ -114,17 +123,21 @@ impl Reply {
 /// [`BootLine::Provisioned`]: crate::line::BootLine::Provisioned
 /// [`BootLine::write`]: crate::line::BootLine::write
 #[inline(always)]
-pub fn write_answer(out: impl FnMut(u8), reply: Reply, role: Role) {
+pub fn write_answer(out: impl FnMut(u8), code: u8, role: Role) {
     // The word `provisioned` of `line::WORDS` (checked against `BootLine::write` by the tests).
     const PROVISIONED: u8 = 14;
     let mut o = crate::line::Out::new(out);
-    let [h, l, kind, code] = reply.bytes();
-    o.byte(h);
-    o.byte(l);
-    o.byte(kind);
-    o.byte(code);
+    o.byte(b'H');
+    o.byte(b'L');
+    if code == 0 {
+        o.byte(b'A');
+        o.byte(VERSION);
+    } else {
+        o.byte(b'N');
+        o.byte(code);
+    }
     o.end(false);
-    if reply == Reply::Ack {
+    if code == 0 {
         o.head(1 + role as u8, PROVISIONED);
         o.end(false);
     }
@@ -217,30 +230,30 @@ impl ProvisionParser {
     /// [`ProvisionParser::config_bytes`]). The node's path: the frame's config is checked by
     /// [`read_into`] (the decoder the node reads its EEPROM with), and no [`Config`] is built.
     pub fn reply(&mut self, byte: u8, role: Role) -> Option<Reply> {
-        self.reply_counted::<true>(byte, role)
+        self.reply_code::<true>(byte, role).map(Reply::of_code)
     }
 
-    /// [`ProvisionParser::reply`] without the count of broken frames, which a node never reads:
-    /// the node's path (on AVR each count is a call and the counter a field to keep).
-    pub fn node_reply(&mut self, byte: u8, role: Role) -> Option<Reply> {
-        self.reply_counted::<false>(byte, role)
+    /// [`ProvisionParser::reply`] as the node takes it: the reply's code, 0 for [`Reply::Ack`]
+    /// (one byte in a register, no [`Reply`] to build and match; [`write_answer`] writes it),
+    /// and without the count of broken frames, which a node never reads (on AVR each count is
+    /// a call).
+    pub fn node_reply(&mut self, byte: u8, role: Role) -> Option<u8> {
+        self.reply_code::<false>(byte, role)
     }
 
-    /// [`ProvisionParser::reply`], counting broken frames if `COUNT`.
+    /// The reply's code (0 for [`Reply::Ack`]), counting broken frames if `COUNT`.
     #[inline(always)]
-    fn reply_counted<const COUNT: bool>(&mut self, byte: u8, role: Role) -> Option<Reply> {
+    fn reply_code<const COUNT: bool>(&mut self, byte: u8, role: Role) -> Option<u8> {
         Some(match self.frame::<COUNT>(byte)? {
-            Err(e) => Reply::Nak(e.code()),
-            Ok(()) => match read_into(self.config_bytes(), role, None) {
-                0 => Reply::Ack,
-                code => {
-                    // Only a bad field gets here with the code of a bad value.
-                    if COUNT && code == BAD_VALUE {
-                        self.count();
-                    }
-                    Reply::Nak(code)
+            Err(e) => e.code(),
+            Ok(()) => {
+                let code = read_into(self.config_bytes(), role, None);
+                // Only a bad field gets here with the code of a bad value.
+                if COUNT && code == BAD_VALUE {
+                    self.count();
                 }
-            },
+                code
+            }
         })
     }
 
@@ -399,7 +412,11 @@ mod tests {
                 Reply::Nak(255),
             ] {
                 let mut got = Vec::new();
-                write_answer(|b| got.push(b), reply, role);
+                let code = match reply {
+                    Reply::Ack => 0,
+                    Reply::Nak(c) => c,
+                };
+                write_answer(|b| got.push(b), code, role);
                 let mut want = reply.bytes().to_vec();
                 want.extend_from_slice(b"\r\n");
                 if reply == Reply::Ack {
@@ -450,7 +467,7 @@ mod tests {
                 for &byte in s {
                     let want = a.push(byte).map(|o| answer(o, role).0);
                     // The node's path answers alike (it only does not count).
-                    assert_eq!(c.node_reply(byte, role), want, "{role:?} {s:?}");
+                    assert_eq!(c.node_reply(byte, role).map(Reply::of_code), want);
                     let got = b.reply(byte, role);
                     assert_eq!(got, want, "{role:?} {s:?}");
                     acks += usize::from(got == Some(Reply::Ack));

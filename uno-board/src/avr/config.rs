@@ -3,9 +3,7 @@
 
 use loc_proto::config::{read_into, write_config_line, Config};
 use loc_proto::line::ConfigSource;
-use loc_proto::provision::{
-    write_answer, ProvisionParser, Reply, PROVISION_WINDOW_MS, WRITE_FAILED,
-};
+use loc_proto::provision::{write_answer, ProvisionParser, PROVISION_WINDOW_MS, WRITE_FAILED};
 use loc_proto::{xbee_channel, Role};
 use xbee_api::driver::BringUpConfig;
 
@@ -68,15 +66,15 @@ pub fn load_config(
     loop {
         let mut stored = false;
         while let Some(byte) = serial.try_read() {
-            let Some(mut reply) = parser.node_reply(byte, role) else {
+            let Some(mut code) = parser.node_reply(byte, role) else {
                 continue;
             };
             // The frame's own config bytes (checked by the parser), written and read back.
-            if reply == Reply::Ack && !eeprom.write_verified(0, parser.config_bytes()) {
-                reply = Reply::Nak(WRITE_FAILED);
+            if code == 0 && !eeprom.write_verified(0, parser.config_bytes()) {
+                code = WRITE_FAILED;
             }
-            write_answer(uart_out(serial), reply, role);
-            stored |= reply == Reply::Ack;
+            write_answer(uart_out(serial), code, role);
+            stored |= code == 0;
         }
         if !stored && (now_ms() as u16).wrapping_sub(start) < ms {
             sleep_unless(rx_pending);
