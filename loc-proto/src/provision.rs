@@ -525,6 +525,38 @@ mod tests {
         }
     }
 
+    /// Every length byte: outside 19…22 the frame is broken at once (a NAK 5 for the node),
+    /// inside it the parser waits for the rest. And every version byte but 1 is a NAK 3.
+    #[test]
+    fn every_length_and_version_byte() {
+        for v in 0..=255u8 {
+            let mut p = ProvisionParser::new();
+            let mut q = ProvisionParser::new();
+            let header = [b'H', b'L', b'P', 1, v];
+            let got: Vec<_> = header.iter().filter_map(|&b| p.push(b)).collect();
+            let node: Vec<_> = header
+                .iter()
+                .filter_map(|&b| q.node_reply(b, Role::Anchor))
+                .collect();
+            if (MIN_LEN as u8..=MAX_LEN as u8).contains(&v) {
+                assert!(got.is_empty() && node.is_empty(), "L = {v}");
+            } else {
+                assert_eq!(got, [Err(Error::BadLength)], "L = {v}");
+                assert_eq!(node, [5], "L = {v}");
+            }
+            let mut p = ProvisionParser::new();
+            let got: Vec<_> = [b'H', b'L', b'P', v]
+                .iter()
+                .filter_map(|&b| p.push(b))
+                .collect();
+            if v == VERSION {
+                assert!(got.is_empty());
+            } else {
+                assert_eq!(got, [Err(Error::BadVersion { found: v })]);
+            }
+        }
+    }
+
     #[test]
     fn truncated_frame_then_good_one() {
         for cut in 1..DEFAULT_FRAME.len() {
