@@ -100,17 +100,19 @@ pub fn load_config(
             };
             // One line either way (one round of the code per error line), written in one place.
             write_config_line(uart_out(serial), role, code, source, config.id);
+            led.off();
             if code == 0 {
-                led.off();
                 return;
             }
             left = 2 * code;
         }
-        let on = left != 0 && left & 1 == 0;
-        led.set(on);
+        // From off, each phase of a round but the last flips the LED: on (even), off (odd).
+        if left != 0 {
+            led.toggle();
+        }
         ms = if left == 0 {
             1500
-        } else if on {
+        } else if left & 1 == 0 {
             200
         } else {
             300
