@@ -117,14 +117,14 @@ impl core::error::Error for Error {}
 /// crc = crc << 8 ^ x << 12 ^ x << 5 ^ x), a few dozen bytes of flash and no inner loop.
 pub fn crc16(data: &[u8]) -> u16 {
     // On the two bytes apart (8-bit shifts only): hi' = lo ^ x << 4 ^ x >> 3, lo' = x << 5 ^ x.
-    let (mut hi, mut lo) = (0xFFu8, 0xFFu8);
+    let mut crc = 0xFFFFu16;
     for &b in data {
+        let [lo, hi] = crc.to_le_bytes();
         let mut x = hi ^ b;
         x ^= x >> 4;
-        hi = lo ^ (x << 4) ^ (x >> 3);
-        lo = (x << 5) ^ x;
+        crc = u16::from_le_bytes([(x << 5) ^ x, lo ^ (x << 4) ^ (x >> 3)]);
     }
-    (hi as u16) << 8 | lo as u16
+    crc
 }
 
 #[cfg(test)]
