@@ -47,8 +47,9 @@ pub fn radio_config(config: &Config) -> BringUpConfig {
 /// 16 bits are enough for waits of at most [`PROVISION_WINDOW_MS`] (and 16-bit arithmetic is
 /// half the code of 32-bit on AVR).
 ///
-/// The watchdog must be off (it is after `Board::take`). Never inlined: its buffers (the
-/// parser's, the EEPROM block) leave the stack before the node's main loop runs.
+/// The watchdog must be off (it is after `Board::take`). Never inlined: its buffer (the
+/// parser's, which the EEPROM block is read into too) leaves the stack before the node's main
+/// loop runs.
 #[inline(never)]
 pub fn load_config(
     serial: &mut Serial,
@@ -84,17 +85,16 @@ pub fn load_config(
             left -= 1;
         } else {
             // The window is over, a config was stored, or a round of the code: what the
-            // EEPROM holds now. Erased (first byte 0xFF) means the built-in config, which
-            // `config` still holds (it is only written with a valid one).
-            // (Read into the parser's buffer: its frame, if any, is answered already.)
-            // An erased block is decoded too (BadMagic, `config` untouched), then taken as code
-            // 0: no branch with a constant code, so the line below is written in one place.
+            // EEPROM holds now, read into the parser's buffer (its frame, if any, is answered
+            // already). Erased (first byte 0xFF) means the built-in config, which `config`
+            // still holds (it is only written with a valid one): an erased block is decoded
+            // too (BadMagic, `config` untouched), then taken as code 0, so no path has a
+            // constant code to specialise and the line below is written in one place.
             let (code, source) = {
                 let block = parser.eeprom_block();
                 let _ = eeprom.read(0, block);
                 let erased = block[0] == 0xFF;
                 let code = read_into(block, role, Some(config));
-                // (Masked, not branched on: no path with a constant code to specialise.)
                 let source = [ConfigSource::Eeprom, ConfigSource::BuiltIn][erased as usize];
                 (code & (erased as u8).wrapping_sub(1), source)
             };
