@@ -162,21 +162,129 @@ impl Config {
 /// register and every error return a constant, where a `Result<Config, Error>` comes back
 /// through memory on AVR.
 pub fn read_into(buf: &[u8], role: Role, out: Option<&mut Config>) -> u8 {
-    match decode(buf) {
-        Ok(c) if c.role == role => {
-            if let Some(out) = out {
-                *out = c;
-            }
-            0
-        }
-        Ok(_) => WRONG_ROLE,
-        Err(e) => e.code(),
+    // The checks of `decode`, in its order as far as the codes differ (every bad field is
+    // BadValue, so the field checks go in any order), on the bytes in place: one `u8`
+    // range test per field, and the config built only when it is run with.
+    let [magic, version, len, ..] = *buf else {
+        return Error::TooShort.code();
+    };
+    if magic != MAGIC {
+        return Error::BadMagic.code();
     }
+    if version != VERSION {
+        return Error::BadVersion { found: 0 }.code();
+    }
+    if len.wrapping_sub(MIN_LEN as u8) > (MAX_LEN - MIN_LEN) as u8 {
+        return Error::BadLength.code();
+    }
+    let Some(block) = buf.get(..len as usize) else {
+        return Error::TooShort.code();
+    };
+    if crc16(block) != 0 {
+        return Error::BadCrc.code();
+    }
+    let Some(b) = block.first_chunk::<16>() else {
+        return Error::TooShort.code();
+    };
+    if b[15].wrapping_add(18) != len {
+        return Error::BadLength.code();
+    }
+    let Ok(channels) = ChannelList::new(&block[16..len as usize - 2]) else {
+        return BAD_VALUE;
+    };
+    let slot_ms = u16::from_le_bytes([b[10], b[11]]);
+    let pan_id = u16::from_le_bytes([b[13], b[14]]);
+    let (id, anchors) = (b[4], b[5]);
+    if b[3] > 2 {
+        return BAD_VALUE;
+    }
+    if anchors.wrapping_sub(3) > MAX_ANCHORS as u8 - 3 {
+        return BAD_VALUE;
+    }
+    if id == 0 {
+        return BAD_VALUE;
+    }
+    if slot_ms.wrapping_sub(MIN_SLOT_MS) > MAX_SLOT_MS - MIN_SLOT_MS {
+        return BAD_VALUE;
+    }
+    if b[12].wrapping_sub(1) > MAX_CHANNEL - 1 {
+        return BAD_VALUE;
+    }
+    if pan_id == 0xFFFF {
+        return BAD_VALUE;
+    }
+    // An anchor's id is at most N: checked on the stored role where it is another (to tell
+    // a bad field from a wrong role), on `role` where it is the node's (with the one call of a
+    // firmware, a constant: only the anchor checks).
+    if b[3] != role_code(role) {
+        return if b[3] == 0 && id > anchors {
+            BAD_VALUE
+        } else {
+            WRONG_ROLE
+        };
+    }
+    if role == Role::Anchor && id > anchors {
+        return BAD_VALUE;
+    }
+    if let Some(out) = out {
+        *out = Config {
+            role,
+            id,
+            anchors,
+            position: Position {
+                x: i16::from_le_bytes([b[6], b[7]]),
+                y: i16::from_le_bytes([b[8], b[9]]),
+            },
+            slot_ms,
+            channels,
+            sink_channel: b[12],
+            pan_id,
+        };
+    }
+    0
 }
 
-/// The decoder behind [`Config::from_bytes`] and [`read_into`]. Always inlined: in
-/// [`read_into`] its errors fold to their codes (the field of a bad value is never built).
+/// The node's config line, byte for byte [`BootLine::Config`] (`code` 0: `hoploc <role> config
+/// eeprom|built-in id <id>`) or [`BootLine::ConfigError`] (`hoploc <role> config error
+/// <code>`), written with one start and one end: [`BootLine::write`] of a line that is one of
+/// the two writes both in full (on AVR, two copies of the start and end). Always inlined, as
+/// [`BootLine::write`]: the caller's writer type is the one every line goes through.
+///
+/// [`BootLine::Config`]: crate::line::BootLine::Config
+/// [`BootLine::ConfigError`]: crate::line::BootLine::ConfigError
+/// [`BootLine::write`]: crate::line::BootLine::write
 #[inline(always)]
+pub fn write_config_line(
+    out: impl FnMut(u8),
+    role: Role,
+    code: u8,
+    source: crate::line::ConfigSource,
+    id: u8,
+) {
+    // The words of `line::WORDS` these lines use (checked against `BootLine::write` by the
+    // tests, on every role, source, id and code).
+    const CONFIG: u8 = 10;
+    const EEPROM: u8 = 11;
+    const ERROR: u8 = 8;
+    const ID: u8 = 13;
+    let mut o = crate::line::Out::new(out);
+    o.head(1 + role as u8, CONFIG);
+    if code == 0 {
+        o.word(EEPROM + (source == crate::line::ConfigSource::BuiltIn) as u8);
+        o.word(ID);
+        o.num16(id.into());
+    } else {
+        o.word(ERROR);
+        o.num16(code.into());
+    }
+    o.end(false);
+}
+
+/// The code of every bad field ([`Error::BadValue`]).
+const BAD_VALUE: u8 = Error::BadValue { field: Field::Role }.code();
+
+/// The decoder behind [`Config::from_bytes`] (typed errors; [`read_into`] is the node's
+/// twin that answers with their codes, tested equal on every single-byte change and on fuzz).
 fn decode(buf: &[u8]) -> Result<Config, Error> {
     let [magic, version, len, ..] = *buf else {
         return Err(Error::TooShort);
@@ -602,6 +710,111 @@ mod tests {
                         assert_eq!(out, sentinel, "byte {i} = {v} {role:?}");
                     }
                 }
+            }
+        }
+    }
+
+    /// `read_into` (the node's decoder, written apart from `decode`) answers as `from_bytes`
+    /// and the role check on any bytes: random ones, and random ones with magic, version,
+    /// length, channel count and CRC made right so the field checks decide.
+    fn read_into_agrees(b: &[u8]) -> Result<(), proptest::test_runner::TestCaseError> {
+        let want = Config::from_bytes(b);
+        for role in Role::ALL {
+            let sentinel = Config::default_for(Role::Sink);
+            let mut out = sentinel;
+            let expect = match want {
+                Ok(c) if c.role == role => 0,
+                Ok(_) => WRONG_ROLE,
+                Err(e) => e.code(),
+            };
+            proptest::prop_assert_eq!(read_into(b, role, Some(&mut out)), expect);
+            proptest::prop_assert_eq!(read_into(b, role, None), expect);
+            if expect == 0 {
+                proptest::prop_assert_eq!(Ok(out), want);
+            } else {
+                proptest::prop_assert_eq!(out, sentinel);
+            }
+        }
+        Ok(())
+    }
+
+    /// The 16-bit fields, every value (a one-byte change reaches few values near their
+    /// bounds): slot length and PAN id, and every id × N pair.
+    #[test]
+    fn read_into_is_from_bytes_on_every_u16_field_value() {
+        let fixed = |f: &dyn Fn(&mut [u8; 20])| {
+            let mut b = golden();
+            f(&mut b);
+            let crc = crc16(&b[..18]);
+            b[18..].copy_from_slice(&crc.to_be_bytes());
+            b
+        };
+        for v in 0..=u16::MAX {
+            let [lo, hi] = v.to_le_bytes();
+            read_into_agrees(&fixed(&|b| [b[10], b[11]] = [lo, hi])).unwrap();
+            read_into_agrees(&fixed(&|b| [b[13], b[14]] = [lo, hi])).unwrap();
+            read_into_agrees(&fixed(&|b| [b[4], b[5]] = [lo, hi])).unwrap();
+            read_into_agrees(&fixed(&|b| [b[3], b[4]] = [lo, hi])).unwrap();
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(20_000))]
+        #[test]
+        fn read_into_is_from_bytes_on_fuzz(
+            mut v in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..26),
+            fix in 0u8..4,
+            small in proptest::collection::vec(0u8..20, 16),
+        ) {
+            if fix != 0 && v.len() >= MIN_LEN {
+                let len = v.len().min(MAX_LEN);
+                v[0] = MAGIC;
+                v[1] = VERSION;
+                v[2] = len as u8;
+                if fix >= 2 {
+                    // Field values near their bounds, so valid configs turn up too.
+                    for (i, &x) in small.iter().enumerate().skip(3) {
+                        if i + 2 < len && fix == 3 {
+                            v[i] = x;
+                        }
+                    }
+                    v[3] %= 4;
+                    v[15] = (len - 18) as u8;
+                }
+                let crc = crc16(&v[..len - 2]);
+                v[len - 2..len].copy_from_slice(&crc.to_be_bytes());
+            }
+            read_into_agrees(&v)?;
+        }
+    }
+
+    #[test]
+    fn the_config_line_is_the_boot_lines() {
+        use crate::line::{BootLine, ConfigSource};
+        let text = |w: &dyn Fn(&mut std::vec::Vec<u8>)| {
+            let mut v = std::vec::Vec::new();
+            w(&mut v);
+            v
+        };
+        for role in Role::ALL {
+            for source in [ConfigSource::Eeprom, ConfigSource::BuiltIn] {
+                for id in 0..=255u8 {
+                    let got = text(&|v| write_config_line(|b| v.push(b), role, 0, source, id));
+                    let want =
+                        text(&|v| BootLine::Config { role, source, id }.write(|b| v.push(b)));
+                    assert_eq!(got, want);
+                    assert_eq!(
+                        BootLine::parse(core::str::from_utf8(&got).unwrap()),
+                        Ok(BootLine::Config { role, source, id })
+                    );
+                }
+            }
+            for code in 1..=255u8 {
+                let got = text(&|v| {
+                    write_config_line(|b| v.push(b), role, code, ConfigSource::Eeprom, 7)
+                });
+                let want = text(&|v| BootLine::ConfigError { role, code }.write(|b| v.push(b)));
+                assert_eq!(got, want);
             }
         }
     }

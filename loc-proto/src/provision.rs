@@ -87,6 +87,14 @@ impl Reply {
         }
     }
 
+    /// The reply of a node's code: 0 is [`Reply::Ack`], any other `Nak(code)`.
+    pub const fn of_code(code: u8) -> Reply {
+        match code {
+            0 => Reply::Ack,
+            code => Reply::Nak(code),
+        }
+    }
+
     /// The reply's 4 bytes.
     pub const fn bytes(self) -> [u8; REPLY_LEN] {
         match self {
@@ -105,6 +113,36 @@ impl Reply {
     }
 }
 
+/// The node's answer on its UART: the 4 bytes of [`Reply::of_code`]`(code)` (`code` as
+/// [`ProvisionParser::node_reply`] gives it, 0 for the ACK) and `\r\n` (its text lines after it then
+/// start on a line of their own in a terminal), then after an ACK the line
+/// `hoploc <role> provisioned` ([`BootLine::Provisioned`]), all through one line writer.
+/// Always inlined, as [`BootLine::write`]: the caller's writer type is the one every line goes
+/// through.
+///
+/// [`BootLine::Provisioned`]: crate::line::BootLine::Provisioned
+/// [`BootLine::write`]: crate::line::BootLine::write
+#[inline(always)]
+pub fn write_answer(out: impl FnMut(u8), code: u8, role: Role) {
+    // The word `provisioned` of `line::WORDS` (checked against `BootLine::write` by the tests).
+    const PROVISIONED: u8 = 14;
+    let mut o = crate::line::Out::new(out);
+    o.byte(b'H');
+    o.byte(b'L');
+    if code == 0 {
+        o.byte(b'A');
+        o.byte(VERSION);
+    } else {
+        o.byte(b'N');
+        o.byte(code);
+    }
+    o.end(false);
+    if code == 0 {
+        o.head(1 + role as u8, PROVISIONED);
+        o.end(false);
+    }
+}
+
 /// What a node of `role` answers to a [`ProvisionParser`] outcome, and the config to store
 /// (only with [`Reply::Ack`]): a valid config of another role is `Nak(`[`WRONG_ROLE`]`)`.
 pub fn answer(outcome: Result<Config, Error>, role: Role) -> (Reply, Option<Config>) {
@@ -115,69 +153,15 @@ pub fn answer(outcome: Result<Config, Error>, role: Role) -> (Reply, Option<Conf
     }
 }
 
-/// What the bytes buffered so far are.
-enum Step {
-    /// A frame's beginning; more bytes needed.
-    More,
-    /// Not a frame start: skip silently.
-    Skip,
-    /// A frame start, but broken (bad version, length or CRC).
-    Fail(Error),
-    /// A whole frame with a good CRC: its config (valid or not) is `buf[5..5 + buf[4]]`.
-    Done,
-}
-
 /// The parser's buffer: a whole frame, rounded up to a power of two so that an index masked
 /// with `BUF - 1` needs no bounds check (on AVR each costs dozens of bytes of flash).
 const BUF: usize = 32;
-const _: () = assert!(MAX_FRAME <= BUF && BUF.is_power_of_two());
+const _: () = assert!(MAX_FRAME <= BUF && 5 + MAX_LEN <= BUF && BUF.is_power_of_two());
 
 /// The byte at `i` of `b` (masked into the buffer; callers stay below `MAX_FRAME`).
 #[inline(always)]
 fn at(b: &[u8; BUF], i: u8) -> u8 {
     b[i as usize & (BUF - 1)]
-}
-
-/// What the first `n` bytes of `b` are (`n` ≥ 1). `u8` lengths and masked indices: half the code of
-/// `usize` ones on AVR, and no panic paths.
-fn step(b: &[u8; BUF], n: u8) -> Step {
-    // The delimiter, then the version, one byte at a time as far as they have come.
-    if at(b, 0) != DELIMITER[0] {
-        return Step::Skip;
-    }
-    if n < 2 {
-        return Step::More;
-    }
-    if at(b, 1) != DELIMITER[1] {
-        return Step::Skip;
-    }
-    if n < 3 {
-        return Step::More;
-    }
-    if at(b, 2) != DELIMITER[2] {
-        return Step::Skip;
-    }
-    if n < 4 {
-        return Step::More;
-    }
-    if at(b, 3) != VERSION {
-        return Step::Fail(Error::BadVersion { found: at(b, 3) });
-    }
-    if n < 5 {
-        return Step::More;
-    }
-    let l = at(b, 4);
-    if !(MIN_LEN as u8..=MAX_LEN as u8).contains(&l) {
-        return Step::Fail(Error::BadLength);
-    }
-    if n < l + 7 {
-        return Step::More;
-    }
-    // The CRC follows its bytes big endian: the CRC over both is 0 exactly when it matches.
-    if crc16(&b[3..l as usize + 7]) != 0 {
-        return Step::Fail(Error::BadCrc);
-    }
-    Step::Done
 }
 
 /// Finds provisioning frames in a byte stream, one byte at a time, in a 29-byte buffer.
@@ -218,12 +202,25 @@ impl ProvisionParser {
         &self.buf[5..5 + l]
     }
 
+    /// The buffer's config area (where a frame's config sits, [`MAX_LEN`] bytes) for the node
+    /// to read its EEPROM block into and decode with [`read_into`]: one buffer for both, not a
+    /// second one on the stack. Forgets any frame begun (the next byte starts afresh).
+    pub fn eeprom_block(&mut self) -> &mut [u8; MAX_LEN] {
+        self.n = 0;
+        let (_, area) = self.buf.split_at_mut(5);
+        match area.first_chunk_mut::<MAX_LEN>() {
+            Some(block) => block,
+            // 5 + MAX_LEN ≤ BUF (checked below): never taken, and folded away.
+            None => unreachable!(),
+        }
+    }
+
     /// Feeds one byte. Returns `Some(Ok(config))` at the end of a good frame, `Some(Err(_))` when a
     /// frame (delimiter seen) turns out broken or holds an invalid config, and `None` otherwise
     /// (garbage is skipped silently). Never panics.
     pub fn push(&mut self, byte: u8) -> Option<Result<Config, Error>> {
         let out = self
-            .frame(byte)?
+            .frame::<true>(byte)?
             .and_then(|()| Config::from_bytes(self.config_bytes()));
         Some(out.inspect_err(|e| self.count_invalid(e)))
     }
@@ -233,18 +230,30 @@ impl ProvisionParser {
     /// [`ProvisionParser::config_bytes`]). The node's path: the frame's config is checked by
     /// [`read_into`] (the decoder the node reads its EEPROM with), and no [`Config`] is built.
     pub fn reply(&mut self, byte: u8, role: Role) -> Option<Reply> {
-        Some(match self.frame(byte)? {
-            Err(e) => Reply::Nak(e.code()),
-            Ok(()) => match read_into(self.config_bytes(), role, None) {
-                0 => Reply::Ack,
-                code => {
-                    // Only a bad field gets here with the code of a bad value.
-                    if code == BAD_VALUE {
-                        self.count();
-                    }
-                    Reply::Nak(code)
+        self.reply_code::<true>(byte, role).map(Reply::of_code)
+    }
+
+    /// [`ProvisionParser::reply`] as the node takes it: the reply's code, 0 for [`Reply::Ack`]
+    /// (one byte in a register, no [`Reply`] to build and match; [`write_answer`] writes it),
+    /// and without the count of broken frames, which a node never reads (on AVR each count is
+    /// a call).
+    pub fn node_reply(&mut self, byte: u8, role: Role) -> Option<u8> {
+        self.reply_code::<false>(byte, role)
+    }
+
+    /// The reply's code (0 for [`Reply::Ack`]), counting broken frames if `COUNT`.
+    #[inline(always)]
+    fn reply_code<const COUNT: bool>(&mut self, byte: u8, role: Role) -> Option<u8> {
+        Some(match self.frame::<COUNT>(byte)? {
+            Err(e) => e.code(),
+            Ok(()) => {
+                let code = read_into(self.config_bytes(), role, None);
+                // Only a bad field gets here with the code of a bad value.
+                if COUNT && code == BAD_VALUE {
+                    self.count();
                 }
-            },
+                code
+            }
         })
     }
 
@@ -267,43 +276,80 @@ impl ProvisionParser {
 
     /// Feeds one byte: `Some(Ok(()))` at the end of a frame with a good CRC (its config, valid or
     /// not, is [`ProvisionParser::config_bytes`]), `Some(Err(_))` when a frame turns out broken,
-    /// `None` otherwise.
-    fn frame(&mut self, byte: u8) -> Option<Result<(), Error>> {
+    /// `None` otherwise. Broken frames are counted if `COUNT`.
+    #[inline(always)]
+    fn frame<const COUNT: bool>(&mut self, byte: u8) -> Option<Result<(), Error>> {
         // `n` < MAX_FRAME here (a frame is complete at MAX_FRAME bytes); the masked indices
         // would keep any other value in bounds too.
         let mut n = self.n;
         self.buf[n as usize & (BUF - 1)] = byte;
         n += 1;
         let mut failed = None;
-        let out = loop {
-            match step(&self.buf, n) {
-                Step::More => break failed.map(Err),
-                Step::Done => {
-                    n = 0;
-                    break Some(Ok(()));
+        // What the first `n` bytes (`n` ≥ 1) are: a frame's beginning (return, more bytes
+        // needed), a whole frame with a good CRC (return it), or not a frame: none at all
+        // (skip silently) or a broken one (bad version, length or CRC). The delimiter, then
+        // the version, one byte at a time as far as they have come. Written as one block of
+        // early exits, not a step function returning a verdict to dispatch on: on AVR the
+        // verdict was materialised and matched again.
+        let out = 'scan: loop {
+            let broken = 'check: {
+                if at(&self.buf, 0) != DELIMITER[0] {
+                    break 'check None;
                 }
-                s => {
-                    if let Step::Fail(e) = s {
-                        failed = Some(e);
-                        self.count();
-                    }
-                    // Resynchronise: the next frame may start inside what was buffered, at the
-                    // next delimiter byte after the first.
-                    let mut next = 1;
-                    while next < n && at(&self.buf, next) != DELIMITER[0] {
-                        next += 1;
-                    }
-                    let mut kept = 0;
-                    while next < n {
-                        self.buf[kept as usize & (BUF - 1)] = at(&self.buf, next);
-                        kept += 1;
-                        next += 1;
-                    }
-                    n = kept;
-                    if n == 0 {
-                        break failed.map(Err);
-                    }
+                if n < 2 {
+                    break 'scan failed.map(Err);
                 }
+                if at(&self.buf, 1) != DELIMITER[1] {
+                    break 'check None;
+                }
+                if n < 3 {
+                    break 'scan failed.map(Err);
+                }
+                if at(&self.buf, 2) != DELIMITER[2] {
+                    break 'check None;
+                }
+                if n < 4 {
+                    break 'scan failed.map(Err);
+                }
+                let version = at(&self.buf, 3);
+                if version != VERSION {
+                    break 'check Some(Error::BadVersion { found: version });
+                }
+                if n < 5 {
+                    break 'scan failed.map(Err);
+                }
+                let l = at(&self.buf, 4);
+                if !(MIN_LEN as u8..=MAX_LEN as u8).contains(&l) {
+                    break 'check Some(Error::BadLength);
+                }
+                if n < l + 7 {
+                    break 'scan failed.map(Err);
+                }
+                // The CRC follows its bytes big endian: the CRC over both is 0 exactly when it
+                // matches.
+                if crc16(&self.buf[3..l as usize + 7]) != 0 {
+                    break 'check Some(Error::BadCrc);
+                }
+                n = 0;
+                break 'scan Some(Ok(()));
+            };
+            if let Some(e) = broken {
+                failed = Some(e);
+                if COUNT {
+                    self.count();
+                }
+            }
+            // Resynchronise: drop the first byte and look again, so the next frame may start
+            // inside what was buffered (bytes up to the next delimiter byte are skipped one at
+            // a time, silently).
+            n -= 1;
+            let mut i = 0;
+            while i < n {
+                self.buf[i as usize & (BUF - 1)] = at(&self.buf, i + 1);
+                i += 1;
+            }
+            if n == 0 {
+                break failed.map(Err);
             }
         };
         self.n = n;
@@ -356,6 +402,32 @@ mod tests {
     }
 
     #[test]
+    fn the_answer_is_the_reply_then_the_boot_line() {
+        use crate::line::BootLine;
+        for role in Role::ALL {
+            for reply in [
+                Reply::Ack,
+                Reply::Nak(1),
+                Reply::Nak(WRONG_ROLE),
+                Reply::Nak(255),
+            ] {
+                let mut got = Vec::new();
+                let code = match reply {
+                    Reply::Ack => 0,
+                    Reply::Nak(c) => c,
+                };
+                write_answer(|b| got.push(b), code, role);
+                let mut want = reply.bytes().to_vec();
+                want.extend_from_slice(b"\r\n");
+                if reply == Reply::Ack {
+                    BootLine::Provisioned { role }.write(|b| want.push(b));
+                }
+                assert_eq!(got, want, "{reply:?} {role:?}");
+            }
+        }
+    }
+
+    #[test]
     fn answers_by_role() {
         let anchor = Config::DEFAULT;
         assert_eq!(answer(Ok(anchor), Role::Anchor), (Reply::Ack, Some(anchor)));
@@ -387,9 +459,15 @@ mod tests {
         let mut acks = 0;
         for role in [Role::Anchor, Role::Agent, Role::Sink] {
             for s in &streams {
-                let (mut a, mut b) = (ProvisionParser::new(), ProvisionParser::new());
+                let (mut a, mut b, mut c) = (
+                    ProvisionParser::new(),
+                    ProvisionParser::new(),
+                    ProvisionParser::new(),
+                );
                 for &byte in s {
                     let want = a.push(byte).map(|o| answer(o, role).0);
+                    // The node's path answers alike (it only does not count).
+                    assert_eq!(c.node_reply(byte, role).map(Reply::of_code), want);
                     let got = b.reply(byte, role);
                     assert_eq!(got, want, "{role:?} {s:?}");
                     acks += usize::from(got == Some(Reply::Ack));
@@ -443,6 +521,38 @@ mod tests {
                 if i >= 3 {
                     assert!(got.len() >= 2, "byte {i} = {v:#x}: {got:?}");
                 }
+            }
+        }
+    }
+
+    /// Every length byte: outside 19…22 the frame is broken at once (a NAK 5 for the node),
+    /// inside it the parser waits for the rest. And every version byte but 1 is a NAK 3.
+    #[test]
+    fn every_length_and_version_byte() {
+        for v in 0..=255u8 {
+            let mut p = ProvisionParser::new();
+            let mut q = ProvisionParser::new();
+            let header = [b'H', b'L', b'P', 1, v];
+            let got: Vec<_> = header.iter().filter_map(|&b| p.push(b)).collect();
+            let node: Vec<_> = header
+                .iter()
+                .filter_map(|&b| q.node_reply(b, Role::Anchor))
+                .collect();
+            if (MIN_LEN as u8..=MAX_LEN as u8).contains(&v) {
+                assert!(got.is_empty() && node.is_empty(), "L = {v}");
+            } else {
+                assert_eq!(got, [Err(Error::BadLength)], "L = {v}");
+                assert_eq!(node, [5], "L = {v}");
+            }
+            let mut p = ProvisionParser::new();
+            let got: Vec<_> = [b'H', b'L', b'P', v]
+                .iter()
+                .filter_map(|&b| p.push(b))
+                .collect();
+            if v == VERSION {
+                assert!(got.is_empty());
+            } else {
+                assert_eq!(got, [Err(Error::BadVersion { found: v })]);
             }
         }
     }

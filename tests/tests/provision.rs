@@ -262,6 +262,21 @@ fn a_corrupt_eeprom_is_never_run_with_and_provisioning_fixes_it() {
         groups[..groups.len() - 1].iter().all(|&g| g == 7),
         "{groups:?}"
     );
+    // And the timing (10 ms samples, a sample either way): each blink is on for 200 ms and
+    // starts 500 ms after the one before; a round's last blink starts 2 s before the next
+    // round's first (on 200, off 300, then the 1.5 s pause; the line between costs ~5 ms).
+    for &r in rises.iter().filter(|&&r| r + 22 < led_samples.len()) {
+        let on = led_samples[r..].iter().take_while(|&&on| on).count();
+        assert!((19..=21).contains(&on), "on for {on} samples at {r}");
+    }
+    for w in rises.windows(2) {
+        let gap = w[1] - w[0];
+        assert!(
+            (49..=51).contains(&gap) || (199..=202).contains(&gap),
+            "{gap} samples between blinks at {}",
+            w[0]
+        );
+    }
     assert!(led_samples[..PROVISION_WINDOW_MS as usize / 10 - 1]
         .iter()
         .all(|on| !on));

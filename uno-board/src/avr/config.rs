@@ -1,37 +1,28 @@
 //! The node config at boot: a provisioning window on the UART, then the config in EEPROM or the
 //! firmware's built-in one (`loc_proto::config` says which; `loc_proto::provision` the frame).
 
-use loc_proto::config::{read_into, Config, MAX_LEN};
-use loc_proto::line::{BootLine, ConfigSource};
-use loc_proto::provision::{ProvisionParser, Reply, PROVISION_WINDOW_MS, WRITE_FAILED};
+use loc_proto::config::{read_into, write_config_line, Config};
+use loc_proto::line::ConfigSource;
+use loc_proto::provision::{write_answer, ProvisionParser, PROVISION_WINDOW_MS, WRITE_FAILED};
 use loc_proto::{xbee_channel, Role};
 use xbee_api::driver::BringUpConfig;
 
-use super::{now_ms, rx_pending, sleep_unless, write_line, Eeprom, Led, Serial};
+use super::{now_ms, rx_pending, sleep_unless, uart_out, Eeprom, Led, Serial};
 
 /// The radio settings of `config`: `MY` = the role's address of the node id, `ID` = the PAN,
 /// `CH` = the first anchor channel (anchors, agents: where the first beacons go) or the sink
 /// channel (the sink: where reports come).
 pub fn radio_config(config: &Config) -> BringUpConfig {
+    // Channel 0 (no anchor channel) is no testbed channel: `xbee_channel` says `None`.
     let channel = match config.role {
-        Role::Sink => Some(config.sink_channel),
-        Role::Anchor | Role::Agent => config.channels.as_slice().first().copied(),
+        Role::Sink => config.sink_channel,
+        Role::Anchor | Role::Agent => config.channels.as_slice().first().copied().unwrap_or(0),
     };
     BringUpConfig {
         my: Some(config.role.address(config.id)),
         pan_id: Some(config.pan_id),
-        channel: channel.and_then(xbee_channel),
+        channel: xbee_channel(channel),
         ..BringUpConfig::new()
-    }
-}
-
-/// Writes `reply`, then `\r\n` (the lines that follow start on their own in a terminal), then
-/// after an ACK `hoploc <role> provisioned`.
-fn answer(serial: &mut Serial, reply: Reply, role: Role) {
-    let [h, l, kind, code] = reply.bytes();
-    serial.write_bytes(&[h, l, kind, code, b'\r', b'\n']);
-    if reply == Reply::Ack {
-        write_line(serial, &BootLine::Provisioned { role });
     }
 }
 
@@ -56,8 +47,9 @@ fn answer(serial: &mut Serial, reply: Reply, role: Role) {
 /// 16 bits are enough for waits of at most [`PROVISION_WINDOW_MS`] (and 16-bit arithmetic is
 /// half the code of 32-bit on AVR).
 ///
-/// The watchdog must be off (it is after `Board::take`). Never inlined: its buffers (the
-/// parser's, the EEPROM block) leave the stack before the node's main loop runs.
+/// The watchdog must be off (it is after `Board::take`). Never inlined: its buffer (the
+/// parser's, which the EEPROM block is read into too) leaves the stack before the node's main
+/// loop runs.
 #[inline(never)]
 pub fn load_config(
     serial: &mut Serial,
@@ -75,15 +67,15 @@ pub fn load_config(
     loop {
         let mut stored = false;
         while let Some(byte) = serial.try_read() {
-            let Some(mut reply) = parser.reply(byte, role) else {
+            let Some(mut code) = parser.node_reply(byte, role) else {
                 continue;
             };
             // The frame's own config bytes (checked by the parser), written and read back.
-            if reply == Reply::Ack && !eeprom.write_verified(0, parser.config_bytes()) {
-                reply = Reply::Nak(WRITE_FAILED);
+            if code == 0 && !eeprom.write_verified(0, parser.config_bytes()) {
+                code = WRITE_FAILED;
             }
-            answer(serial, reply, role);
-            stored |= reply == Reply::Ack;
+            write_answer(uart_out(serial), code, role);
+            stored |= code == 0;
         }
         if !stored && (now_ms() as u16).wrapping_sub(start) < ms {
             sleep_unless(rx_pending);
@@ -93,37 +85,34 @@ pub fn load_config(
             left -= 1;
         } else {
             // The window is over, a config was stored, or a round of the code: what the
-            // EEPROM holds now. Erased (first byte 0xFF) means the built-in config, which
-            // `config` still holds (it is only written with a valid one).
-            // (The block's scope ends here: its stack slot is reused by the line's writer.)
+            // EEPROM holds now, read into the parser's buffer (its frame, if any, is answered
+            // already). Erased (first byte 0xFF) means the built-in config, which `config`
+            // still holds (it is only written with a valid one): an erased block is decoded
+            // too (BadMagic, `config` untouched), then taken as code 0, so no path has a
+            // constant code to specialise and the line below is written in one place.
             let (code, source) = {
-                let mut block = [0; MAX_LEN];
-                let _ = eeprom.read(0, &mut block);
-                if block[0] == 0xFF {
-                    (0, ConfigSource::BuiltIn)
-                } else {
-                    (read_into(&block, role, Some(config)), ConfigSource::Eeprom)
-                }
+                let block = parser.eeprom_block();
+                let _ = eeprom.read(0, block);
+                let erased = block[0] == 0xFF;
+                let code = read_into(block, role, Some(config));
+                let source = [ConfigSource::Eeprom, ConfigSource::BuiltIn][erased as usize];
+                (code & (erased as u8).wrapping_sub(1), source)
             };
-            // One line either way (one round of the code per error line).
-            let id = config.id;
-            let line = if code == 0 {
-                BootLine::Config { role, source, id }
-            } else {
-                BootLine::ConfigError { role, code }
-            };
-            write_line(serial, &line);
+            // One line either way (one round of the code per error line), written in one place.
+            write_config_line(uart_out(serial), role, code, source, config.id);
+            led.off();
             if code == 0 {
-                led.off();
                 return;
             }
             left = 2 * code;
         }
-        let on = left != 0 && left & 1 == 0;
-        led.set(on);
+        // From off, each phase of a round but the last flips the LED: on (even), off (odd).
+        if left != 0 {
+            led.toggle();
+        }
         ms = if left == 0 {
             1500
-        } else if on {
+        } else if left & 1 == 0 {
             200
         } else {
             300

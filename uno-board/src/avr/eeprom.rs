@@ -28,16 +28,15 @@ impl Eeprom {
 
     fn write_at(&mut self, addr: u16, value: u8) {
         if self.read_at(addr) != value {
-            self.program(addr, value);
+            self.program_read(value);
         }
     }
 
-    /// Writes `value` at `addr` (erase + write), unconditionally.
-    fn program(&mut self, addr: u16, value: u8) {
+    /// Writes `value` (erase + write), unconditionally, at the address [`Eeprom::read_at`] has
+    /// just read: that read waited for the EEPROM and set EEAR, so neither is done again.
+    fn program_read(&mut self, value: u8) {
         // The watchdog may be running: each write is bounded (~3.4 ms), so progress is not a hang.
         avr_device::asm::wdr();
-        self.wait_ready();
-        self.ee.eear().write(|w| w.set(addr));
         self.ee.eedr().write(|w| w.set(value));
         avr_device::interrupt::free(|_| {
             // SAFETY: the datasheet's timed sequence: EEMPE (EECR bit 2) then, within four cycles,
@@ -59,7 +58,7 @@ impl Eeprom {
                 if written {
                     return false;
                 }
-                self.program(a, b);
+                self.program_read(b);
                 written = true;
             }
         }
