@@ -360,12 +360,14 @@ impl Counters {
 /// The sink state machine over cost kernel `K`.
 #[derive(Clone, Debug)]
 // In this order (`repr(C)`): of the orders tried, the one the AVR code is smallest with (the
-// params' constants at near offsets of the firmware loop's frame): 8 B less flash.
+// room and the params' constants at near offsets of the firmware loop's frame; with the room
+// after the params its stores were past `Y+63`: 14 B more flash; the counters before the
+// params: 72 B more).
 #[repr(C)]
 pub struct Sink<K> {
-    params: OnlineParams,
     /// The room, or `None`: each report's anchors' bounding box.
     area: Option<AreaCm>,
+    params: OnlineParams,
     counters: Counters,
     /// Next expected sequence per agent (index agent − 1), valid where `seen`: all zeros at
     /// first (no `Option` array to build field by field).
