@@ -274,10 +274,9 @@ pub struct Fix {
     pub agent: u8,
     /// The report's superframe sequence.
     pub seq: u16,
-    /// The thesis MLE.
-    pub mle: Estimate,
-    /// The windowed MMSE.
-    pub mmse: Estimate,
+    /// The thesis MLE, then the windowed MMSE: one array, which the search writes in place
+    /// ([`Sink::on_report_into`]).
+    pub estimates: [Estimate; 2],
     /// The path-loss model both used (after this report's fit and AR(1)).
     pub model: PathLoss,
     /// Whether this report's anchor-to-anchor RSSI gave a fit.
@@ -285,6 +284,25 @@ pub struct Fix {
 }
 
 impl Fix {
+    /// A fix to be filled in ([`Sink::on_report_into`]): all zeros (no constant in SRAM).
+    pub const NONE: Fix = Fix {
+        agent: 0,
+        seq: 0,
+        estimates: [Estimate::NONE; 2],
+        model: PathLoss { p0: 0, alpha: 0 },
+        fitted: false,
+    };
+
+    /// The thesis MLE.
+    pub fn mle(&self) -> &Estimate {
+        &self.estimates[0]
+    }
+
+    /// The windowed MMSE.
+    pub fn mmse(&self) -> &Estimate {
+        &self.estimates[1]
+    }
+
     /// The two `fix` lines (MLE, then MMSE) of loc-proto's [`SinkLine`]: cm rounded from mm,
     /// α and P0 in hundredths, rounded.
     pub fn lines(&self) -> [SinkLine; 2] {
@@ -295,8 +313,8 @@ impl Fix {
     #[inline]
     pub fn line(&self, estimator: Estimator) -> SinkLine {
         let e = match estimator {
-            Estimator::Mle => &self.mle,
-            Estimator::Mmse => &self.mmse,
+            Estimator::Mle => self.mle(),
+            Estimator::Mmse => self.mmse(),
         };
         SinkLine::Fix {
             agent: self.agent,
@@ -420,12 +438,19 @@ impl<K: TermKernel> Sink<K> {
     /// result, `tests` checks), with the calibration statistics and the observations taken
     /// straight from the report's bytes.
     pub fn on_report(&mut self, r: &impl ReportData) -> Result<Fix, LocError> {
+        let mut fix = Fix::NONE;
+        self.on_report_into(r, &mut fix).map(|()| fix)
+    }
+
+    /// [`Sink::on_report`] into `fix` (the firmware: the search writes the estimates where the
+    /// lines read them, no copies); on error `fix` holds nothing of use.
+    pub fn on_report_into(&mut self, r: &impl ReportData, fix: &mut Fix) -> Result<(), LocError> {
         let (mut stats, mut obs) = (CalStats::new(), Observations::new());
         // `anchors_box` of the report's positions, from the same pass over its bytes.
         let mut anchors = AreaCm::new(0, 0);
         report_inputs_into(r, &mut stats, &mut obs, &mut anchors);
         let area = self.area.unwrap_or(anchors);
-        self.locate(r.agent(), r.seq(), area, &stats, &obs)
+        self.locate(r.agent(), r.seq(), area, &stats, &obs, fix)
     }
 
     /// Agent `agent`'s report of superframe `seq`, as measurements: fit, smooth, locate.
@@ -440,11 +465,13 @@ impl<K: TermKernel> Sink<K> {
         let area = self
             .area
             .unwrap_or_else(|| anchors_box(&m.anchors[..m.n_anchors]));
-        self.locate(agent, seq, area, &stats, &obs)
+        let mut fix = Fix::NONE;
+        self.locate(agent, seq, area, &stats, &obs, &mut fix)
+            .map(|()| fix)
     }
 
     /// The report's counters, the least-squares fit of `stats` fed to the AR(1) smoothers, then
-    /// both estimates of `obs` from one search.
+    /// both estimates of `obs` from one search, into `fix`.
     #[inline(never)]
     fn locate(
         &mut self,
@@ -453,7 +480,8 @@ impl<K: TermKernel> Sink<K> {
         area: AreaCm,
         stats: &CalStats,
         obs: &Observations,
-    ) -> Result<Fix, LocError> {
+        fix: &mut Fix,
+    ) -> Result<(), LocError> {
         bump(&mut self.counters.0[FRAMES]);
         bump(&mut self.counters.0[REPORTS]);
         let k = agent.wrapping_sub(1) as usize;
@@ -482,17 +510,9 @@ impl<K: TermKernel> Sink<K> {
             (fitted, model)
         };
         let sigma = self.params.sigma().unwrap_or(DEFAULT_SIGMA);
-        // Into storage of our own: a returned pair would be one more copy on the stack.
-        let mut est = [Estimate::NONE; 2];
-        let result =
-            mle_and_mmse_window_into::<K>(obs, model, area, sigma, &mut est).map(|()| Fix {
-                agent,
-                seq,
-                mle: est[0],
-                mmse: est[1],
-                model,
-                fitted,
-            });
+        (fix.agent, fix.seq, fix.model, fix.fitted) = (agent, seq, model, fitted);
+        // Straight into the fix: a returned pair, or storage of our own, is one more copy.
+        let result = mle_and_mmse_window_into::<K>(obs, model, area, sigma, &mut fix.estimates);
         bump(&mut self.counters.0[match result {
             Ok(_) => FIXES,
             Err(_) => NO_FIXES,

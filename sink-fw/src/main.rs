@@ -119,8 +119,9 @@ fn on_report(
 ) {
     use loc_proto::sink_line::Estimator;
     loc_proto::sink_line::RawReport::write(report.bytes(), uart(radio));
-    match sink.on_report(report) {
-        Ok(fix) => {
+    let mut fix = sink_fw::Fix::NONE;
+    match sink.on_report_into(report, &mut fix) {
+        Ok(()) => {
             fix_line(radio, &fix, Estimator::Mle);
             fix_line(radio, &fix, Estimator::Mmse);
         }
