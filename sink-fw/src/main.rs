@@ -108,49 +108,62 @@ fn run(
     }
 }
 
-/// A report's lines: its `report` line (the bytes it came in), then two `fix` lines or a
-/// `nofix` line. Out of line, as [`run`].
+// Where the report's code goes: the linker lays out this crate's functions in the order of
+// their symbol names, so `glue::on_report` and then `lines::*` come after `run` and `locate`,
+// and the line writers' many calls from `lines` land within `rcall` range (±4 KB) of the line
+// writer (`uno_board`'s copy), which `--relax` then shortens.
 #[cfg(target_arch = "avr")]
-#[inline(never)]
-fn on_report(
-    sink: &mut sink_fw::Sink<uno_board::AvrTerm>,
-    report: &loc_proto::msg::ReportView,
-    radio: &mut uno_board::NodeRadio,
-) {
-    use loc_proto::sink_line::Estimator;
-    loc_proto::sink_line::RawReport::write(report.bytes(), uart(radio));
-    let mut fix = sink_fw::Fix::NONE;
-    match sink.on_report_into(report, &mut fix) {
-        Ok(()) => {
-            fix_line(radio, &fix, Estimator::Mle);
-            fix_line(radio, &fix, Estimator::Mmse);
+use glue::on_report;
+#[cfg(target_arch = "avr")]
+use lines::{fix_line, status, uart};
+
+#[cfg(target_arch = "avr")]
+mod glue {
+    use super::{fix_line, uart};
+
+    /// A report's lines: its `report` line (the bytes it came in), then two `fix` lines or a
+    /// `nofix` line. Out of line, as [`super::run`].
+    #[inline(never)]
+    pub fn on_report(
+        sink: &mut sink_fw::Sink<uno_board::AvrTerm>,
+        report: &loc_proto::msg::ReportView,
+        radio: &mut uno_board::NodeRadio,
+    ) {
+        use loc_proto::sink_line::Estimator;
+        loc_proto::sink_line::RawReport::write(report.bytes(), uart(radio));
+        let mut fix = sink_fw::Fix::NONE;
+        match sink.on_report_into(report, &mut fix) {
+            Ok(()) => {
+                fix_line(radio, &fix, Estimator::Mle);
+                fix_line(radio, &fix, Estimator::Mmse);
+            }
+            Err(e) => sink_fw::no_fix_line(report.agent(), report.seq(), e).write(uart(radio)),
         }
-        Err(e) => sink_fw::no_fix_line(report.agent(), report.seq(), e).write(uart(radio)),
     }
 }
 
-/// The `fix` line of `estimator` on the UART: built and written in one place, so only its
-/// fields' writes remain (no line in memory).
 #[cfg(target_arch = "avr")]
-#[inline(never)]
-fn fix_line(
-    radio: &mut uno_board::NodeRadio,
-    fix: &sink_fw::Fix,
-    estimator: loc_proto::sink_line::Estimator,
-) {
-    fix.line(estimator).write(uart(radio));
-}
+mod lines {
+    /// The `fix` line of `estimator` on the UART: built and written in one place, so only its
+    /// fields' writes remain (no line in memory).
+    #[inline(never)]
+    pub fn fix_line(
+        radio: &mut uno_board::NodeRadio,
+        fix: &sink_fw::Fix,
+        estimator: loc_proto::sink_line::Estimator,
+    ) {
+        fix.line(estimator).write(uart(radio));
+    }
 
-/// The `status` line at `uptime_s` on the UART. Out of line, as [`run`].
-#[cfg(target_arch = "avr")]
-#[inline(never)]
-fn status(radio: &mut uno_board::NodeRadio, counters: &sink_fw::Counters, uptime_s: u32) {
-    counters.write_line(uptime_s, uart(radio));
-}
+    /// The `status` line at `uptime_s` on the UART. Out of line, as [`super::run`].
+    #[inline(never)]
+    pub fn status(radio: &mut uno_board::NodeRadio, counters: &sink_fw::Counters, uptime_s: u32) {
+        counters.write_line(uptime_s, uart(radio));
+    }
 
-/// The UART as a byte sink: the boot lines' one ([`uno_board::uart_out`]), so one copy of the
-/// line writer.
-#[cfg(target_arch = "avr")]
-fn uart(radio: &mut uno_board::NodeRadio) -> impl FnMut(u8) + '_ {
-    uno_board::uart_out(radio.serial_mut())
+    /// The UART as a byte sink: the boot lines' one ([`uno_board::uart_out`]), so one copy of
+    /// the line writer.
+    pub fn uart(radio: &mut uno_board::NodeRadio) -> impl FnMut(u8) + '_ {
+        uno_board::uart_out(radio.serial_mut())
+    }
 }
