@@ -445,12 +445,21 @@ impl<K: TermKernel> Sink<K> {
     /// [`Sink::on_report`] into `fix` (the firmware: the search writes the estimates where the
     /// lines read them, no copies); on error `fix` holds nothing of use.
     pub fn on_report_into(&mut self, r: &impl ReportData, fix: &mut Fix) -> Result<(), LocError> {
-        let (mut stats, mut obs) = (CalStats::new(), Observations::new());
+        // One value: both zeroed by one `memset` (12 B less AVR flash than two).
+        #[repr(C)]
+        struct Inputs {
+            stats: CalStats,
+            obs: Observations,
+        }
+        let mut i = Inputs {
+            stats: CalStats::new(),
+            obs: Observations::new(),
+        };
         // `anchors_box` of the report's positions, from the same pass over its bytes.
         let mut anchors = AreaCm::new(0, 0);
-        report_inputs_into(r, &mut stats, &mut obs, &mut anchors);
+        report_inputs_into(r, &mut i.stats, &mut i.obs, &mut anchors);
         let area = self.area.unwrap_or(anchors);
-        self.locate(r.agent(), r.seq(), area, &stats, &obs, fix)
+        self.locate(r.agent(), r.seq(), area, &i.stats, &i.obs, fix)
     }
 
     /// Agent `agent`'s report of superframe `seq`, as measurements: fit, smooth, locate.
