@@ -275,7 +275,7 @@ pub struct Fix {
     /// The report's superframe sequence.
     pub seq: u16,
     /// The thesis MLE, then the windowed MMSE: one array, which the search writes in place
-    /// ([`Sink::on_report_into`]).
+    /// ([`Sink::on_report_with`]).
     pub estimates: [Estimate; 2],
     /// The path-loss model both used (after this report's fit and AR(1)).
     pub model: PathLoss,
@@ -284,7 +284,7 @@ pub struct Fix {
 }
 
 impl Fix {
-    /// A fix to be filled in ([`Sink::on_report_into`]): all zeros (no constant in SRAM).
+    /// A fix to be filled in ([`Sink::on_report_with`]): all zeros (no constant in SRAM).
     pub const NONE: Fix = Fix {
         agent: 0,
         seq: 0,
@@ -438,28 +438,35 @@ impl<K: TermKernel> Sink<K> {
     /// result, `tests` checks), with the calibration statistics and the observations taken
     /// straight from the report's bytes.
     pub fn on_report(&mut self, r: &impl ReportData) -> Result<Fix, LocError> {
-        let mut fix = Fix::NONE;
-        self.on_report_into(r, &mut fix).map(|()| fix)
+        self.on_report_with(r, |result| result.copied())
     }
 
-    /// [`Sink::on_report`] into `fix` (the firmware: the search writes the estimates where the
-    /// lines read them, no copies); on error `fix` holds nothing of use.
-    pub fn on_report_into(&mut self, r: &impl ReportData, fix: &mut Fix) -> Result<(), LocError> {
-        // One value: both zeroed by one `memset` (12 B less AVR flash than two).
+    /// [`Sink::on_report`], its result handed to `then` (the firmware: the search writes the
+    /// estimates where the lines read them, no copies; the fix, the statistics and the
+    /// observations zeroed by one `memset`).
+    #[inline(always)]
+    pub fn on_report_with<T>(
+        &mut self,
+        r: &impl ReportData,
+        then: impl FnOnce(Result<&Fix, LocError>) -> T,
+    ) -> T {
         #[repr(C)]
-        struct Inputs {
+        struct Work {
+            fix: Fix,
             stats: CalStats,
             obs: Observations,
         }
-        let mut i = Inputs {
+        let mut w = Work {
+            fix: Fix::NONE,
             stats: CalStats::new(),
             obs: Observations::new(),
         };
         // `anchors_box` of the report's positions, from the same pass over its bytes.
         let mut anchors = AreaCm::new(0, 0);
-        report_inputs_into(r, &mut i.stats, &mut i.obs, &mut anchors);
+        report_inputs_into(r, &mut w.stats, &mut w.obs, &mut anchors);
         let area = self.area.unwrap_or(anchors);
-        self.locate(r.agent(), r.seq(), area, &i.stats, &i.obs, fix)
+        let result = self.locate(r.agent(), r.seq(), area, &w.stats, &w.obs, &mut w.fix);
+        then(result.map(|()| &w.fix))
     }
 
     /// Agent `agent`'s report of superframe `seq`, as measurements: fit, smooth, locate.

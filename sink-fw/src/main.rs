@@ -131,14 +131,13 @@ mod glue {
     ) {
         use loc_proto::sink_line::Estimator;
         loc_proto::sink_line::RawReport::write(report.bytes(), uart(radio));
-        let mut fix = sink_fw::Fix::NONE;
-        match sink.on_report_into(report, &mut fix) {
-            Ok(()) => {
-                fix_line(radio, &fix, Estimator::Mle);
-                fix_line(radio, &fix, Estimator::Mmse);
+        sink.on_report_with(report, |result| match result {
+            Ok(fix) => {
+                fix_line(radio, fix, Estimator::Mle);
+                fix_line(radio, fix, Estimator::Mmse);
             }
             Err(e) => sink_fw::no_fix_line(report.agent(), report.seq(), e).write(uart(radio)),
-        }
+        })
     }
 }
 
