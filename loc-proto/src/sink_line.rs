@@ -168,15 +168,14 @@ pub fn crc8(bytes: impl IntoIterator<Item = u8>) -> u8 {
     c
 }
 
-/// Writes the `status` line of `uptime_s` and `counters` (the other fields of
-/// [`SinkLine::Status`], in its order): for a writer that keeps its counters in an array (the
-/// sink firmware: one loop, each counter read as it is written, no line in memory). The same
-/// bytes as [`SinkLine::write`] of that line.
-pub fn write_status(uptime_s: u32, counters: &[u32; 6], out: impl FnMut(u8)) {
+/// Writes the `status` line of `fields` (those of [`SinkLine::Status`] in its order: the
+/// uptime, then the counters): for a writer that keeps them in an array (the sink firmware: one
+/// loop, each read as it is written, no line in memory). The same bytes as
+/// [`SinkLine::write`] of that line.
+pub fn write_status(fields: &[u32; 7], out: impl FnMut(u8)) {
     let mut o = Out::new(out);
     o.head(WORD_SINK, STATUS);
-    o.num(uptime_s);
-    for &n in counters {
+    for &n in fields {
         o.num(n);
     }
     o.end(true);

@@ -164,24 +164,30 @@ pub const MAX_AGENTS: usize = 16;
 /// The MMSE's σ while the fit has none, Q.8 dB (4 dB, the thesis' larger σ).
 pub const DEFAULT_SIGMA: u16 = 4 << 8;
 
-/// What the status line counts: one array, in the line's order (then `no_fixes`, which it does
-/// not show), so the firmware writes it in a loop and bumps a counter by its index (the seven
-/// named fields were seven calls and seven offsets: 0.1 KB more AVR flash).
+/// What the status line shows (the uptime, then the counters) and `no_fixes`, which it does
+/// not: one array in the line's order, so the firmware writes it in one loop and bumps a
+/// counter by its index (seven named fields and the uptime apart were eight calls and eight
+/// offsets: 0.1 KB more AVR flash).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub struct Counters([u32; 7]);
+pub struct Counters([u32; 8]);
 
 /// [`Counters`]' indices.
-const FRAMES: usize = 0;
-const REPORTS: usize = 1;
-const DROPS: usize = 2;
-const CHECKSUM_ERRORS: usize = 3;
-const FOREIGN: usize = 4;
-const FIXES: usize = 5;
-const NO_FIXES: usize = 6;
+const UPTIME: usize = 0;
+const FRAMES: usize = 1;
+const REPORTS: usize = 2;
+const DROPS: usize = 3;
+const CHECKSUM_ERRORS: usize = 4;
+const FOREIGN: usize = 5;
+const FIXES: usize = 6;
+const NO_FIXES: usize = 7;
 /// How many of [`Counters`] the status line shows (all but `no_fixes`).
-const SHOWN: usize = 6;
+const SHOWN: usize = 7;
 
 impl Counters {
+    /// Seconds since boot, as the shell told the sink ([`Sink::add_uptime`]).
+    pub fn uptime_s(&self) -> u32 {
+        self.0[UPTIME]
+    }
     /// Frames received.
     pub fn frames(&self) -> u32 {
         self.0[FRAMES]
@@ -354,17 +360,17 @@ pub fn no_fix_line(agent: u8, seq: u16, e: LocError) -> SinkLine {
 }
 
 impl Counters {
-    /// Writes [`Counters::line`]`(uptime_s)`, the counters in a loop, each read as it is
-    /// written (the firmware: through the built line all seven were loaded first).
-    pub fn write_line(&self, uptime_s: u32, out: impl FnMut(u8)) {
+    /// Writes [`Counters::line`], the fields in a loop, each read as it is written (the
+    /// firmware: through the built line all seven were loaded first).
+    pub fn write_line(&self, out: impl FnMut(u8)) {
         let shown: &[u32; SHOWN] = self.0.first_chunk().unwrap_or(&[0; SHOWN]);
-        write_status(uptime_s, shown, out);
+        write_status(shown, out);
     }
 
-    /// The `status` line at `uptime_s` seconds.
-    pub fn line(&self, uptime_s: u32) -> SinkLine {
+    /// The `status` line.
+    pub fn line(&self) -> SinkLine {
         SinkLine::Status {
-            uptime_s,
+            uptime_s: self.uptime_s(),
             frames: self.frames(),
             reports: self.reports(),
             drops: self.drops(),
@@ -423,6 +429,14 @@ impl<K: TermKernel> Sink<K> {
     /// The current path-loss model.
     pub fn model(&self) -> PathLoss {
         self.params.current()
+    }
+
+    /// `secs` more seconds since boot, for the status line's uptime (wrapping after 136
+    /// years). Out of line: the counters lie past `Y+63` of the firmware loop's frame.
+    #[inline(never)]
+    pub fn add_uptime(&mut self, secs: u32) {
+        let t = &mut self.counters.0[UPTIME];
+        *t = t.wrapping_add(secs);
     }
 
     /// A frame that is not a usable report.

@@ -71,7 +71,6 @@ fn run(
     // The clock's low 16 bits: the loop looks at least once a second (the watchdog's 1 s sees
     // to that), far within their 65 s, and 16-bit arithmetic is half the AVR code.
     let mut last_status = now_ms() as u16;
-    let mut uptime_s = 0u32;
     // A packet's bytes (the radio's buffer is lent only while polling): the report is read in
     // place from here and written as its `report` line. RX16 data always fits.
     let mut raw = [0u8; xbee_api::MAX_FRAME_DATA];
@@ -101,8 +100,8 @@ fn run(
         }
         if (now_ms() as u16).wrapping_sub(last_status) >= STATUS_PERIOD_MS {
             last_status = last_status.wrapping_add(STATUS_PERIOD_MS);
-            uptime_s += u32::from(STATUS_PERIOD_MS / 1000);
-            status(radio, sink.counters(), uptime_s);
+            sink.add_uptime(u32::from(STATUS_PERIOD_MS / 1000));
+            status(radio, sink.counters());
         }
         sleep_unless(rx_pending);
     }
@@ -154,10 +153,10 @@ mod lines {
         fix.line(estimator).write(uart(radio));
     }
 
-    /// The `status` line at `uptime_s` on the UART. Out of line, as [`super::run`].
+    /// The `status` line on the UART. Out of line, as [`super::run`].
     #[inline(never)]
-    pub fn status(radio: &mut uno_board::NodeRadio, counters: &sink_fw::Counters, uptime_s: u32) {
-        counters.write_line(uptime_s, uart(radio));
+    pub fn status(radio: &mut uno_board::NodeRadio, counters: &sink_fw::Counters) {
+        counters.write_line(uart(radio));
     }
 
     /// The UART as a byte sink: the boot lines' one ([`uno_board::uart_out`]), so one copy of
