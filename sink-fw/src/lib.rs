@@ -336,10 +336,12 @@ impl Fix {
     }
 }
 
-/// Millimetres as whole centimetres, rounded (half up), saturating at `i16::MAX`.
+/// Millimetres as whole centimetres, rounded (half up), saturating at `i16::MAX`: clamped
+/// first (from 327 665 mm on the result is 32 767), so neither the sum nor the quotient needs a
+/// check.
 #[inline(never)]
 fn cm(mm: u32) -> i16 {
-    (mm.saturating_add(5) / 10).min(i16::MAX as u32) as i16
+    ((mm.min(327_665) + 5) / 10) as i16
 }
 
 /// `v·100 / 2^q` rounded (half up): `(v·100 + 2^(q−1)) >> q` in 64 bits. On the AVR that is

@@ -369,6 +369,26 @@ fn hundredths_are_the_64_bit_rounding() {
     }
 }
 
+/// `cm` is the rounded, saturating conversion it stands for, on the edges and across `u32`.
+#[test]
+fn centimetres_round_half_up_and_saturate() {
+    let want = |mm: u32| (mm.saturating_add(5) / 10).min(i16::MAX as u32) as i16;
+    let edges = [0, 4, 5, 14, 15, 327_664, 327_665, 327_669, 327_670, 1 << 20];
+    let mut x = 0x2545_F491_4F6C_DD1Du64;
+    for k in 0..200_000u32 {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        let mm = match k {
+            0..=9 => edges[k as usize],
+            10 => u32::MAX - 4,
+            11 => u32::MAX,
+            _ => (x as u32) >> (x >> 59),
+        };
+        assert_eq!(cm(mm), want(mm), "{mm}");
+    }
+}
+
 /// The config's position is the room: positive sizes as given, (0, 0) (or anything not
 /// positive) the anchors' bounding box from the origin.
 #[test]
