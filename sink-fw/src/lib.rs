@@ -441,10 +441,18 @@ impl<K: TermKernel> Sink<K> {
         *t = t.wrapping_add(secs);
     }
 
+    /// `c + 1`, out of line: each inlined 32-bit increment of a counter in memory costs ≈ 20 B
+    /// of AVR flash. A `Sink<K>` item: generic, it is laid out with the firmware's own code,
+    /// within `rcall` range of its callers (4 long calls less).
+    #[inline(never)]
+    fn bump(c: &mut u32) {
+        *c += 1;
+    }
+
     /// A frame that is not a usable report.
     pub fn on_bad_frame(&mut self, kind: BadFrame) {
-        bump(&mut self.counters.0[FRAMES]);
-        bump(&mut self.counters.0[match kind {
+        Self::bump(&mut self.counters.0[FRAMES]);
+        Self::bump(&mut self.counters.0[match kind {
             BadFrame::Corrupt => CHECKSUM_ERRORS,
             BadFrame::Foreign => FOREIGN,
         }]);
@@ -514,8 +522,8 @@ impl<K: TermKernel> Sink<K> {
         obs: &Observations,
         fix: &mut Fix,
     ) -> Result<(), LocError> {
-        bump(&mut self.counters.0[FRAMES]);
-        bump(&mut self.counters.0[REPORTS]);
+        Self::bump(&mut self.counters.0[FRAMES]);
+        Self::bump(&mut self.counters.0[REPORTS]);
         let k = agent.wrapping_sub(1) as usize;
         if let (Some(next), Some(seen)) = (self.next_seq.get_mut(k), self.seen.get_mut(k)) {
             if *seen {
@@ -545,7 +553,7 @@ impl<K: TermKernel> Sink<K> {
         (fix.agent, fix.seq, fix.model, fix.fitted) = (agent, seq, model, fitted);
         // Straight into the fix: a returned pair, or storage of our own, is one more copy.
         let result = mle_and_mmse_window_into::<K>(obs, model, area, sigma, &mut fix.estimates);
-        bump(&mut self.counters.0[match result {
+        Self::bump(&mut self.counters.0[match result {
             Ok(_) => FIXES,
             Err(_) => NO_FIXES,
         }]);
@@ -553,12 +561,6 @@ impl<K: TermKernel> Sink<K> {
     }
 }
 
-/// `c + 1`, out of line: each inlined 32-bit increment of a counter in memory costs ≈ 20 B of
-/// AVR flash.
-#[inline(never)]
-fn bump(c: &mut u32) {
-    *c += 1;
-}
 
 /// What [`Sink::on_report`] works from, straight from the report's bytes: the calibration
 /// statistics of every anchor pair (both directions' relayed bytes, as
