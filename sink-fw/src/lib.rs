@@ -452,10 +452,12 @@ impl<K: TermKernel> Sink<K> {
     /// A frame that is not a usable report.
     pub fn on_bad_frame(&mut self, kind: BadFrame) {
         Self::bump(&mut self.counters.0[FRAMES]);
-        Self::bump(&mut self.counters.0[match kind {
-            BadFrame::Corrupt => CHECKSUM_ERRORS,
-            BadFrame::Foreign => FOREIGN,
-        }]);
+        Self::bump(
+            &mut self.counters.0[match kind {
+                BadFrame::Corrupt => CHECKSUM_ERRORS,
+                BadFrame::Foreign => FOREIGN,
+            }],
+        );
     }
 
     /// A decoded report: as [`Sink::on_measurements`] of its [`measurements`] (the same
@@ -553,14 +555,15 @@ impl<K: TermKernel> Sink<K> {
         (fix.agent, fix.seq, fix.model, fix.fitted) = (agent, seq, model, fitted);
         // Straight into the fix: a returned pair, or storage of our own, is one more copy.
         let result = mle_and_mmse_window_into::<K>(obs, model, area, sigma, &mut fix.estimates);
-        Self::bump(&mut self.counters.0[match result {
-            Ok(_) => FIXES,
-            Err(_) => NO_FIXES,
-        }]);
+        Self::bump(
+            &mut self.counters.0[match result {
+                Ok(_) => FIXES,
+                Err(_) => NO_FIXES,
+            }],
+        );
         result
     }
 }
-
 
 /// What [`Sink::on_report`] works from, straight from the report's bytes: the calibration
 /// statistics of every anchor pair (both directions' relayed bytes, as

@@ -440,7 +440,10 @@ fn a_sink_without_a_room_uses_each_reports_anchors_box() {
     let got = Sink::<Portable>::new(None).on_report(&r).unwrap();
     assert_eq!(Ok(got), in_box.on_report(&r));
     assert_eq!(Ok(got), from_m.on_measurements(1, 2, &measurements(&r)));
-    assert!(got.mle().pos.x <= 15_000 && got.mle().pos.y <= 6_000, "{got:?}");
+    assert!(
+        got.mle().pos.x <= 15_000 && got.mle().pos.y <= 6_000,
+        "{got:?}"
+    );
     assert!(got.mle().pos.x > 10_000, "{got:?}");
 }
 
