@@ -100,7 +100,7 @@ fn run(
         }
         if (now_ms() as u16).wrapping_sub(last_status) >= STATUS_PERIOD_MS {
             last_status = last_status.wrapping_add(STATUS_PERIOD_MS);
-            sink.add_uptime(u32::from(STATUS_PERIOD_MS / 1000));
+            sink.add_uptime((STATUS_PERIOD_MS / 1000) as u8);
             status(radio, sink.counters());
         }
         sleep_unless(rx_pending);
