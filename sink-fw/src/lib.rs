@@ -16,7 +16,7 @@
 //! (`loc_core::fixed::mle_and_mmse_window_into`: the MMSE's window is the thesis' fine window,
 //! so the coarse stage and the window run once). The results are those of the generic path,
 //! [`Sink::on_measurements`] (thesis MLE, then windowed MMSE), bit for bit (`tests`). The sink
-//! firmware with all of this is 18.96 KB (`hoploc footprint`): it fits the Uno, not yet the
+//! firmware with all of this is 18.46 KB (`hoploc footprint`): it fits the Uno, not yet the
 //! budget.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
