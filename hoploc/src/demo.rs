@@ -426,7 +426,11 @@ pub fn run(args: &Args) -> Result<(), String> {
     if let Some(c) = tb.host_counters() {
         summary += &format!(
             "host sink: {} frames, {} reports, {} missing from the sequence, {} corrupt, {} foreign\n",
-            c.frames, c.reports, c.drops, c.checksum_errors, c.foreign
+            c.frames(),
+            c.reports(),
+            c.drops(),
+            c.checksum_errors(),
+            c.foreign()
         );
     } else if let Some(SinkLine::Status {
         uptime_s,

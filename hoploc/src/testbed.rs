@@ -163,8 +163,7 @@ impl References {
             let fix = sink_fw::Fix {
                 agent: r.agent,
                 seq: r.seq,
-                mle,
-                mmse,
+                estimates: [mle, mmse],
                 model,
                 fitted: false,
             };

@@ -118,8 +118,8 @@ fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step(
     assert!(settled >= 2 * 2 * (per_stop - 3), "{settled} settled lines");
     eprintln!("{settled} settled fix lines, worst error in x or y {worst:.3} m");
     let c = tb.host_counters().unwrap();
-    assert_eq!(c.drops, 0);
-    assert_eq!(c.checksum_errors + c.foreign, 0);
+    assert_eq!(c.drops(), 0);
+    assert_eq!(c.checksum_errors() + c.foreign(), 0);
     // The TX log after the warm-up: every beacon delivered to the agent, every report to the
     // sink, no collision, every slot of every whole superframe used once, and the anchors
     // within the guard time (3 ms) of one timeline.

@@ -168,28 +168,17 @@ pub fn crc8(bytes: impl IntoIterator<Item = u8>) -> u8 {
     c
 }
 
-/// A `status` line written field by field (uptime, then the counters in [`SinkLine::Status`]'s
-/// order, then [`StatusOut::end`]): for a writer that reads each counter where it lies as it
-/// writes it (the sink firmware: [`SinkLine::write`] of a built line loaded all seven first).
-pub struct StatusOut<W>(Out<W>);
-
-impl<W: FnMut(u8)> StatusOut<W> {
-    /// `hoploc sink status`, to `out`.
-    pub fn new(out: W) -> StatusOut<W> {
-        let mut o = Out::new(out);
-        o.head(WORD_SINK, STATUS);
-        StatusOut(o)
+/// Writes the `status` line of `fields` (those of [`SinkLine::Status`] in its order: the
+/// uptime, then the counters): for a writer that keeps them in an array (the sink firmware: one
+/// loop, each read as it is written, no line in memory). The same bytes as
+/// [`SinkLine::write`] of that line.
+pub fn write_status(fields: &[u32; 7], out: impl FnMut(u8)) {
+    let mut o = Out::new(out);
+    o.head(WORD_SINK, STATUS);
+    for &n in fields {
+        o.num(n);
     }
-
-    /// The next field.
-    pub fn num(&mut self, n: u32) {
-        self.0.num(n);
-    }
-
-    /// The checksum and `\r\n`.
-    pub fn end(mut self) {
-        self.0.end(true);
-    }
+    o.end(true);
 }
 
 impl SinkLine {

@@ -16,7 +16,7 @@
 //! (`loc_core::fixed::mle_and_mmse_window_into`: the MMSE's window is the thesis' fine window,
 //! so the coarse stage and the window run once). The results are those of the generic path,
 //! [`Sink::on_measurements`] (thesis MLE, then windowed MMSE), bit for bit (`tests`). The sink
-//! firmware with all of this is 18.96 KB (`hoploc footprint`): it fits the Uno, not yet the
+//! firmware with all of this is 18.46 KB (`hoploc footprint`): it fits the Uno, not yet the
 //! budget.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
@@ -37,7 +37,7 @@ use loc_proto::msg::{NotReport, Position, Report, ReportView};
 type Fit = uno_board::AvrFit;
 #[cfg(not(target_arch = "avr"))]
 type Fit = loc_core::fixed::PortableFit;
-use loc_proto::sink_line::{Estimator, SinkLine, StatusOut, FLAG_FITTED};
+use loc_proto::sink_line::{write_status, Estimator, SinkLine, FLAG_FITTED};
 use loc_proto::Error;
 
 /// What a [`Report`] measured, for loc-core: anchor positions as the beacons gave them, the
@@ -164,23 +164,58 @@ pub const MAX_AGENTS: usize = 16;
 /// The MMSE's σ while the fit has none, Q.8 dB (4 dB, the thesis' larger σ).
 pub const DEFAULT_SIGMA: u16 = 4 << 8;
 
-/// What the status line counts.
+/// What the status line shows (the uptime, then the counters) and `no_fixes`, which it does
+/// not: one array in the line's order, so the firmware writes it in one loop and bumps a
+/// counter by its index (seven named fields and the uptime apart were eight calls and eight
+/// offsets: 0.1 KB more AVR flash).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub struct Counters {
+pub struct Counters([u32; 8]);
+
+/// [`Counters`]' indices.
+const UPTIME: usize = 0;
+const FRAMES: usize = 1;
+const REPORTS: usize = 2;
+const DROPS: usize = 3;
+const CHECKSUM_ERRORS: usize = 4;
+const FOREIGN: usize = 5;
+const FIXES: usize = 6;
+const NO_FIXES: usize = 7;
+/// How many of [`Counters`] the status line shows (all but `no_fixes`).
+const SHOWN: usize = 7;
+
+impl Counters {
+    /// Seconds since boot, as the shell told the sink ([`Sink::add_uptime`]).
+    pub fn uptime_s(&self) -> u32 {
+        self.0[UPTIME]
+    }
     /// Frames received.
-    pub frames: u32,
+    pub fn frames(&self) -> u32 {
+        self.0[FRAMES]
+    }
     /// Reports decoded.
-    pub reports: u32,
+    pub fn reports(&self) -> u32 {
+        self.0[REPORTS]
+    }
     /// Reports missing (gaps in an agent's sequence numbers).
-    pub drops: u32,
+    pub fn drops(&self) -> u32 {
+        self.0[DROPS]
+    }
     /// Frames that failed their checksum or did not decode.
-    pub checksum_errors: u32,
+    pub fn checksum_errors(&self) -> u32 {
+        self.0[CHECKSUM_ERRORS]
+    }
     /// Frames that are not hoploc messages (another PAN user, or another kind).
-    pub foreign: u32,
+    pub fn foreign(&self) -> u32 {
+        self.0[FOREIGN]
+    }
     /// Fixes made.
-    pub fixes: u32,
+    pub fn fixes(&self) -> u32 {
+        self.0[FIXES]
+    }
     /// Reports that gave no fix.
-    pub no_fixes: u32,
+    pub fn no_fixes(&self) -> u32 {
+        self.0[NO_FIXES]
+    }
 }
 
 /// A frame the shell could not take as a report.
@@ -245,10 +280,9 @@ pub struct Fix {
     pub agent: u8,
     /// The report's superframe sequence.
     pub seq: u16,
-    /// The thesis MLE.
-    pub mle: Estimate,
-    /// The windowed MMSE.
-    pub mmse: Estimate,
+    /// The thesis MLE, then the windowed MMSE: one array, which the search writes in place
+    /// ([`Sink::on_report_with`]).
+    pub estimates: [Estimate; 2],
     /// The path-loss model both used (after this report's fit and AR(1)).
     pub model: PathLoss,
     /// Whether this report's anchor-to-anchor RSSI gave a fit.
@@ -256,6 +290,25 @@ pub struct Fix {
 }
 
 impl Fix {
+    /// A fix to be filled in ([`Sink::on_report_with`]): all zeros (no constant in SRAM).
+    pub const NONE: Fix = Fix {
+        agent: 0,
+        seq: 0,
+        estimates: [Estimate::NONE; 2],
+        model: PathLoss { p0: 0, alpha: 0 },
+        fitted: false,
+    };
+
+    /// The thesis MLE.
+    pub fn mle(&self) -> &Estimate {
+        &self.estimates[0]
+    }
+
+    /// The windowed MMSE.
+    pub fn mmse(&self) -> &Estimate {
+        &self.estimates[1]
+    }
+
     /// The two `fix` lines (MLE, then MMSE) of loc-proto's [`SinkLine`]: cm rounded from mm,
     /// α and P0 in hundredths, rounded.
     pub fn lines(&self) -> [SinkLine; 2] {
@@ -266,8 +319,8 @@ impl Fix {
     #[inline]
     pub fn line(&self, estimator: Estimator) -> SinkLine {
         let e = match estimator {
-            Estimator::Mle => &self.mle,
-            Estimator::Mmse => &self.mmse,
+            Estimator::Mle => self.mle(),
+            Estimator::Mmse => self.mmse(),
         };
         SinkLine::Fix {
             agent: self.agent,
@@ -283,20 +336,20 @@ impl Fix {
     }
 }
 
-/// Millimetres as whole centimetres, rounded (half up), saturating at `i16::MAX`.
+/// Millimetres as whole centimetres, rounded (half up), saturating at `i16::MAX`: clamped
+/// first (from 327 665 mm on the result is 32 767), so neither the sum nor the quotient needs a
+/// check.
 #[inline(never)]
 fn cm(mm: u32) -> i16 {
-    (mm.saturating_add(5) / 10).min(i16::MAX as u32) as i16
+    ((mm.min(327_665) + 5) / 10) as i16
 }
 
-/// `v·100 / 2^q` rounded (half up), `q ≥ 8`, for `|v| ≤ 2^30`: `(v·100 + 2^(q−1)) >> q` in 32
-/// bits. With `v = 256·h + l` (`0 ≤ l < 256`), `v·100 + 2^(q−1) = 256·(100·h + 2^(q−9)) + 100·l`,
-/// and `⌊(256·a + b)/2^q⌋ = ⌊(a + ⌊b/256⌋)/2^(q−8)⌋`; `|100·h| < 2^29`. (A sink's α is within
-/// [`loc_core::fixed::ALPHA_LIMIT`] and its P0 within [`loc_core::fixed::P0_LIMIT`], both below
-/// 2^30.)
+/// `v·100 / 2^q` rounded (half up): `(v·100 + 2^(q−1)) >> q` in 64 bits. On the AVR that is
+/// one call of libgcc's `__muldi3`, which the fit links anyway: 58 B less flash than the 32-bit
+/// split `v = 256·h + l` it replaces (two 32-bit multiplies per field). (If nothing else linked
+/// `__muldi3`, the split would be the smaller again.)
 fn centi(v: i32, q: u32) -> i32 {
-    let (h, l) = (v >> 8, v & 0xFF);
-    (100 * h + (1 << (q - 9)) + ((100 * l) >> 8)) >> (q - 8)
+    ((v as i64 * 100 + (1 << (q - 1))) >> q) as i32
 }
 
 /// The `nofix` line of agent `agent`'s report `seq` that failed with `e`.
@@ -309,30 +362,23 @@ pub fn no_fix_line(agent: u8, seq: u16, e: LocError) -> SinkLine {
 }
 
 impl Counters {
-    /// Writes [`Counters::line`]`(uptime_s)`, each counter read as it is written (the firmware:
-    /// through the built line all seven were loaded first; 56 B less AVR flash).
-    pub fn write_line(&self, uptime_s: u32, out: impl FnMut(u8)) {
-        let mut o = StatusOut::new(out);
-        o.num(uptime_s);
-        o.num(self.frames);
-        o.num(self.reports);
-        o.num(self.drops);
-        o.num(self.checksum_errors);
-        o.num(self.foreign);
-        o.num(self.fixes);
-        o.end();
+    /// Writes [`Counters::line`], the fields in a loop, each read as it is written (the
+    /// firmware: through the built line all seven were loaded first).
+    pub fn write_line(&self, out: impl FnMut(u8)) {
+        let shown: &[u32; SHOWN] = self.0.first_chunk().unwrap_or(&[0; SHOWN]);
+        write_status(shown, out);
     }
 
-    /// The `status` line at `uptime_s` seconds.
-    pub fn line(&self, uptime_s: u32) -> SinkLine {
+    /// The `status` line.
+    pub fn line(&self) -> SinkLine {
         SinkLine::Status {
-            uptime_s,
-            frames: self.frames,
-            reports: self.reports,
-            drops: self.drops,
-            checksum_errors: self.checksum_errors,
-            foreign: self.foreign,
-            fixes: self.fixes,
+            uptime_s: self.uptime_s(),
+            frames: self.frames(),
+            reports: self.reports(),
+            drops: self.drops(),
+            checksum_errors: self.checksum_errors(),
+            foreign: self.foreign(),
+            fixes: self.fixes(),
         }
     }
 }
@@ -340,12 +386,14 @@ impl Counters {
 /// The sink state machine over cost kernel `K`.
 #[derive(Clone, Debug)]
 // In this order (`repr(C)`): of the orders tried, the one the AVR code is smallest with (the
-// params' constants at near offsets of the firmware loop's frame): 8 B less flash.
+// room and the params' constants at near offsets of the firmware loop's frame; with the room
+// after the params its stores were past `Y+63`: 14 B more flash; the counters before the
+// params: 72 B more).
 #[repr(C)]
 pub struct Sink<K> {
-    params: OnlineParams,
     /// The room, or `None`: each report's anchors' bounding box.
     area: Option<AreaCm>,
+    params: OnlineParams,
     counters: Counters,
     /// Next expected sequence per agent (index agent − 1), valid where `seen`: all zeros at
     /// first (no `Option` array to build field by field).
@@ -385,25 +433,66 @@ impl<K: TermKernel> Sink<K> {
         self.params.current()
     }
 
+    /// `secs` more seconds since boot, for the status line's uptime: one [`Sink::bump`] per
+    /// second (the sink adds 10 every 10 s; a 32-bit add of its own was 16 B more AVR flash).
+    pub fn add_uptime(&mut self, secs: u8) {
+        for _ in 0..secs {
+            Self::bump(&mut self.counters.0[UPTIME]);
+        }
+    }
+
+    /// `c + 1`, out of line: each inlined 32-bit increment of a counter in memory costs ≈ 20 B
+    /// of AVR flash. A `Sink<K>` item: generic, it is laid out with the firmware's own code,
+    /// within `rcall` range of its callers (4 long calls less).
+    #[inline(never)]
+    fn bump(c: &mut u32) {
+        *c = c.wrapping_add(1);
+    }
+
     /// A frame that is not a usable report.
     pub fn on_bad_frame(&mut self, kind: BadFrame) {
-        bump(&mut self.counters.frames);
-        bump(match kind {
-            BadFrame::Corrupt => &mut self.counters.checksum_errors,
-            BadFrame::Foreign => &mut self.counters.foreign,
-        });
+        Self::bump(&mut self.counters.0[FRAMES]);
+        Self::bump(
+            &mut self.counters.0[match kind {
+                BadFrame::Corrupt => CHECKSUM_ERRORS,
+                BadFrame::Foreign => FOREIGN,
+            }],
+        );
     }
 
     /// A decoded report: as [`Sink::on_measurements`] of its [`measurements`] (the same
     /// result, `tests` checks), with the calibration statistics and the observations taken
     /// straight from the report's bytes.
     pub fn on_report(&mut self, r: &impl ReportData) -> Result<Fix, LocError> {
-        let (mut stats, mut obs) = (CalStats::new(), Observations::new());
+        self.on_report_with(r, |result| result.copied())
+    }
+
+    /// [`Sink::on_report`], its result handed to `then` (the firmware: the search writes the
+    /// estimates where the lines read them, no copies; the fix, the statistics and the
+    /// observations zeroed by one `memset`).
+    #[inline(always)]
+    pub fn on_report_with<T>(
+        &mut self,
+        r: &impl ReportData,
+        then: impl FnOnce(Result<&Fix, LocError>) -> T,
+    ) -> T {
+        #[repr(C)]
+        struct Work {
+            fix: Fix,
+            stats: CalStats,
+            obs: Observations,
+        }
+        let mut w = Work {
+            fix: Fix::NONE,
+            stats: CalStats::new(),
+            obs: Observations::new(),
+        };
         // `anchors_box` of the report's positions, from the same pass over its bytes.
         let mut anchors = AreaCm::new(0, 0);
-        report_inputs_into(r, &mut stats, &mut obs, &mut anchors);
+        report_inputs_into(r, &mut w.stats, &mut w.obs, &mut anchors);
         let area = self.area.unwrap_or(anchors);
-        self.locate(r.agent(), r.seq(), area, &stats, &obs)
+        let result = self.locate(r.agent(), r.seq(), area, &w.stats, &w.obs, &mut w.fix);
+        then(result.map(|()| &w.fix))
     }
 
     /// Agent `agent`'s report of superframe `seq`, as measurements: fit, smooth, locate.
@@ -418,11 +507,13 @@ impl<K: TermKernel> Sink<K> {
         let area = self
             .area
             .unwrap_or_else(|| anchors_box(&m.anchors[..m.n_anchors]));
-        self.locate(agent, seq, area, &stats, &obs)
+        let mut fix = Fix::NONE;
+        self.locate(agent, seq, area, &stats, &obs, &mut fix)
+            .map(|()| fix)
     }
 
     /// The report's counters, the least-squares fit of `stats` fed to the AR(1) smoothers, then
-    /// both estimates of `obs` from one search.
+    /// both estimates of `obs` from one search, into `fix`.
     #[inline(never)]
     fn locate(
         &mut self,
@@ -431,16 +522,17 @@ impl<K: TermKernel> Sink<K> {
         area: AreaCm,
         stats: &CalStats,
         obs: &Observations,
-    ) -> Result<Fix, LocError> {
-        bump(&mut self.counters.frames);
-        bump(&mut self.counters.reports);
+        fix: &mut Fix,
+    ) -> Result<(), LocError> {
+        Self::bump(&mut self.counters.0[FRAMES]);
+        Self::bump(&mut self.counters.0[REPORTS]);
         let k = agent.wrapping_sub(1) as usize;
         if let (Some(next), Some(seen)) = (self.next_seq.get_mut(k), self.seen.get_mut(k)) {
             if *seen {
                 let gap = seq.wrapping_sub(*next);
                 // A gap of more than half the sequence space is a late or repeated report.
                 if gap < 0x8000 {
-                    self.counters.drops += gap as u32;
+                    self.counters.0[DROPS] += gap as u32;
                 }
             }
             *seen = true;
@@ -460,30 +552,17 @@ impl<K: TermKernel> Sink<K> {
             (fitted, model)
         };
         let sigma = self.params.sigma().unwrap_or(DEFAULT_SIGMA);
-        // Into storage of our own: a returned pair would be one more copy on the stack.
-        let mut est = [Estimate::NONE; 2];
-        let result =
-            mle_and_mmse_window_into::<K>(obs, model, area, sigma, &mut est).map(|()| Fix {
-                agent,
-                seq,
-                mle: est[0],
-                mmse: est[1],
-                model,
-                fitted,
-            });
-        bump(match result {
-            Ok(_) => &mut self.counters.fixes,
-            Err(_) => &mut self.counters.no_fixes,
-        });
+        (fix.agent, fix.seq, fix.model, fix.fitted) = (agent, seq, model, fitted);
+        // Straight into the fix: a returned pair, or storage of our own, is one more copy.
+        let result = mle_and_mmse_window_into::<K>(obs, model, area, sigma, &mut fix.estimates);
+        Self::bump(
+            &mut self.counters.0[match result {
+                Ok(_) => FIXES,
+                Err(_) => NO_FIXES,
+            }],
+        );
         result
     }
-}
-
-/// `c + 1`, out of line: each inlined 32-bit increment of a counter in memory costs ≈ 20 B of
-/// AVR flash.
-#[inline(never)]
-fn bump(c: &mut u32) {
-    *c += 1;
 }
 
 /// What [`Sink::on_report`] works from, straight from the report's bytes: the calibration

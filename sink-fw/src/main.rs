@@ -5,7 +5,7 @@
 //! sink channel, then the loop — each report the radio hands over goes to the sink, and out on
 //! the UART (the USB serial) go its `report` line and its fix lines (or why there is none), as
 //! loc-proto's sink lines; a `status` line every [`STATUS_PERIOD_MS`]. Build: `cargo fw` (all
-//! firmwares) or `cargo fw-run -p sink-fw`. Flash: 18 910 B text + 74 B data, within the
+//! firmwares) or `cargo fw-run -p sink-fw`. Flash: 18 408 B text + 74 B data, within the
 //! 32 256 B the Uno's bootloader leaves, not yet within the SPEC's 16 KB.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
@@ -71,7 +71,6 @@ fn run(
     // The clock's low 16 bits: the loop looks at least once a second (the watchdog's 1 s sees
     // to that), far within their 65 s, and 16-bit arithmetic is half the AVR code.
     let mut last_status = now_ms() as u16;
-    let mut uptime_s = 0u32;
     // A packet's bytes (the radio's buffer is lent only while polling): the report is read in
     // place from here and written as its `report` line. RX16 data always fits.
     let mut raw = [0u8; xbee_api::MAX_FRAME_DATA];
@@ -101,55 +100,70 @@ fn run(
         }
         if (now_ms() as u16).wrapping_sub(last_status) >= STATUS_PERIOD_MS {
             last_status = last_status.wrapping_add(STATUS_PERIOD_MS);
-            uptime_s += u32::from(STATUS_PERIOD_MS / 1000);
-            status(radio, sink.counters(), uptime_s);
+            sink.add_uptime((STATUS_PERIOD_MS / 1000) as u8);
+            line(radio, Line::Status(sink.counters()));
         }
         sleep_unless(rx_pending);
     }
 }
 
-/// A report's lines: its `report` line (the bytes it came in), then two `fix` lines or a
-/// `nofix` line. Out of line, as [`run`].
+// Where the report's code goes: the linker lays out this crate's functions in the order of
+// their symbol names, so `glue::on_report` and then `lines::*` come after `run` and `locate`,
+// and the line writers' many calls from `lines` land within `rcall` range (±4 KB) of the line
+// writer (`uno_board`'s copy), which `--relax` then shortens.
 #[cfg(target_arch = "avr")]
-#[inline(never)]
-fn on_report(
-    sink: &mut sink_fw::Sink<uno_board::AvrTerm>,
-    report: &loc_proto::msg::ReportView,
-    radio: &mut uno_board::NodeRadio,
-) {
-    use loc_proto::sink_line::Estimator;
-    loc_proto::sink_line::RawReport::write(report.bytes(), uart(radio));
-    match sink.on_report(report) {
-        Ok(fix) => {
-            fix_line(radio, &fix, Estimator::Mle);
-            fix_line(radio, &fix, Estimator::Mmse);
-        }
-        Err(e) => sink_fw::no_fix_line(report.agent(), report.seq(), e).write(uart(radio)),
+use glue::on_report;
+#[cfg(target_arch = "avr")]
+use lines::{line, uart, Line};
+
+#[cfg(target_arch = "avr")]
+mod glue {
+    use super::{line, uart, Line};
+
+    /// A report's lines: its `report` line (the bytes it came in), then two `fix` lines or a
+    /// `nofix` line. Out of line, as [`super::run`].
+    #[inline(never)]
+    pub fn on_report(
+        sink: &mut sink_fw::Sink<uno_board::AvrTerm>,
+        report: &loc_proto::msg::ReportView,
+        radio: &mut uno_board::NodeRadio,
+    ) {
+        use loc_proto::sink_line::Estimator;
+        loc_proto::sink_line::RawReport::write(report.bytes(), uart(radio));
+        sink.on_report_with(report, |result| match result {
+            Ok(fix) => {
+                line(radio, Line::Fix(fix, Estimator::Mle));
+                line(radio, Line::Fix(fix, Estimator::Mmse));
+            }
+            Err(e) => sink_fw::no_fix_line(report.agent(), report.seq(), e).write(uart(radio)),
+        })
     }
 }
 
-/// The `fix` line of `estimator` on the UART: built and written in one place, so only its
-/// fields' writes remain (no line in memory).
 #[cfg(target_arch = "avr")]
-#[inline(never)]
-fn fix_line(
-    radio: &mut uno_board::NodeRadio,
-    fix: &sink_fw::Fix,
-    estimator: loc_proto::sink_line::Estimator,
-) {
-    fix.line(estimator).write(uart(radio));
-}
+mod lines {
+    /// A `fix` or `status` line.
+    pub enum Line<'a> {
+        /// The `fix` line of an estimator.
+        Fix(&'a sink_fw::Fix, loc_proto::sink_line::Estimator),
+        /// The `status` line of the counters.
+        Status(&'a sink_fw::Counters),
+    }
 
-/// The `status` line at `uptime_s` on the UART. Out of line, as [`run`].
-#[cfg(target_arch = "avr")]
-#[inline(never)]
-fn status(radio: &mut uno_board::NodeRadio, counters: &sink_fw::Counters, uptime_s: u32) {
-    counters.write_line(uptime_s, uart(radio));
-}
+    /// `what` on the UART: each line built and written in one place, so only its fields'
+    /// writes remain (no line in memory); both kinds in one function (one prologue and
+    /// epilogue: the two apart were 0.1 KB more flash).
+    #[inline(never)]
+    pub fn line(radio: &mut uno_board::NodeRadio, what: Line<'_>) {
+        match what {
+            Line::Fix(fix, estimator) => fix.line(estimator).write(uart(radio)),
+            Line::Status(counters) => counters.write_line(uart(radio)),
+        }
+    }
 
-/// The UART as a byte sink: the boot lines' one ([`uno_board::uart_out`]), so one copy of the
-/// line writer.
-#[cfg(target_arch = "avr")]
-fn uart(radio: &mut uno_board::NodeRadio) -> impl FnMut(u8) + '_ {
-    uno_board::uart_out(radio.serial_mut())
+    /// The UART as a byte sink: the boot lines' one ([`uno_board::uart_out`]), so one copy of
+    /// the line writer.
+    pub fn uart(radio: &mut uno_board::NodeRadio) -> impl FnMut(u8) + '_ {
+        uno_board::uart_out(radio.serial_mut())
+    }
 }

@@ -55,7 +55,7 @@ fn a_noise_free_report_is_located_within_a_fine_step() {
     {
         let f = s.on_measurements(1, k as u16, &report(at, &[])).unwrap();
         assert!(f.fitted);
-        for e in [f.mle, f.mmse] {
+        for e in f.estimates {
             // mm against cm. The bytes are whole dB: ±0.5 dB is ±3.8 % of a distance at
             // α = 3, up to 30 cm at 8 m, so two fine steps (2 × 20 cm) is the bound here.
             let err = ((e.pos.x as f64 / 10.0 - at.0).powi(2)
@@ -72,7 +72,7 @@ fn a_noise_free_report_is_located_within_a_fine_step() {
     assert_ne!(m, PathLoss::THESIS);
     assert!((-60 << 16..=-20 << 16).contains(&m.p0), "{m:?}");
     assert!((2 << 24..=5 << 24).contains(&m.alpha), "{m:?}");
-    assert_eq!(s.counters().fixes, 4);
+    assert_eq!(s.counters().fixes(), 4);
 }
 
 #[test]
@@ -82,7 +82,7 @@ fn the_fix_is_loc_cores_with_the_smoothed_model() {
     let f = s.on_measurements(2, 0, &m).unwrap();
     let obs = observations(&m, Refinement::Extended);
     let want = loc_core::fixed::mle(&obs, f.model, AreaCm::new(1000, 1000), Search::Thesis);
-    assert_eq!(Ok(f.mle), want);
+    assert_eq!(Ok(*f.mle()), want);
 }
 
 #[test]
@@ -91,10 +91,10 @@ fn three_anchors_still_fix_and_two_do_not() {
     let f = s
         .on_measurements(1, 0, &report((300.0, 300.0), &[3]))
         .unwrap();
-    assert_eq!(f.mle.anchors, 3);
+    assert_eq!(f.mle().anchors, 3);
     let e = s.on_measurements(1, 1, &report((300.0, 300.0), &[2, 3]));
     assert_eq!(e, Err(LocError::TooFewAnchors { usable: 2 }));
-    assert_eq!((s.counters().fixes, s.counters().no_fixes), (1, 1));
+    assert_eq!((s.counters().fixes(), s.counters().no_fixes()), (1, 1));
 }
 
 #[test]
@@ -105,21 +105,21 @@ fn gaps_in_an_agents_sequence_count_as_drops() {
         let _ = s.on_measurements(3, seq, &m);
     }
     // 7, 8 and 11 missing; the repeated 9 is no drop.
-    assert_eq!(s.counters().drops, 3);
+    assert_eq!(s.counters().drops(), 3);
     // Across the wrap: 0 missing.
     for seq in [65535u16, 1] {
         let _ = s.on_measurements(5, seq, &m);
     }
-    assert_eq!(s.counters().drops, 4);
+    assert_eq!(s.counters().drops(), 4);
     // A report from far in the past (more than half the sequence space back) is no drop either.
     let _ = s.on_measurements(5, 40_000, &m);
-    assert_eq!(s.counters().drops, 4);
+    assert_eq!(s.counters().drops(), 4);
     // Another agent has its own sequence; an agent id out of range is located but not tracked.
     let _ = s.on_measurements(4, 100, &m);
     let _ = s.on_measurements(0, 1, &m);
     let _ = s.on_measurements(200, 1, &m);
-    assert_eq!(s.counters().drops, 4);
-    assert_eq!(s.counters().reports, 12);
+    assert_eq!(s.counters().drops(), 4);
+    assert_eq!(s.counters().reports(), 12);
 }
 
 #[test]
@@ -131,7 +131,7 @@ fn bad_frames_are_counted_and_change_nothing() {
     s.on_bad_frame(BadFrame::Foreign);
     let c = s.counters();
     assert_eq!(
-        (c.frames, c.checksum_errors, c.foreign, c.reports),
+        (c.frames(), c.checksum_errors(), c.foreign(), c.reports()),
         (3, 1, 2, 0)
     );
     assert_eq!(s.model(), before);
@@ -172,7 +172,7 @@ fn a_report_off_the_wire_gives_the_same_fix_as_its_measurements() {
     let (mut a, mut b) = (sink(), sink());
     let fa = a.on_report(&back).unwrap();
     assert_eq!(
-        (fa.agent, fa.seq, fa.mle.anchors),
+        (fa.agent, fa.seq, fa.mle().anchors),
         (7, 3, 3),
         "anchor 2 not heard"
     );
@@ -207,7 +207,7 @@ fn fixes_and_failures_become_sink_lines_that_parse_back() {
     );
     assert_eq!(
         (x as u32, y as u32),
-        ((f.mle.pos.x + 5) / 10, (f.mle.pos.y + 5) / 10)
+        ((f.mle().pos.x + 5) / 10, (f.mle().pos.y + 5) / 10)
     );
     let alpha = f.model.alpha as f64 / 16_777_216.0;
     let p0 = f.model.p0 as f64 / 65_536.0;
@@ -238,7 +238,9 @@ fn fixes_and_failures_become_sink_lines_that_parse_back() {
             usable: 2
         }
     );
-    let status = s.counters().line(12);
+    s.add_uptime(5);
+    s.add_uptime(7);
+    let status = s.counters().line();
     assert!(matches!(
         status,
         SinkLine::Status {
@@ -343,11 +345,11 @@ fn reports_go_the_same_way_as_their_measurements() {
     assert!(views > 500, "{views}");
 }
 
-/// `centi` is the 64-bit rounding it replaces, on the edges and across the whole range of α
+/// `centi` is the exact rounding (128-bit reference: no overflow in its 64 bits), on the edges and across the whole range of α
 /// (Q.24) and P0 (Q.16) a sink can hold.
 #[test]
 fn hundredths_are_the_64_bit_rounding() {
-    let want = |v: i32, q: u32| ((v as i64 * 100 + (1 << (q - 1))) >> q) as i32;
+    let want = |v: i32, q: u32| ((v as i128 * 100 + (1 << (q - 1))) >> q) as i32;
     let mut x = 0x9E37_79B9_7F4A_7C15u64;
     for k in 0..200_000u32 {
         x ^= x << 13;
@@ -364,6 +366,26 @@ fn hundredths_are_the_64_bit_rounding() {
         for q in [16, 24] {
             assert_eq!(centi(v, q), want(v, q), "{v} {q}");
         }
+    }
+}
+
+/// `cm` is the rounded, saturating conversion it stands for, on the edges and across `u32`.
+#[test]
+fn centimetres_round_half_up_and_saturate() {
+    let want = |mm: u32| (mm.saturating_add(5) / 10).min(i16::MAX as u32) as i16;
+    let edges = [0, 4, 5, 14, 15, 327_664, 327_665, 327_669, 327_670, 1 << 20];
+    let mut x = 0x2545_F491_4F6C_DD1Du64;
+    for k in 0..200_000u32 {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        let mm = match k {
+            0..=9 => edges[k as usize],
+            10 => u32::MAX - 4,
+            11 => u32::MAX,
+            _ => (x as u32) >> (x >> 59),
+        };
+        assert_eq!(cm(mm), want(mm), "{mm}");
     }
 }
 
@@ -418,8 +440,11 @@ fn a_sink_without_a_room_uses_each_reports_anchors_box() {
     let got = Sink::<Portable>::new(None).on_report(&r).unwrap();
     assert_eq!(Ok(got), in_box.on_report(&r));
     assert_eq!(Ok(got), from_m.on_measurements(1, 2, &measurements(&r)));
-    assert!(got.mle.pos.x <= 15_000 && got.mle.pos.y <= 6_000, "{got:?}");
-    assert!(got.mle.pos.x > 10_000, "{got:?}");
+    assert!(
+        got.mle().pos.x <= 15_000 && got.mle().pos.y <= 6_000,
+        "{got:?}"
+    );
+    assert!(got.mle().pos.x > 10_000, "{got:?}");
 }
 
 /// Frames loc-proto rejects: not hoploc's (magic), or a version or kind this build does not
@@ -501,19 +526,10 @@ fn status_lines_written_in_place_are_the_built_ones() {
         }
     };
     for _ in 0..2000 {
-        let c = Counters {
-            frames: next(),
-            reports: next(),
-            drops: next(),
-            checksum_errors: next(),
-            foreign: next(),
-            fixes: next(),
-            no_fixes: next(),
-        };
-        let uptime = next();
+        let c = Counters(core::array::from_fn(|_| next()));
         let (mut built, mut direct) = (std::vec::Vec::new(), std::vec::Vec::new());
-        c.line(uptime).write(|b| built.push(b));
-        c.write_line(uptime, |b| direct.push(b));
+        c.line().write(|b| built.push(b));
+        c.write_line(|b| direct.push(b));
         assert_eq!(direct, built);
     }
 }
