@@ -344,12 +344,14 @@ fn cm(mm: u32) -> i16 {
     ((mm.min(327_665) + 5) / 10) as i16
 }
 
-/// `v·100 / 2^q` rounded (half up): `(v·100 + 2^(q−1)) >> q` in 64 bits. On the AVR that is
-/// one call of libgcc's `__muldi3`, which the fit links anyway: 58 B less flash than the 32-bit
-/// split `v = 256·h + l` it replaces (two 32-bit multiplies per field). (If nothing else linked
-/// `__muldi3`, the split would be the smaller again.)
+/// `v·100 / 2^q` rounded (half up), `q ≥ 8`, for `|v| ≤ 2^30`: `(v·100 + 2^(q−1)) >> q` in 32
+/// bits. With `v = 256·h + l` (`0 ≤ l < 256`), `v·100 + 2^(q−1) = 256·(100·h + 2^(q−9)) + 100·l`,
+/// and `⌊(256·a + b)/2^q⌋ = ⌊(a + ⌊b/256⌋)/2^(q−8)⌋`; `|100·h| < 2^29`. (A sink's α is within
+/// [`loc_core::fixed::ALPHA_LIMIT`] and its P0 within [`loc_core::fixed::P0_LIMIT`], both below
+/// 2^30.)
 fn centi(v: i32, q: u32) -> i32 {
-    ((v as i64 * 100 + (1 << (q - 1))) >> q) as i32
+    let (h, l) = (v >> 8, v & 0xFF);
+    (100 * h + (1 << (q - 9)) + ((100 * l) >> 8)) >> (q - 8)
 }
 
 /// The `nofix` line of agent `agent`'s report `seq` that failed with `e`.

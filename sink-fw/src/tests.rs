@@ -345,11 +345,11 @@ fn reports_go_the_same_way_as_their_measurements() {
     assert!(views > 500, "{views}");
 }
 
-/// `centi` is the exact rounding (128-bit reference: no overflow in its 64 bits), on the edges and across the whole range of α
+/// `centi` is the 64-bit rounding it replaces, on the edges and across the whole range of α
 /// (Q.24) and P0 (Q.16) a sink can hold.
 #[test]
 fn hundredths_are_the_64_bit_rounding() {
-    let want = |v: i32, q: u32| ((v as i128 * 100 + (1 << (q - 1))) >> q) as i32;
+    let want = |v: i32, q: u32| ((v as i64 * 100 + (1 << (q - 1))) >> q) as i32;
     let mut x = 0x9E37_79B9_7F4A_7C15u64;
     for k in 0..200_000u32 {
         x ^= x << 13;
