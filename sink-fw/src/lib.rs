@@ -405,6 +405,15 @@ pub struct Sink<K> {
     kernel: PhantomData<K>,
 }
 
+/// The sink's model at start: P0 and α by least squares within the thesis' bounds, from the
+/// thesis' prior. One constant (on the AVR a copy from `.data`, not a store per byte).
+const START: OnlineParams = OnlineParams::new(
+    ParamMode::P0AndAlpha,
+    FitMethod::LeastSquares,
+    Bounds::THESIS,
+    PathLoss::THESIS,
+);
+
 impl<K: TermKernel> Sink<K> {
     /// A sink for the room `area` (`None`: each report's anchors' bounding box, [`anchors_box`];
     /// see [`room`]), estimating P0 and α by least squares within the thesis' bounds from the
@@ -412,12 +421,7 @@ impl<K: TermKernel> Sink<K> {
     pub fn new(area: Option<AreaCm>) -> Sink<K> {
         Sink {
             area,
-            params: OnlineParams::new(
-                ParamMode::P0AndAlpha,
-                FitMethod::LeastSquares,
-                Bounds::THESIS,
-                PathLoss::THESIS,
-            ),
+            params: START,
             counters: Counters::default(),
             next_seq: [0; MAX_AGENTS],
             seen: [false; MAX_AGENTS],

@@ -219,8 +219,14 @@ pub(crate) fn isqrt_u32(x: u32) -> u32 {
 
 /// `v` limited to `[lo, hi]` (never panics: `lo > hi` gives `hi`).
 #[inline]
-pub(crate) fn clamp_i32(v: i32, lo: i32, hi: i32) -> i32 {
-    v.max(lo).min(hi)
+pub(crate) const fn clamp_i32(v: i32, lo: i32, hi: i32) -> i32 {
+    // `v.max(lo).min(hi)`, spelled out to be `const`.
+    let v = if v < lo { lo } else { v };
+    if v > hi {
+        hi
+    } else {
+        v
+    }
 }
 
 /// `v` limited to `[lo, hi]` (never panics: `lo > hi` gives `hi`).

@@ -222,7 +222,7 @@ impl PathLoss {
     }
 
     /// The model with P0 and α clamped to [`P0_LIMIT`] and [`ALPHA_LIMIT`].
-    pub fn sane(self) -> PathLoss {
+    pub const fn sane(self) -> PathLoss {
         PathLoss {
             p0: math::clamp_i32(self.p0, -P0_LIMIT, P0_LIMIT),
             alpha: math::clamp_i32(self.alpha, -ALPHA_LIMIT, ALPHA_LIMIT),

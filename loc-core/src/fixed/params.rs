@@ -767,11 +767,14 @@ const _: () = {
 impl Default for Ar1 {
     /// The thesis' `a = 0.8, b = 0.2`.
     fn default() -> Self {
-        Ar1::new(52_429, 13_107)
+        Ar1::THESIS
     }
 }
 
 impl Ar1 {
+    /// The thesis' `a = 0.8, b = 0.2` (Q.16), no state: [`Ar1::default`].
+    pub const THESIS: Ar1 = Ar1::new(52_429, 13_107);
+
     /// A smoother with Q.16 coefficients `a`, `b` (each clamped to `[−4, 4]`) and no state.
     pub const fn new(a: i32, b: i32) -> Ar1 {
         const L: i32 = 4 << 16;
@@ -938,12 +941,13 @@ pub struct OnlineParams {
 
 impl OnlineParams {
     /// Starts from `prior` with the default smoothers.
-    pub fn new(mode: ParamMode, method: FitMethod, bounds: Bounds, prior: PathLoss) -> Self {
-        Self::with_smoothers(mode, method, bounds, prior, Ar1::default(), Ar1::default())
+    /// (`const`: a firmware can hold its start state as one constant.)
+    pub const fn new(mode: ParamMode, method: FitMethod, bounds: Bounds, prior: PathLoss) -> Self {
+        Self::with_smoothers(mode, method, bounds, prior, Ar1::THESIS, Ar1::THESIS)
     }
 
     /// Starts from `prior` with the given smoothers for P0 and α.
-    pub fn with_smoothers(
+    pub const fn with_smoothers(
         mode: ParamMode,
         method: FitMethod,
         bounds: Bounds,
