@@ -662,23 +662,26 @@ where
 
     /// Writes start delimiter, length, frame data (`head` then `rest`) and checksum.
     fn write_frame(&mut self, len: u8, head: &[u8], rest: &[u8]) -> Result<(), Failed> {
-        // The length's high byte is 0: `len` is at most MAX_FRAME_DATA.
-        for b in [START, 0, len] {
-            // The start delimiter is never escaped; the length bytes are, like any other.
-            self.put(b, b != START)?;
-        }
+        // The start delimiter is never escaped; the length bytes are, like any other. The
+        // length's high byte is 0: `len` is at most MAX_FRAME_DATA.
+        self.write_byte(START)?;
+        self.put(0)?;
+        self.put(len)?;
         let mut sum = 0u8;
-        for &b in head.iter().chain(rest) {
-            sum = sum.wrapping_add(b);
-            self.put(b, true)?;
+        // The two parts through one loop (a `chain` iterator is a state machine on AVR).
+        for part in [head, rest] {
+            for &b in part {
+                sum = sum.wrapping_add(b);
+                self.put(b)?;
+            }
         }
-        self.put(0xFF - sum, true)
+        self.put(0xFF - sum)
     }
 
-    /// Writes `b`, escaped if `escape` and the radio is in API mode 2.
+    /// Writes `b`, escaped if the radio is in API mode 2.
     #[inline(never)]
-    fn put(&mut self, b: u8, escape: bool) -> Result<(), Failed> {
-        if escape && self.decoder.mode() == Mode::Escaped && needs_escape(b) {
+    fn put(&mut self, b: u8) -> Result<(), Failed> {
+        if self.decoder.mode() == Mode::Escaped && needs_escape(b) {
             self.write_byte(ESCAPE)?;
             self.write_byte(b ^ ESCAPE_XOR)
         } else {
@@ -1001,8 +1004,9 @@ where
 
     /// Queries `AP` in API mode: the radio's mode if it answered.
     fn query_ap(&mut self, timeout_ms: u16) -> Option<u16> {
-        // Twice: a radio still starting up may miss the first.
-        for _ in 0..2 {
+        // Twice: a radio still starting up may miss the first. (A `u8` count: an untyped range
+        // is `i32`, four registers on AVR.)
+        for _ in 0..2u8 {
             if let Ok(ap) = self.at_dyn(*b"AP", &[], timeout_ms, None, None) {
                 return ap;
             }
@@ -1091,35 +1095,24 @@ where
                 baud: self.configure_in_command_mode(cfg)?,
             };
         }
-        let t = cfg.timeout_ms;
-        if let Some(my) = cfg.my {
-            self.set_register(*b"MY", my, true, t)?;
-        }
-        if let Some(id) = cfg.pan_id {
-            self.set_register(*b"ID", id, true, t)?;
-        }
-        if let Some(ch) = cfg.channel {
-            self.set_register(*b"CH", ch.into(), false, t)?;
+        // The three registers as data through one loop: one copy of the set-and-read-back.
+        for i in 0..3u8 {
+            let (command, value) = match i {
+                0 => (*b"MY", cfg.my),
+                1 => (*b"ID", cfg.pan_id),
+                _ => (*b"CH", cfg.channel.map(u16::from)),
+            };
+            let Some(value) = value else { continue };
+            // `CH` is one byte, `MY` and `ID` two.
+            let bytes = value.to_be_bytes();
+            let param = if i == 2 { &bytes[1..] } else { &bytes[..] };
+            self.at_dyn(command, param, cfg.timeout_ms, None, None)?;
+            // Read back: the value `at_dyn` returns must be what was set.
+            if self.at_dyn(command, &[], cfg.timeout_ms, None, None)? != Some(value) {
+                return Err(self.fail(Error::Unexpected { command }));
+            }
         }
         Ok(how)
-    }
-
-    /// Sets a register to `value` (two bytes if `wide`, else one) and reads it back.
-    #[inline(never)]
-    fn set_register(
-        &mut self,
-        command: [u8; 2],
-        value: u16,
-        wide: bool,
-        timeout_ms: u16,
-    ) -> Result<(), Failed> {
-        let bytes = value.to_be_bytes();
-        let param = if wide { &bytes[..] } else { &bytes[1..] };
-        self.at_dyn(command, param, timeout_ms, None, None)?;
-        if self.query(command, 0xFFFF, timeout_ms, None)? != value {
-            return Err(self.fail(Error::Unexpected { command }));
-        }
-        Ok(())
     }
 
     /// Step 2 of [`Radio::bring_up`]: the baud rate the radio was found at. (Inlined into its
