@@ -483,7 +483,7 @@ enum Next {
     Frame(u8),
     /// Nothing more for now.
     Idle,
-    /// A stream error, in `Radio::error` (the decoder has resynchronised).
+    /// A stream error, in [`Decoder::error`] (the decoder has resynchronised).
     Decode,
     /// A UART error, in `Radio::error`.
     Serial,
@@ -711,7 +711,10 @@ where
         match self.next_frame() {
             Next::Frame(len) => Some(Ok(f(self.decoder.frame(len)))),
             Next::Idle => None,
-            Next::Decode | Next::Serial => Some(Err(self.error)),
+            // The decode error is built here, not in `next_frame`: the waits that ignore it
+            // (and a caller that drops it) then never copy it.
+            Next::Decode => Some(Err(Error::Decode(self.decoder.error()))),
+            Next::Serial => Some(Err(self.error)),
         }
     }
 
@@ -728,10 +731,7 @@ where
                     note_tx_status(&mut self.pending_tx, self.decoder.frame(len));
                     return Next::Frame(len);
                 }
-                Step::Error => {
-                    self.error = Error::Decode(self.decoder.error());
-                    return Next::Decode;
-                }
+                Step::Error => return Next::Decode,
                 Step::Nothing => {}
             }
             let Some(left) = budget.checked_sub(1) else {
