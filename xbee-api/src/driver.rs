@@ -568,16 +568,19 @@ impl<S, C, M: ApiMode> Radio<S, C, M> {
         }
         // A free slot, else (more than TRACKED outstanding) reuse one: that request is then
         // no longer waited for.
-        let mut free = id as usize % TRACKED;
-        for (i, &slot) in self.pending_tx.iter().enumerate() {
+        // (`u8` indices: `usize` arithmetic is twice the AVR code.)
+        let mut free = id % TRACKED as u8;
+        let mut i = 0u8;
+        for &slot in self.pending_tx.iter() {
             if slot == id {
                 return;
             }
             if slot == 0 {
                 free = i;
             }
+            i += 1;
         }
-        if let Some(slot) = self.pending_tx.get_mut(free) {
+        if let Some(slot) = self.pending_tx.get_mut(usize::from(free)) {
             *slot = id;
         }
     }
@@ -667,15 +670,21 @@ where
         self.write_byte(START)?;
         self.put(0)?;
         self.put(len)?;
-        let mut sum = 0u8;
-        // The two parts through one loop (a `chain` iterator is a state machine on AVR).
-        for part in [head, rest] {
-            for &b in part {
-                sum = sum.wrapping_add(b);
-                self.put(b)?;
-            }
-        }
+        let sum = self.put_all(head, 0)?;
+        let sum = self.put_all(rest, sum)?;
         self.put(0xFF - sum)
+    }
+
+    /// Writes `bytes` (escaped as [`Radio::put`] does) and returns `sum` plus their sum. One
+    /// out-of-line loop for both parts of a frame: a `chain` iterator, or a loop over the two
+    /// slices, is a state machine with 16-bit index arithmetic on AVR.
+    #[inline(never)]
+    fn put_all(&mut self, bytes: &[u8], mut sum: u8) -> Result<u8, Failed> {
+        for &b in bytes {
+            sum = sum.wrapping_add(b);
+            self.put(b)?;
+        }
+        Ok(sum)
     }
 
     /// Writes `b`, escaped if the radio is in API mode 2.
