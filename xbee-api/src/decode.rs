@@ -404,6 +404,14 @@ impl<M: ApiMode> Decoder<M> {
 
     /// The frame [`Decoder::poll_len`] just reported as `len` bytes long.
     pub(crate) fn frame(&self, len: u8) -> RawFrame<'_> {
+        // `len` is at most MAX_FRAME_DATA (the decoder checked it); the `min` spares the
+        // slice its bounds check (one compare where `get` took two and a select).
+        RawFrame::new(&self.buf[2..2 + (len as usize).min(MAX_FRAME_DATA)])
+    }
+
+    /// [`Decoder::frame`] with `get` (empty for a `len` out of range): what [`crate::driver`]'s
+    /// `poll` hands out (in the nodes' receive loops this form came out smaller on AVR).
+    pub(crate) fn frame_checked(&self, len: u8) -> RawFrame<'_> {
         RawFrame::new(self.buf.get(2..2 + len as usize).unwrap_or(&[]))
     }
 

@@ -538,7 +538,8 @@ impl<S, C, M: ApiMode> Radio<S, C, M> {
 
     /// A fresh frame id: 1…255, wrapping, never 0 (0 asks the radio for no answer).
     pub fn next_frame_id(&mut self) -> u8 {
-        self.last_id = self.last_id.checked_add(1).unwrap_or(1);
+        // `max(1)` of the wrapped sum: one compare (`checked_add`'s `Option` was two).
+        self.last_id = self.last_id.wrapping_add(1).max(1);
         self.last_id
     }
 
@@ -718,7 +719,7 @@ where
     /// frames are noted (see [`Radio::tx_pending`]) and still handed to `f`.
     pub fn poll<R>(&mut self, f: impl FnOnce(RawFrame<'_>) -> R) -> Option<Result<R, Error>> {
         match self.next_frame() {
-            Next::Frame(len) => Some(Ok(f(self.decoder.frame(len)))),
+            Next::Frame(len) => Some(Ok(f(self.decoder.frame_checked(len)))),
             Next::Idle => None,
             // The decode error is built here, not in `next_frame`: the waits that ignore it
             // (and a caller that drops it) then never copy it.
