@@ -210,8 +210,9 @@ const GARBAGE_BYTES: usize = 4;
 /// driver's) goes through this one function.
 #[inline(never)]
 pub(crate) fn count(counter: &mut u32) {
-    // Not `saturating_add`: that compiles to 68 bytes on AVR, this to 56.
-    if let Some(n) = counter.checked_add(1) {
+    // Not `saturating_add` (68 B on AVR) nor `checked_add` (56 B): store unless it wrapped.
+    let n = counter.wrapping_add(1);
+    if n != 0 {
         *counter = n;
     }
 }
@@ -458,7 +459,11 @@ impl<M: ApiMode> Decoder<M> {
             return step;
         }
         if !self.in_frame {
-            self.garbage = self.garbage.saturating_add(1);
+            // Saturating, as `count` does it: store unless it wrapped.
+            let n = self.garbage.wrapping_add(1);
+            if n != 0 {
+                self.garbage = n;
+            }
             count(&mut self.counts[GARBAGE_BYTES]);
             return Step::Nothing;
         }
