@@ -60,19 +60,6 @@ const _: () = assert!(core::mem::offset_of!(RxState, counts) == 2);
 const _: () = assert!(core::mem::offset_of!(RxState, buf) == 8);
 const _: () = assert!(DATA_OVERRUN == 0 && FRAME_ERROR == 1 && RING_FULL == 2);
 
-impl RxState {
-    /// The oldest byte, if any.
-    fn pop(&mut self) -> Option<u8> {
-        if self.len == 0 {
-            return None;
-        }
-        let byte = self.buf[usize::from(self.head) & (RX_BUFFER_SIZE - 1)];
-        self.head = (self.head.wrapping_add(1)) & (RX_BUFFER_SIZE as u8 - 1);
-        self.len -= 1;
-        Some(byte)
-    }
-}
-
 static RX: IrqCell<RxState> = IrqCell::new(RxState {
     head: 0,
     len: 0,
@@ -296,7 +283,44 @@ impl Serial {
     /// provisioning window each had their own copy of the critical section.
     #[inline(never)]
     pub fn try_read(&mut self) -> Option<u8> {
-        RX.with(|rx| rx.pop())
+        let (left, byte): (u8, u8);
+        // SAFETY: the ring's pop with interrupts disabled (SREG saved and restored), as
+        // `IrqCell` requires: `len` (offset 1) minus one, and if it was not 0 the byte at
+        // `head` (offset 0, advanced and wrapped) of `buf` (offset 8); the `repr(C)` offsets
+        // are checked above. One `asm!` block: the compiled pop was 12 B longer.
+        unsafe {
+            core::arch::asm!(
+                "in {sreg}, 0x3f",
+                "cli",
+                "lds {left}, {rx}+1",
+                "subi {left}, 1",     // 0xFF: it was empty
+                "brcs 1f",
+                "sts {rx}+1, {left}",
+                "lds r30, {rx}",
+                "mov {byte}, r30",
+                "inc {byte}",
+                "andi {byte}, {cap}-1",
+                "sts {rx}, {byte}",
+                "clr r31",
+                "subi r30, lo8(-({rx}+8))",
+                "sbci r31, hi8(-({rx}+8))",
+                "ld {byte}, Z",
+                "1:",
+                "out 0x3f, {sreg}",
+                sreg = out(reg) _,
+                left = out(reg_upper) left,
+                byte = out(reg_upper) byte,
+                rx = sym RX,
+                cap = const RX_BUFFER_SIZE,
+                out("r30") _,
+                out("r31") _,
+            );
+        }
+        if left == 0xFF {
+            None
+        } else {
+            Some(byte)
+        }
     }
 
     /// Writes `byte` if the transmit buffer is free; `false` if it is busy.
