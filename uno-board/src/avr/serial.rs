@@ -78,7 +78,8 @@ static FRAME_START: IrqCell<Tick> = IrqCell::new(Tick::ZERO);
 // acknowledges the interrupt), pushes the byte into the ring (or counts it as dropped), bumps
 // the saturating counters whose event bits are set (DOR0 bit 3, FE0 bit 4, ring full bit 5 →
 // counts[0], [1], [2]), and for a start delimiter stamps the tick as `time::tick` takes it (a
-// pending compare match with a small count is counted). Interrupts are off throughout. (Not
+// pending compare match with a small count is counted). Interrupts are off throughout; r0 is
+// the scratch register and r1 is 0, as in compiled code. (Not
 // naked: a naked function's assembly gets only the base AVR instructions, not even `push`.)
 #[avr_device::interrupt(atmega328p)]
 fn USART_RX() {
@@ -90,24 +91,25 @@ fn USART_RX() {
             "lds r24, 0xC0",          // UCSR0A
             "lds r25, 0xC6",          // UDR0
             "andi r24, 0x18",         // DOR0 | FE0
-            "lds r30, {rx}+1",        // len
-            "cpi r30, {cap}",
+            "ldi r30, lo8({rx})",     // Z: RX
+            "ldi r31, hi8({rx})",
+            "ld r26, Z",              // head
+            "ldd r27, Z+1",           // len
+            "cpi r27, {cap}",
             "brlo 1f",
             "ori r24, 0x20",          // ring full
             "rjmp 2f",
             "1:",
-            "lds r26, {rx}",          // head
-            "add r26, r30",
+            "add r26, r27",           // head + len, wrapped: where the byte goes
+            "inc r27",
+            "std Z+1, r27",
             "andi r26, {cap}-1",
-            "inc r30",
-            "sts {rx}+1, r30",
             "clr r27",
             "subi r26, lo8(-({rx}+8))",
             "sbci r27, hi8(-({rx}+8))",
             "st X, r25",
             "2:",
-            "ldi r30, lo8({rx}+2)",
-            "ldi r31, hi8({rx}+2)",
+            "adiw r30, 2",            // Z: counts
             "lsr r24",
             "lsr r24",
             "lsr r24",
@@ -128,24 +130,29 @@ fn USART_RX() {
             "brne 6f",
             "in r24, 0x26",           // TCNT0
             "in r25, 0x15",           // TIFR0, after the count
-            "lds r26, {ms}",
-            "lds r27, {ms}+1",
-            "lds r30, {ms}+2",
-            "lds r31, {ms}+3",
-            "sbrs r25, 1",            // OCF0A
-            "rjmp 5f",
+            "bst r25, 1",             // T: OCF0A, a compare match not counted yet...
             "cpi r24, 125",
-            "brsh 5f",
-            "subi r26, 0xFF",
-            "sbci r27, 0xFF",
-            "sbci r30, 0xFF",
-            "sbci r31, 0xFF",
+            "brlo 5f",
+            "clt",                    // ...unless the count was read just before it
             "5:",
-            "sts {fs}, r26",
-            "sts {fs}+1, r27",
-            "sts {fs}+2, r30",
-            "sts {fs}+3, r31",
-            "sts {fs}+4, r24",
+            "ldi r30, lo8({ms})",
+            "ldi r31, hi8({ms})",
+            "ld r26, Z",              // MILLIS in r0:r25:r27:r26 (r0: the scratch register)
+            "ldd r27, Z+1",
+            "ldd r25, Z+2",
+            "ldd r0, Z+3",
+            "brtc 7f",
+            "adiw r26, 1",
+            "adc r25, r1",
+            "adc r0, r1",
+            "7:",
+            "ldi r30, lo8({fs})",
+            "ldi r31, hi8({fs})",
+            "st Z, r26",
+            "std Z+1, r27",
+            "std Z+2, r25",
+            "std Z+3, r0",
+            "std Z+4, r24",
             "6:",
             rx = sym RX,
             fs = sym FRAME_START,
@@ -160,7 +167,6 @@ fn USART_RX() {
         );
     }
 }
-
 
 /// The local time ([`now_us`](crate::now_us)) at which the last API frame start delimiter
 /// (0x7E) arrived, stamped by the RX interrupt at the byte's stop bit. In API mode 2 an
