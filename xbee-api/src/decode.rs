@@ -254,10 +254,11 @@ pub struct Decoder<M = Mode> {
     escaped: bool,
     /// `error` is still to be reported (set by [`Decoder::idle`]).
     queued: bool,
+    /// (After `queued`: [`Decoder::reset`] clears the fields from `cur` to here, one block.)
+    garbage: u16,
     /// The sum of the current frame's bytes after the length (data and checksum), wrapping:
     /// kept as they arrive, so a complete frame is checked without a second pass.
     sum: u8,
-    garbage: u16,
     /// The last stream error.
     error: DecodeError,
     buf: [u8; BUF],
