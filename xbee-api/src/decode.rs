@@ -465,7 +465,7 @@ impl<M: ApiMode> Decoder<M> {
             if n != 0 {
                 self.garbage = n;
             }
-            count(&mut self.counts[GARBAGE_BYTES]);
+            self.tally(GARBAGE_BYTES);
             return Step::Nothing;
         }
         let b = if self.mode() == Mode::Escaped {
@@ -509,17 +509,25 @@ impl<M: ApiMode> Decoder<M> {
             return self.fail(BAD_CHECKSUM);
         }
         self.in_frame = false;
-        count(&mut self.counts[FRAMES]);
+        self.tally(FRAMES);
         Step::Frame(len)
+    }
+
+    /// Adds one to counter `i` (if the mode keeps counters, [`ApiMode::COUNTS`]).
+    #[inline(always)]
+    fn tally(&mut self, i: usize) {
+        if M::COUNTS {
+            if let Some(c) = self.counts.get_mut(i) {
+                count(c);
+            }
+        }
     }
 
     /// Counts the error just put in `error` on `counter`, leaves the frame, and in API mode 1
     /// queues the frame's bytes from the next start delimiter for re-reading.
     #[inline(never)]
     fn fail(&mut self, counter: usize) -> Step {
-        if let Some(c) = self.counts.get_mut(counter) {
-            count(c);
-        }
+        self.tally(counter);
         self.in_frame = false;
         self.escaped = false;
         if self.mode() == Mode::Api {

@@ -508,6 +508,14 @@ impl<S, C, M: ApiMode> Radio<S, C, M> {
         }
     }
 
+    /// Adds one to a driver counter (if the mode keeps counters, [`ApiMode::COUNTS`]).
+    #[inline(always)]
+    fn tally(counter: &mut u32) {
+        if M::COUNTS {
+            count(counter);
+        }
+    }
+
     /// Records `error` for the caller of the public method to pick up.
     #[inline(never)]
     fn fail(&mut self, error: Error) -> Failed {
@@ -655,7 +663,7 @@ where
         }
         if let Err(e) = self.write_frame(len as u8, head, rest) {
             if let Error::Serial(_) = self.error {
-                count(&mut self.serial_errors);
+                Self::tally(&mut self.serial_errors);
             }
             return Err(e);
         }
@@ -771,7 +779,7 @@ where
                     self.decoder.pending()
                 }
                 Err(nb::Error::Other(e)) => {
-                    count(&mut self.serial_errors);
+                    Self::tally(&mut self.serial_errors);
                     self.error = Error::Serial(e.kind());
                     return Next::Serial;
                 }
@@ -866,13 +874,13 @@ where
                             }
                             return Ok(be_u16(r.data));
                         }
-                        Some(_) => count(&mut self.unexpected),
-                        None if raw.frame_type() == AT_RESPONSE => count(&mut self.malformed),
+                        Some(_) => Self::tally(&mut self.unexpected),
+                        None if raw.frame_type() == AT_RESPONSE => Self::tally(&mut self.malformed),
                         None => {}
                     }
                     match on_other.as_mut() {
                         Some(f) => f(raw),
-                        None => count(&mut self.dropped),
+                        None => Self::tally(&mut self.dropped),
                     }
                 }
                 Next::Serial => return Err(Failed),

@@ -1,8 +1,8 @@
 //! USART0: interrupt-driven RX ring, blocking/non-blocking TX, `embedded-hal-nb` serial traits.
 
 use super::cell::IrqCell;
-use super::time::Tick;
 use super::pac::USART0;
+use super::time::Tick;
 use crate::{baud, BaudError, RX_BUFFER_SIZE};
 use core::convert::Infallible;
 
