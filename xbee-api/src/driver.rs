@@ -580,15 +580,13 @@ impl<S, C, M: ApiMode> Radio<S, C, M> {
         // no longer waited for.
         // (`u8` indices: `usize` arithmetic is twice the AVR code.)
         let mut free = id % TRACKED as u8;
-        let mut i = 0u8;
-        for &slot in self.pending_tx.iter() {
+        for (i, &slot) in (0u8..).zip(self.pending_tx.iter()) {
             if slot == id {
                 return;
             }
             if slot == 0 {
                 free = i;
             }
-            i += 1;
         }
         if let Some(slot) = self.pending_tx.get_mut(usize::from(free)) {
             *slot = id;
