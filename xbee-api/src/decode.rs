@@ -210,8 +210,9 @@ const GARBAGE_BYTES: usize = 4;
 /// driver's) goes through this one function.
 #[inline(never)]
 pub(crate) fn count(counter: &mut u32) {
-    // Not `saturating_add`: that compiles to 68 bytes on AVR, this to 56.
-    if let Some(n) = counter.checked_add(1) {
+    // Not `saturating_add` (68 B on AVR) nor `checked_add` (56 B): store unless it wrapped.
+    let n = counter.wrapping_add(1);
+    if n != 0 {
         *counter = n;
     }
 }
@@ -253,10 +254,11 @@ pub struct Decoder<M = Mode> {
     escaped: bool,
     /// `error` is still to be reported (set by [`Decoder::idle`]).
     queued: bool,
+    /// (After `queued`: [`Decoder::reset`] clears the fields from `cur` to here, one block.)
+    garbage: u16,
     /// The sum of the current frame's bytes after the length (data and checksum), wrapping:
     /// kept as they arrive, so a complete frame is checked without a second pass.
     sum: u8,
-    garbage: u16,
     /// The last stream error.
     error: DecodeError,
     buf: [u8; BUF],
@@ -404,6 +406,14 @@ impl<M: ApiMode> Decoder<M> {
 
     /// The frame [`Decoder::poll_len`] just reported as `len` bytes long.
     pub(crate) fn frame(&self, len: u8) -> RawFrame<'_> {
+        // `len` is at most MAX_FRAME_DATA (the decoder checked it); the `min` spares the
+        // slice its bounds check (one compare where `get` took two and a select).
+        RawFrame::new(&self.buf[2..2 + (len as usize).min(MAX_FRAME_DATA)])
+    }
+
+    /// [`Decoder::frame`] with `get` (empty for a `len` out of range): what [`crate::driver`]'s
+    /// `poll` hands out (in the nodes' receive loops this form came out smaller on AVR).
+    pub(crate) fn frame_checked(&self, len: u8) -> RawFrame<'_> {
         RawFrame::new(self.buf.get(2..2 + len as usize).unwrap_or(&[]))
     }
 
@@ -450,8 +460,12 @@ impl<M: ApiMode> Decoder<M> {
             return step;
         }
         if !self.in_frame {
-            self.garbage = self.garbage.saturating_add(1);
-            count(&mut self.counts[GARBAGE_BYTES]);
+            // Saturating, as `count` does it: store unless it wrapped.
+            let n = self.garbage.wrapping_add(1);
+            if n != 0 {
+                self.garbage = n;
+            }
+            self.tally(GARBAGE_BYTES);
             return Step::Nothing;
         }
         let b = if self.mode() == Mode::Escaped {
@@ -495,17 +509,25 @@ impl<M: ApiMode> Decoder<M> {
             return self.fail(BAD_CHECKSUM);
         }
         self.in_frame = false;
-        count(&mut self.counts[FRAMES]);
+        self.tally(FRAMES);
         Step::Frame(len)
+    }
+
+    /// Adds one to counter `i` (if the mode keeps counters, [`ApiMode::COUNTS`]).
+    #[inline(always)]
+    fn tally(&mut self, i: usize) {
+        if M::COUNTS {
+            if let Some(c) = self.counts.get_mut(i) {
+                count(c);
+            }
+        }
     }
 
     /// Counts the error just put in `error` on `counter`, leaves the frame, and in API mode 1
     /// queues the frame's bytes from the next start delimiter for re-reading.
     #[inline(never)]
     fn fail(&mut self, counter: usize) -> Step {
-        if let Some(c) = self.counts.get_mut(counter) {
-            count(c);
-        }
+        self.tally(counter);
         self.in_frame = false;
         self.escaped = false;
         if self.mode() == Mode::Api {

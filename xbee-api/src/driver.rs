@@ -483,7 +483,7 @@ enum Next {
     Frame(u8),
     /// Nothing more for now.
     Idle,
-    /// A stream error, in `Radio::error` (the decoder has resynchronised).
+    /// A stream error, in [`Decoder::error`] (the decoder has resynchronised).
     Decode,
     /// A UART error, in `Radio::error`.
     Serial,
@@ -505,6 +505,14 @@ impl<S, C, M: ApiMode> Radio<S, C, M> {
             dropped: 0,
             serial_errors: 0,
             error: Error::NoResponse,
+        }
+    }
+
+    /// Adds one to a driver counter (if the mode keeps counters, [`ApiMode::COUNTS`]).
+    #[inline(always)]
+    fn tally(counter: &mut u32) {
+        if M::COUNTS {
+            count(counter);
         }
     }
 
@@ -538,13 +546,15 @@ impl<S, C, M: ApiMode> Radio<S, C, M> {
 
     /// A fresh frame id: 1…255, wrapping, never 0 (0 asks the radio for no answer).
     pub fn next_frame_id(&mut self) -> u8 {
-        self.last_id = self.last_id.checked_add(1).unwrap_or(1);
+        // `max(1)` of the wrapped sum: one compare (`checked_add`'s `Option` was two).
+        self.last_id = self.last_id.wrapping_add(1).max(1);
         self.last_id
     }
 
     /// True while a transmit request sent with a nonzero frame id still waits for its TX status.
     pub fn tx_pending(&self) -> bool {
-        self.pending_tx.iter().any(|&id| id != 0)
+        // The four slots as one number: on AVR four loads and an `or`, not a loop.
+        u32::from_ne_bytes(self.pending_tx) != 0
     }
 
     /// The serial port, e.g. for the board layer to write text lines between frames.
@@ -568,8 +578,9 @@ impl<S, C, M: ApiMode> Radio<S, C, M> {
         }
         // A free slot, else (more than TRACKED outstanding) reuse one: that request is then
         // no longer waited for.
-        let mut free = id as usize % TRACKED;
-        for (i, &slot) in self.pending_tx.iter().enumerate() {
+        // (`u8` indices: `usize` arithmetic is twice the AVR code.)
+        let mut free = id % TRACKED as u8;
+        for (i, &slot) in (0u8..).zip(self.pending_tx.iter()) {
             if slot == id {
                 return;
             }
@@ -577,7 +588,7 @@ impl<S, C, M: ApiMode> Radio<S, C, M> {
                 free = i;
             }
         }
-        if let Some(slot) = self.pending_tx.get_mut(free) {
+        if let Some(slot) = self.pending_tx.get_mut(usize::from(free)) {
             *slot = id;
         }
     }
@@ -650,7 +661,7 @@ where
         }
         if let Err(e) = self.write_frame(len as u8, head, rest) {
             if let Error::Serial(_) = self.error {
-                count(&mut self.serial_errors);
+                Self::tally(&mut self.serial_errors);
             }
             return Err(e);
         }
@@ -662,23 +673,32 @@ where
 
     /// Writes start delimiter, length, frame data (`head` then `rest`) and checksum.
     fn write_frame(&mut self, len: u8, head: &[u8], rest: &[u8]) -> Result<(), Failed> {
-        // The length's high byte is 0: `len` is at most MAX_FRAME_DATA.
-        for b in [START, 0, len] {
-            // The start delimiter is never escaped; the length bytes are, like any other.
-            self.put(b, b != START)?;
-        }
-        let mut sum = 0u8;
-        for &b in head.iter().chain(rest) {
-            sum = sum.wrapping_add(b);
-            self.put(b, true)?;
-        }
-        self.put(0xFF - sum, true)
+        // The start delimiter is never escaped; the length bytes are, like any other. The
+        // length's high byte is 0: `len` is at most MAX_FRAME_DATA.
+        self.write_byte(START)?;
+        self.put(0)?;
+        self.put(len)?;
+        let sum = self.put_all(head, 0)?;
+        let sum = self.put_all(rest, sum)?;
+        self.put(0xFF - sum)
     }
 
-    /// Writes `b`, escaped if `escape` and the radio is in API mode 2.
+    /// Writes `bytes` (escaped as [`Radio::put`] does) and returns `sum` plus their sum. One
+    /// out-of-line loop for both parts of a frame: a `chain` iterator, or a loop over the two
+    /// slices, is a state machine with 16-bit index arithmetic on AVR.
     #[inline(never)]
-    fn put(&mut self, b: u8, escape: bool) -> Result<(), Failed> {
-        if escape && self.decoder.mode() == Mode::Escaped && needs_escape(b) {
+    fn put_all(&mut self, bytes: &[u8], mut sum: u8) -> Result<u8, Failed> {
+        for &b in bytes {
+            sum = sum.wrapping_add(b);
+            self.put(b)?;
+        }
+        Ok(sum)
+    }
+
+    /// Writes `b`, escaped if the radio is in API mode 2.
+    #[inline(never)]
+    fn put(&mut self, b: u8) -> Result<(), Failed> {
+        if self.decoder.mode() == Mode::Escaped && needs_escape(b) {
             self.write_byte(ESCAPE)?;
             self.write_byte(b ^ ESCAPE_XOR)
         } else {
@@ -706,9 +726,12 @@ where
     /// frames are noted (see [`Radio::tx_pending`]) and still handed to `f`.
     pub fn poll<R>(&mut self, f: impl FnOnce(RawFrame<'_>) -> R) -> Option<Result<R, Error>> {
         match self.next_frame() {
-            Next::Frame(len) => Some(Ok(f(self.decoder.frame(len)))),
+            Next::Frame(len) => Some(Ok(f(self.decoder.frame_checked(len)))),
             Next::Idle => None,
-            Next::Decode | Next::Serial => Some(Err(self.error)),
+            // The decode error is built here, not in `next_frame`: the waits that ignore it
+            // (and a caller that drops it) then never copy it.
+            Next::Decode => Some(Err(Error::Decode(self.decoder.error()))),
+            Next::Serial => Some(Err(self.error)),
         }
     }
 
@@ -725,10 +748,7 @@ where
                     note_tx_status(&mut self.pending_tx, self.decoder.frame(len));
                     return Next::Frame(len);
                 }
-                Step::Error => {
-                    self.error = Error::Decode(self.decoder.error());
-                    return Next::Decode;
-                }
+                Step::Error => return Next::Decode,
                 Step::Nothing => {}
             }
             let Some(left) = budget.checked_sub(1) else {
@@ -757,7 +777,7 @@ where
                     self.decoder.pending()
                 }
                 Err(nb::Error::Other(e)) => {
-                    count(&mut self.serial_errors);
+                    Self::tally(&mut self.serial_errors);
                     self.error = Error::Serial(e.kind());
                     return Next::Serial;
                 }
@@ -852,13 +872,13 @@ where
                             }
                             return Ok(be_u16(r.data));
                         }
-                        Some(_) => count(&mut self.unexpected),
-                        None if raw.frame_type() == AT_RESPONSE => count(&mut self.malformed),
+                        Some(_) => Self::tally(&mut self.unexpected),
+                        None if raw.frame_type() == AT_RESPONSE => Self::tally(&mut self.malformed),
                         None => {}
                     }
                     match on_other.as_mut() {
                         Some(f) => f(raw),
-                        None => count(&mut self.dropped),
+                        None => Self::tally(&mut self.dropped),
                     }
                 }
                 Next::Serial => return Err(Failed),
@@ -1001,8 +1021,9 @@ where
 
     /// Queries `AP` in API mode: the radio's mode if it answered.
     fn query_ap(&mut self, timeout_ms: u16) -> Option<u16> {
-        // Twice: a radio still starting up may miss the first.
-        for _ in 0..2 {
+        // Twice: a radio still starting up may miss the first. (A `u8` count: an untyped range
+        // is `i32`, four registers on AVR.)
+        for _ in 0..2u8 {
             if let Ok(ap) = self.at_dyn(*b"AP", &[], timeout_ms, None, None) {
                 return ap;
             }
@@ -1091,35 +1112,24 @@ where
                 baud: self.configure_in_command_mode(cfg)?,
             };
         }
-        let t = cfg.timeout_ms;
-        if let Some(my) = cfg.my {
-            self.set_register(*b"MY", my, true, t)?;
-        }
-        if let Some(id) = cfg.pan_id {
-            self.set_register(*b"ID", id, true, t)?;
-        }
-        if let Some(ch) = cfg.channel {
-            self.set_register(*b"CH", ch.into(), false, t)?;
+        // The three registers as data through one loop: one copy of the set-and-read-back.
+        for i in 0..3u8 {
+            let (command, value) = match i {
+                0 => (*b"MY", cfg.my),
+                1 => (*b"ID", cfg.pan_id),
+                _ => (*b"CH", cfg.channel.map(u16::from)),
+            };
+            let Some(value) = value else { continue };
+            // `CH` is one byte, `MY` and `ID` two.
+            let bytes = value.to_be_bytes();
+            let param = if i == 2 { &bytes[1..] } else { &bytes[..] };
+            self.at_dyn(command, param, cfg.timeout_ms, None, None)?;
+            // Read back: the value `at_dyn` returns must be what was set.
+            if self.at_dyn(command, &[], cfg.timeout_ms, None, None)? != Some(value) {
+                return Err(self.fail(Error::Unexpected { command }));
+            }
         }
         Ok(how)
-    }
-
-    /// Sets a register to `value` (two bytes if `wide`, else one) and reads it back.
-    #[inline(never)]
-    fn set_register(
-        &mut self,
-        command: [u8; 2],
-        value: u16,
-        wide: bool,
-        timeout_ms: u16,
-    ) -> Result<(), Failed> {
-        let bytes = value.to_be_bytes();
-        let param = if wide { &bytes[..] } else { &bytes[1..] };
-        self.at_dyn(command, param, timeout_ms, None, None)?;
-        if self.query(command, 0xFFFF, timeout_ms, None)? != value {
-            return Err(self.fail(Error::Unexpected { command }));
-        }
-        Ok(())
     }
 
     /// Step 2 of [`Radio::bring_up`]: the baud rate the radio was found at. (Inlined into its

@@ -76,6 +76,10 @@ impl Mode {
 pub trait ApiMode: Copy {
     /// The mode.
     fn mode(self) -> Mode;
+
+    /// Whether the decoder and the driver keep their counters ([`DecoderStats`] and
+    /// [`driver::DriverStats`]); only `Ap2<false>` does not.
+    const COUNTS: bool = true;
 }
 
 impl ApiMode for Mode {
@@ -88,14 +92,21 @@ impl ApiMode for Mode {
 /// API mode 2 (escaped), fixed at compile time: a decoder or radio of this mode has no mode
 /// to look up and no AP=1 code (the re-reading of a broken frame's bytes). On the AVR that is
 /// a few hundred bytes less flash for a node, which only ever talks AP=2.
+///
+/// `Ap2<false>` also keeps no counters: its decoder's and driver's `stats()` stay zero, and
+/// everything else (frames, errors, timing) is as with `Ap2` (tested). For firmware that never
+/// reads the counters (hoploc's nodes): on the AVR every increment is a call, and the counters
+/// were written on every frame and never read.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub struct Ap2;
+pub struct Ap2<const COUNTS: bool = true>;
 
-impl ApiMode for Ap2 {
+impl<const COUNTS: bool> ApiMode for Ap2<COUNTS> {
     #[inline]
     fn mode(self) -> Mode {
         Mode::Escaped
     }
+
+    const COUNTS: bool = COUNTS;
 }
 
 /// True for bytes that API mode 2 escapes.

@@ -187,6 +187,61 @@ fn response_with_wrong_frame_id_or_command_goes_to_the_callback() {
     assert_eq!(radio.stats().unexpected, 2);
 }
 
+/// `Ap2<false>` keeps no counters and otherwise drives the radio as `Mode::Escaped` does: the
+/// same bytes on the wire, the same answers and callbacks, the same bring-up.
+#[test]
+fn ap2_without_counters_drives_the_radio_the_same_and_counts_nothing() {
+    use xbee_api::driver::{DriverStats, Radio};
+    use xbee_api::Ap2;
+    let run = |uncounted: bool| {
+        let (m, radio) = setup(2, 57600, Mode::Escaped);
+        let (serial, clock) = radio.release();
+        let stale = at_resp(99, b"MY", AtStatus::OK, &[0x00, 0x07]);
+        let right = at_resp(1, b"MY", AtStatus::OK, &[0x12, 0x34]);
+        m.borrow_mut().expect(
+            None,
+            Reply::Frames(vec![stale.clone(), vec![0x88, 0x05], right]),
+        );
+        let mut others = vec![];
+        let mut on_other = |raw: xbee_api::RawFrame<'_>| others.push(raw.data().to_vec());
+        let (v, bring_up, stats) = if uncounted {
+            let mut radio = Radio::new(serial, clock, Ap2::<false>);
+            let v = radio.at_command(*b"MY", &[], 100, &mut on_other);
+            let b = radio.bring_up(&fast_config());
+            (v, b, radio.stats())
+        } else {
+            let mut radio = Radio::new(serial, clock, Mode::Escaped);
+            let v = radio.at_command(*b"MY", &[], 100, &mut on_other);
+            let b = radio.bring_up(&fast_config());
+            (v, b, radio.stats())
+        };
+        let wire = m.borrow().wire.clone();
+        (v, bring_up, others, wire, stats)
+    };
+    let (v, b, others, wire, stats) = run(false);
+    let (v0, b0, others0, wire0, stats0) = run(true);
+    assert_eq!(v.unwrap().as_u32(), Some(0x1234));
+    assert_eq!(b, Ok(BringUp::AlreadyApi));
+    assert_eq!(
+        (stats.unexpected, stats.malformed),
+        (1, 1),
+        "counted with Mode"
+    );
+    assert_eq!((v0.map(|v| v.as_u32()), b0), (Ok(Some(0x1234)), b));
+    assert_eq!((others0, wire0), (others, wire));
+    assert_eq!(stats0, DriverStats::default(), "nothing counted");
+}
+
+/// A quick bring-up that sets MY, ID and CH.
+fn fast_config() -> BringUpConfig {
+    BringUpConfig {
+        my: Some(0x0007),
+        pan_id: Some(0x3332),
+        channel: Some(0x0C),
+        ..fast()
+    }
+}
+
 #[test]
 fn frames_arriving_during_an_at_command_reach_the_callback_intact() {
     for mode in MODES {

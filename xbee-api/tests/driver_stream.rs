@@ -3,7 +3,7 @@
 //! same frames and stream errors, in the same order and with the same counters, as a
 //! [`Decoder`] fed the same bytes and told the line went idle at the same pauses. In each API
 //! mode chosen at run time ([`Mode`]) and in API mode 2 fixed at compile time ([`Ap2`]), whose
-//! decoder skips the input queue.
+//! decoder skips the input queue; `Ap2<false>` hands out the same and keeps no counters.
 
 use core::convert::Infallible;
 
@@ -159,8 +159,12 @@ proptest! {
     #[test]
     fn ap2_driver_reads_as_the_decoder(chunks in stream(Mode::Escaped)) {
         let want = through_decoder(Mode::Escaped, &chunks);
-        prop_assert_eq!(&through_radio(Ap2, &chunks), &want);
+        prop_assert_eq!(&through_radio(Ap2::<true>, &chunks), &want);
         prop_assert_eq!(&through_radio(Mode::Escaped, &chunks), &want);
+        // Without counters: the same frames and errors; the counters stay zero.
+        let (events, stats) = through_radio(Ap2::<false>, &chunks);
+        prop_assert_eq!(&events, &want.0);
+        prop_assert_eq!(stats, DecoderStats::default());
     }
 
     #[test]
@@ -182,7 +186,7 @@ fn ap2_a_cut_frame_does_not_cost_the_next() {
     .unwrap();
     let good = out[..n].to_vec();
     let chunks = vec![(good[..5].to_vec(), false), (good.clone(), false)];
-    let (events, stats) = through_radio(Ap2, &chunks);
+    let (events, stats) = through_radio(Ap2::<true>, &chunks);
     assert_eq!(
         events,
         vec![

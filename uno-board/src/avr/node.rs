@@ -16,19 +16,31 @@ pub const TUNE_TIMEOUT_MS: u32 = 20;
 /// radio takes frames in order, so a beacon written right after goes out on the new channel;
 /// waiting for the answer would cost ≈ 4 ms of the slot's 3 ms guard. Frames that arrive while
 /// it waits are dropped (none are due in a guard time).
-pub fn tune(radio: &mut NodeRadio, n: u8) -> Result<(), Error> {
-    let ch = xbee_channel(n).ok_or(Error::Unexpected { command: *b"CH" })?;
-    radio.wait_tx_status(TUNE_TIMEOUT_MS, |_| ())?;
-    // A zero timeout: the command is written, the answer is not waited for.
-    match radio.at_set(*b"CH", &[ch], 0, |_| ()) {
-        Ok(_) | Err(Error::Timeout { .. }) => Ok(()),
-        Err(e) => Err(e),
+///
+/// True if the command went out; false if `n` is not a testbed channel or the radio failed
+/// (the UART, or a TX status that never came). A `bool`, not the driver's [`Error`]: the nodes
+/// go on either way (the next slot tunes again), and a `Result<(), Error>` comes back through
+/// memory on AVR.
+pub fn tune(radio: &mut NodeRadio, n: u8) -> bool {
+    let Some(ch) = xbee_channel(n) else {
+        return false;
+    };
+    if radio.wait_tx_status(TUNE_TIMEOUT_MS, |_| ()).is_err() {
+        return false;
     }
+    // A zero timeout: the command is written, the answer is not waited for.
+    matches!(
+        radio.at_set(*b"CH", &[ch], 0, |_| ()),
+        Ok(_) | Err(Error::Timeout { .. })
+    )
 }
 
-/// Sends `payload` (an encoded hoploc message) to 16-bit address `dest` (0xFFFF: broadcast).
-pub fn send(radio: &mut NodeRadio, dest: u16, payload: &[u8]) -> Result<u8, Error> {
-    radio.send_tx16(dest, payload)
+/// Sends `payload` (an encoded hoploc message) to 16-bit address `dest` (0xFFFF: broadcast):
+/// its frame id, or `None` if the UART failed or the payload is too long. (An `Option`, not the
+/// driver's `Result<u8, Error>`, which comes back through memory on AVR; the nodes go on either
+/// way.)
+pub fn send(radio: &mut NodeRadio, dest: u16, payload: &[u8]) -> Option<u8> {
+    radio.send_tx16(dest, payload).ok()
 }
 
 /// A frame from the radio, as the node logic needs it.

@@ -8,8 +8,9 @@ use xbee_api::Ap2;
 
 use super::{Led, Serial, SysClock};
 
-/// The radio driver of a node: API mode 2 over USART0, timed by the 1 ms tick.
-pub type NodeRadio = Radio<Serial, SysClock, Ap2>;
+/// The radio driver of a node: API mode 2 over USART0, timed by the 1 ms tick, without the
+/// driver's and decoder's counters (`Ap2<false>`: no node reads them).
+pub type NodeRadio = Radio<Serial, SysClock, Ap2<false>>;
 
 /// Writes a boot line on the UART at 57600 (the USB serial reads it; a radio in API mode ignores
 /// it, a line never holds 0x7E). Always inlined, as [`BootLine::write`]: each caller keeps its line's few calls.

@@ -5,7 +5,7 @@ use super::cell::IrqCell;
 use super::pac::TC0;
 
 /// Milliseconds since boot, wrapping after ~49.7 days.
-static MILLIS: IrqCell<u32> = IrqCell::new(0);
+pub(super) static MILLIS: IrqCell<u32> = IrqCell::new(0);
 
 /// Timer0: CTC (top = OCR0A), clock/64 = 250 kHz, OCR0A = 249 → compare match every 1 ms.
 pub(crate) fn init(tc0: &TC0) {
@@ -16,9 +16,36 @@ pub(crate) fn init(tc0: &TC0) {
     tc0.tccr0b().write(|w| w.cs0().prescale_64());
 }
 
+// `MILLIS += 1` as one `asm!` block through Z: the compiled increment (`lds`/`sts` of each byte
+// and a critical section the handler does not need) was 16 B longer.
 #[avr_device::interrupt(atmega328p)]
 fn TIMER0_COMPA() {
-    MILLIS.with(|ms| *ms = ms.wrapping_add(1));
+    // SAFETY: interrupts are off in the handler (no nesting), so this is the only access to
+    // `MILLIS` while it runs, as `IrqCell` requires; r1 is 0 (the handler's prologue clears it).
+    unsafe {
+        core::arch::asm!(
+            "ldi r30, lo8({ms})",
+            "ldi r31, hi8({ms})",
+            "ld r24, Z",
+            "ldd r25, Z+1",
+            "ldd r26, Z+2",
+            "ldd r27, Z+3",
+            "adiw r24, 1",
+            "adc r26, r1",
+            "adc r27, r1",
+            "st Z, r24",
+            "std Z+1, r25",
+            "std Z+2, r26",
+            "std Z+3, r27",
+            ms = sym MILLIS,
+            out("r24") _,
+            out("r25") _,
+            out("r26") _,
+            out("r27") _,
+            out("r30") _,
+            out("r31") _,
+        );
+    }
 }
 
 /// Milliseconds since [`Board::take`](crate::Board::take), wrapping; compare times with
@@ -35,22 +62,52 @@ pub fn now_ms() -> u32 {
 /// interrupt has not run yet is seen in TIFR0 and counted.
 #[inline(never)]
 pub fn now_us() -> u32 {
-    avr_device::interrupt::free(|_| {
-        // SAFETY: reads of TCNT0 and TIFR0 only; nothing else reads or clears OCF0A except the
-        // hardware when TIMER0_COMPA runs, which cannot happen inside this critical section.
-        let tc0 = unsafe { &*TC0::ptr() };
-        let count = tc0.tcnt0().read().bits();
-        let pending = tc0.tifr0().read().ocf0a().bit_is_set();
-        let ms = MILLIS.with(|ms| *ms);
-        // The flag read after the count: a set flag with a small count means the count is in the
-        // next millisecond already; a count read just before the match (near 249) is not.
-        let ms = if pending && count < 125 {
-            ms.wrapping_add(1)
-        } else {
-            ms
-        };
-        ms.wrapping_mul(1000).wrapping_add(u32::from(count) * 4)
-    })
+    avr_device::interrupt::free(|_| tick()).us()
+}
+
+/// An instant of the tick as the hardware shows it: the millisecond count (a compare match whose
+/// interrupt is pending already counted) and Timer0's count into that millisecond. The RX
+/// interrupt (assembly, in `serial`) stamps frames with one, as [`tick`] takes it, and leaves the
+/// 32-bit multiply of [`Tick::us`] to whoever reads the stamp. `repr(C)`: `ms` at offset 0,
+/// `count` at 4.
+#[derive(Clone, Copy)]
+#[repr(C)]
+pub(crate) struct Tick {
+    ms: u32,
+    count: u8,
+}
+
+impl Tick {
+    /// A `Tick` that is [`now_us`] 0.
+    pub(crate) const ZERO: Tick = Tick { ms: 0, count: 0 };
+
+    /// The instant in microseconds, as [`now_us`] gives it. One out-of-line copy of the
+    /// conversion for [`now_us`] and `rx_frame_start_us`.
+    #[inline(never)]
+    pub(crate) fn us(self) -> u32 {
+        self.ms
+            .wrapping_mul(1000)
+            .wrapping_add(u32::from(self.count) * 4)
+    }
+}
+
+/// The tick now. Interrupts must be disabled.
+#[inline(always)]
+fn tick() -> Tick {
+    // SAFETY: reads of TCNT0 and TIFR0 only; nothing else reads or clears OCF0A except the
+    // hardware when TIMER0_COMPA runs, which cannot happen while interrupts are disabled.
+    let tc0 = unsafe { &*TC0::ptr() };
+    let count = tc0.tcnt0().read().bits();
+    let pending = tc0.tifr0().read().ocf0a().bit_is_set();
+    let ms = MILLIS.with(|ms| *ms);
+    // The flag read after the count: a set flag with a small count means the count is in the
+    // next millisecond already; a count read just before the match (near 249) is not.
+    let ms = if pending && count < 125 {
+        ms.wrapping_add(1)
+    } else {
+        ms
+    };
+    Tick { ms, count }
 }
 
 /// Waits at least `ms` milliseconds, sleeping in idle mode between ticks. Interrupts must be

@@ -1,0 +1,114 @@
+//! The UART's receive ring (uno-board `serial`: an assembly RX interrupt and an assembly pop)
+//! with a backlog: the sink firmware in simavr on a modelled XBee gets a second report while it
+//! is still busy with the first (≈ 70 ms: its lines over the UART and the estimate), so the
+//! second report's whole frame waits in the 128-byte ring and is read from it in one go, its
+//! read index passing the ring's wrap points with bytes still waiting. Both reports must come
+//! out intact: their `report` lines hold their very bytes, and their fixes are what the host
+//! computes. (The other firmware tests drain the ring byte by byte as it fills, or tolerate
+//! lost reports, so a ring that wraps its read and write indices differently passed them.)
+
+use hoploc_tests::boot;
+use loc_core::fixed::Portable;
+use loc_proto::config::Config;
+use loc_proto::msg::{ChannelList, Position, Report};
+use loc_proto::sink_line::{RawReport, SinkLine, SinkOutput};
+use loc_proto::{xbee_channel, Role};
+use simavr::ms_to_cycles;
+use simavr::xbee::{Address, RxPacket, XBee, XBeeConfig};
+use sink_fw::Sink;
+
+const ANCHORS: [[i16; 2]; 4] = [[0, 0], [1000, 0], [1000, 1000], [0, 1000]];
+
+/// The RSSI byte (−dBm, rounded) at `d_cm` under P0 = −40 dBm, α = 3.
+fn byte(d_cm: f64) -> u8 {
+    (40.0 + 30.0 * (d_cm / 100.0).max(0.01).log10()).round() as u8
+}
+
+fn dist(a: [i16; 2], b: [f64; 2]) -> f64 {
+    ((a[0] as f64 - b[0]).powi(2) + (a[1] as f64 - b[1]).powi(2)).sqrt()
+}
+
+/// Agent 1's report of superframe `seq` from `at` (cm), all four anchors heard.
+fn report(seq: u16, at: [f64; 2]) -> Report {
+    let mut r = Report::new(1, seq, 4, ChannelList::new(&[1, 12]).unwrap());
+    for (i, a) in ANCHORS.iter().enumerate() {
+        r.positions[i] = Position { x: a[0], y: a[1] };
+        for c in 0..2 {
+            r.rssi[c][i] = byte(dist(*a, at));
+            for (j, b) in ANCHORS.iter().enumerate() {
+                if i != j {
+                    r.relay[c][i][j] = byte(dist(*a, [b[0] as f64, b[1] as f64]));
+                }
+            }
+        }
+    }
+    r
+}
+
+fn packet(payload: &[u8]) -> RxPacket {
+    RxPacket {
+        channel: xbee_channel(Config::DEFAULT.sink_channel).unwrap(),
+        pan_id: Config::DEFAULT.pan_id,
+        source: Address::Short(Role::Agent.address(1)),
+        dest: Address::Short(Role::Sink.address(1)),
+        options: 0,
+        rssi_dbm: -50,
+        payload: payload.to_vec(),
+    }
+}
+
+fn encoded(r: &Report) -> Vec<u8> {
+    let mut buf = [0; 100];
+    let n = r.encode(&mut buf).unwrap();
+    buf[..n].to_vec()
+}
+
+#[test]
+fn a_report_waiting_in_the_ring_while_the_sink_is_busy_comes_out_intact() {
+    let mut avr = boot(Role::Sink);
+    let mut radio = XBee::new(XBeeConfig::api(2));
+    // The 2 s provisioning window, then the radio bring-up.
+    radio.run_for_ms(&mut avr, 2_700.0);
+    // Pairs of reports 20 ms apart (the first's frame takes ≈ 12 ms on the line), the pairs
+    // 300 ms apart: each pair's second frame waits whole in the ring. Eight pairs, so the ring's
+    // indices start each backlog at a different place.
+    let mut reports = Vec::new();
+    for k in 0..8u16 {
+        let t = 3_000.0 + 300.0 * f64::from(k);
+        for (n, dt) in [(0u16, 0.0), (1, 20.0)] {
+            let r = report(
+                2 * k + n,
+                [200.0 + 70.0 * f64::from(k), 300.0 + 50.0 * f64::from(n)],
+            );
+            radio.deliver(packet(&encoded(&r)), ms_to_cycles(t + dt));
+            reports.push(r);
+        }
+    }
+    radio.run_for_ms(&mut avr, 6_000.0);
+    let outputs: Vec<SinkOutput> = radio
+        .text_lines()
+        .iter()
+        .filter_map(|l| SinkOutput::parse(&l.text).ok())
+        .collect();
+    let raws: Vec<Vec<u8>> = outputs
+        .iter()
+        .filter_map(|o| match o {
+            SinkOutput::Report(r) => Some(RawReport::bytes(r).to_vec()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(raws, reports.iter().map(encoded).collect::<Vec<_>>());
+    let mut host = Sink::<Portable>::new(sink_fw::room(Position { x: 0, y: 0 }));
+    let want: Vec<SinkLine> = reports
+        .iter()
+        .flat_map(|r| host.on_report(r).unwrap().lines())
+        .collect();
+    let fixes: Vec<SinkLine> = outputs
+        .iter()
+        .filter_map(|o| match o {
+            SinkOutput::Line(l) if !matches!(l, SinkLine::Status { .. }) => Some(*l),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(fixes, want);
+}
