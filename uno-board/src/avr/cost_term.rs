@@ -408,35 +408,19 @@ pub fn term(lo: u32, carry: bool, rho: i32, lclamp: i32) -> u32 {
     u32::from_le_bytes([n0, n1, n2, n3])
 }
 
-/// [`loc_core::fixed::portable_column`], exactly; see the module docs.
+/// [`loc_core::fixed::portable_column`], exactly (for `sums.len() ≤ 255`); see the module
+/// docs. All of it in the assembly, no anchors (`n = 0`: every row not skipped costs 0) and no
+/// rows included: the Rust around an `asm!` block is what costs flash here.
 pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
-    let n = job.n.min(job.anchors.len() as u8);
-    if n == 0 || sums.is_empty() {
-        // No terms: rows not skipped cost 0.
-        (job.min, job.min_row) = (u32::MAX, 0);
-        for (r, s) in sums.iter_mut().enumerate() {
-            let skipped = job.skip & 1 != 0;
-            job.skip >>= 1;
-            *s = if skipped { u32::MAX } else { 0 };
-            if !skipped && job.bound > 0 && job.min == u32::MAX {
-                (job.min, job.min_row) = (0, (r as u8).wrapping_mul(job.stride));
-            }
-        }
-        return;
-    }
-    // The assembly reads both from the job. Rows × stride stays within the 8-bit fine offset
-    // (the searches use at most 11 × 5); a stride of 0 ends the loop after one row.
-    job.n = n;
-    job.rows = sums.len().min(255 / job.stride.max(1) as usize) as u8;
-    // SAFETY: X walks the first `rows` (1 to 255) sums, each written once (the row loop ends
-    // when the fine offset reaches rows·stride ≤ 255, so it never wraps); Z points at `job`
-    // (its address also kept in Y, whose value is saved on the stack and restored before the
-    // end; nothing here uses the frame): the loop reads its bound,
-    // its skip mask (shifting it in place) and its first `n` (1 to 8) anchors and writes their
-    // `dx2`; `lpm` reads 6 bytes of the log2 table per term as in [`term`]. Only the declared
-    // registers, r0, r1 (left at 0), the flags, Y (restored) and four stack bytes (Y, a return
-    // address) are written (and the
-    // job's `min`, `min_row`, `skip`, `end` and `dx2` fields).
+    let rows = sums.len().min(255) as u8;
+    // SAFETY: X walks the first `rows` (0 to 255) sums, each written once (the row loop counts
+    // them down in `job.rows`); Z points at `job` (its address also kept in Y, whose value is
+    // saved on the stack and restored before the end; nothing here uses the frame): the loop
+    // reads its bound, its skip mask (shifting it in place) and its first `min(n, MAX_ANCHORS)`
+    // anchors (that count kept in `job.end`) and writes their `dx2`; `lpm` reads 6 bytes of the
+    // log2 table per term as in [`term`]. Only the declared registers, r0, r1 (left at 0), the
+    // flags, Y (restored) and four stack bytes (Y, a return address) are written (and the job's
+    // `min`, `min_row`, `skip`, `rows`, `end` and `dx2` fields).
     unsafe {
         asm!(
             "clr r2",
@@ -450,13 +434,17 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "std Z+8, r16",
             "std Z+9, r16",
             "std Z+10, r2",
-            // ---- the row loop's end: rows·stride fine rows ----
-            "ldd r16, Z+5",
-            "ldd r17, Z+16",
-            "mul r16, r17",
-            "std Z+17, r0",
-            // ---- dx² of every anchor: dx = dx0 + col·xstep (24 bits) ----
+            // ---- rows left in `rows`; n (at most MAX_ANCHORS) in `end` ----
+            "std Z+5, r24",
             "ldd r23, Z+4",
+            "cpi r23, {n1}",
+            "brlo 47f",
+            "ldi r23, {n}",
+            "47:",
+            "std Z+17, r23",
+            "tst r23",
+            "breq 48f",
+            // ---- dx² of every anchor: dx = dx0 + col·xstep (24 bits) ----
             "ldd r22, Z+13",
             "ldd r24, Z+14",
             "ldd r25, Z+15",
@@ -476,6 +464,12 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "adiw r30, 20",
             "dec r23",
             "brne 8b",
+            "48:",
+            "ldd r16, Y+5",
+            "tst r16",
+            "brne 49f",
+            "rjmp 38f",
+            "49:",
             "clr r22",
             // ---- row at fine offset r22: skipped (the next bit of `skip`) → u32::MAX; else
             // room = bound ----
@@ -499,8 +493,19 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "ldd r19, Z+1",
             "ldd r20, Z+2",
             "ldd r21, Z+3",
-            "ldd r23, Z+4",
+            "ldd r23, Z+17",
             "adiw r30, 22",
+            "tst r23",
+            "brne 5f",
+            // No anchors: the sum 0, completed if below the bound.
+            "cp r18, r2",
+            "cpc r19, r2",
+            "cpc r20, r2",
+            "cpc r21, r2",
+            "breq 50f",
+            "rjmp 3f",
+            "50:",
+            "rjmp 35f",
             // ---- anchor at Z: dy = dy0 + r22·step (24 bits) ----
             "5:",
             "ldd r16, Y+20",
@@ -588,9 +593,10 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "37:",
             "ldd r16, Z+16",
             "add r22, r16",
-            "ldd r16, Z+17",
-            "cp r22, r16",
-            "brsh 38f",
+            "ldd r16, Z+5",
+            "dec r16",
+            "std Z+5, r16",
+            "breq 38f",
             "rjmp 1b",
             "38:",
             "pop r29",
@@ -608,13 +614,16 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
             "adc r17, r2",
             "ret",
             "46:",
+            n = const loc_core::MAX_ANCHORS,
+            n1 = const loc_core::MAX_ANCHORS + 1,
             inout("X") sums.as_mut_ptr() => _,
             inout("Z") &mut *job as *mut ColumnJob => _,
+            inout("r24") rows => _,
             out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
             out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r12") _,
             out("r13") _, out("r14") _, out("r15") _, out("r16") _, out("r17") _,
             out("r18") _, out("r19") _, out("r20") _, out("r21") _, out("r22") _,
-            out("r23") _, out("r24") _, out("r25") _,
+            out("r23") _, out("r25") _,
         );
     }
 }
@@ -634,11 +643,8 @@ pub fn column(sums: &mut [u32], job: &mut ColumnJob) {
 /// of the `u32` at Z by r15:r12 in place (Z += 4); 80 the `u32` at Z += r24:r22 × r17 (Z += 4).
 pub fn posterior(sums: &[u32], post: &mut Posterior) {
     let rows = sums.len().min(255) as u8;
-    if rows == 0 {
-        return;
-    }
     let table = (exp2_segment_table() as u16).to_le_bytes();
-    // SAFETY: X reads the first `rows` (1 to 255) sums; Y (saved on the stack and restored)
+    // SAFETY: X reads the first `rows` (0 to 255) sums; Y (saved on the stack and restored)
     // points at `post`, whose `cref`, `s`, `sx` and `sy` are written (through Z = Y + 13) and
     // whose other fields are read; `lpm` reads 4 bytes of the exp2 table (32 × 4 bytes in flash,
     // at `table`, segment < 32 by construction). Only the declared registers, r0, r1 (left
@@ -650,7 +656,10 @@ pub fn posterior(sums: &[u32], post: &mut Posterior) {
             "push r29",
             "movw r28, r30",
             "clr r2",
+            // Row −1 done: no rows, no work.
             "clr r3",
+            "dec r3",
+            "rjmp 9f",
             // ---- row r3: v = its cost; u32::MAX (a skipped row) weighs nothing ----
             "1:",
             "ld r22, X+",
