@@ -28,7 +28,7 @@ use super::kernel::{
     Weights, WINDOW_ROWS,
 };
 use super::refine::observations;
-use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
+use super::{AreaCm, Measurements, Obs, Observations, OnlineParams, PathLoss, PointMm, Refinement};
 use crate::grid::{Search, COARSE_DIVS, FINE_DIVS};
 use crate::LocError;
 use core::marker::PhantomData;
@@ -154,16 +154,8 @@ impl<K: TermKernel> Grid<K> {
     /// Inlined: a few stores around one call, smaller than a call's argument moves.)
     #[inline(always)]
     fn setup(&mut self, obs: &Observations, model: PathLoss, area: AreaCm) {
-        let g = self;
-        // The fine steps in lattice units: `W`, `H` (cm).
-        (g.l.job.xstep, g.l.job.ystep) = (area.width, area.height);
-        g.l.job.seg_base = log2_segment_base();
-        // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32. Strongest anchor
-        // first (`place`): its term grows fastest away from the winner, so evaluations stop
-        // after fewer terms. A completed cost is the same sum in any order, and one that
-        // reaches its bound is set to the bound: no result depends on it.
-        (g.l.s.p0, g.l.s.alpha) = (model.p0, model.alpha);
-        K::observe(&mut g.l.job, &mut g.l.s, obs.as_slice());
+        prepare(&mut self.l, model, area);
+        K::observe(&mut self.l.job, &mut self.l.s, obs.as_slice());
     }
 
     fn flat(&self) -> bool {
@@ -407,29 +399,10 @@ impl<K: TermKernel> Grid<K> {
         e.estimator = estimator;
         e
     }
-
-    /// The sink's search ([`mle_and_mmse_window_into`]) on the grid set up for `obs`: one
-    /// coarse stage, one pass over the fine window for both estimates ([`TermKernel::search`]).
-    /// (Inlined into its one caller: with the loops in the kernel few locals are left, and a
-    /// frame fewer is 25 bytes of the sink's stack and 14 of flash.)
-    #[inline(always)]
-    fn both(
-        &mut self,
-        f: &mut SinkLocals,
-        obs: &Observations,
-        sigma: u16,
-        out: &mut [Estimate; 2],
-    ) {
-        K::weights(self.l.s.k26, sigma, &mut f.post.wts);
-        K::search(&mut self.l, &mut f.best, &mut f.post);
-        K::finish(&self.l, f, obs.const_cost, out);
-        out[0].estimator = Estimator::Mle(Search::Thesis);
-        out[1].estimator = Estimator::MmseWindow { sigma };
-    }
 }
 
-/// [`Grid::both`]'s locals in one block (first in the sink's frame, where AVR reaches them with
-/// a displacement, not pointer arithmetic; zeroed memory, not a copy from flash;
+/// The sink search's locals in one block (first in its frame, [`SinkFrame`], where AVR reaches
+/// them with a displacement, not pointer arithmetic; zeroed memory, not a copy from flash;
 /// [`TermKernel::search`] sets the points and the posterior's reference, and
 /// [`TermKernel::finish`] reads them). `repr(C)` (on AVR: `best` 0, `post` 12): an assembly
 /// kernel reads it by offset.
@@ -440,6 +413,55 @@ pub struct SinkLocals {
     pub best: [LatticeMin; 2],
     /// The windowed posterior.
     pub post: Posterior,
+}
+
+/// The window's model and steps before its observations are set up (the grid's search and the
+/// sink's): the fine steps in lattice units `W`, `H` (cm), the log2 table, P0 and α.
+/// |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32. Strongest anchor first
+/// (`place`): its term grows fastest away from the winner, so evaluations stop after fewer
+/// terms. A completed cost is the same sum in any order, and one that reaches its bound is set
+/// to the bound: no result depends on it.
+#[inline(always)]
+fn prepare(l: &mut Lattice, model: PathLoss, area: AreaCm) {
+    (l.job.xstep, l.job.ystep) = (area.width, area.height);
+    l.job.seg_base = log2_segment_base();
+    (l.s.p0, l.s.alpha) = (model.p0, model.alpha);
+}
+
+/// The sink's search state, one block ([`mle_and_mmse_window_into`]'s frame): its small locals
+/// first, within AVR's displacement of a pointer, then the lattice. `repr(C)` (on AVR: `f` 0,
+/// `l` 38): an assembly kernel reads it by offset.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct SinkFrame {
+    /// The points and the posterior.
+    pub f: SinkLocals,
+    /// The lattice (prepared: steps, table, model).
+    pub l: Lattice,
+}
+
+impl SinkFrame {
+    /// All zero (zeroed memory, not a copy from flash, initialises it).
+    pub const ZERO: SinkFrame = SinkFrame {
+        f: SinkLocals::ZERO,
+        l: Lattice::EMPTY,
+    };
+}
+
+/// The reference of [`TermKernel::sink`]: [`TermKernel::observe`] of `obs` on the prepared
+/// lattice, [`TermKernel::weights`] for its `|K|` and σ, [`TermKernel::search`], then
+/// [`TermKernel::finish`] with `const_cost` into `out`.
+pub fn portable_sink<K: TermKernel>(
+    fr: &mut SinkFrame,
+    obs: &[Obs],
+    sigma: u16,
+    const_cost: u32,
+    out: &mut [Estimate; 2],
+) {
+    K::observe(&mut fr.l.job, &mut fr.l.s, obs);
+    K::weights(fr.l.s.k26, sigma, &mut fr.f.post.wts);
+    K::search(&mut fr.l, &mut fr.f.best, &mut fr.f.post);
+    K::finish(&fr.l, &fr.f, const_cost, out);
 }
 
 /// The reference of [`TermKernel::finish`]: both estimates of the sink's finished search `f`
@@ -671,18 +693,11 @@ pub fn mle_and_mmse_window_into<K: TermKernel>(
     out: &mut [Estimate; 2],
 ) -> Result<(), LocError> {
     check(obs)?;
-    // One block: the small locals first, within AVR's displacement of the frame pointer.
-    #[repr(C)]
-    struct Frame<K> {
-        f: SinkLocals,
-        g: Grid<K>,
-    }
-    let mut fr = Frame {
-        f: SinkLocals::ZERO,
-        g: Grid::<K>::EMPTY,
-    };
-    fr.g.setup(obs, model, area);
-    fr.g.both(&mut fr.f, obs, sigma, out);
+    let mut fr = SinkFrame::ZERO;
+    prepare(&mut fr.l, model, area);
+    K::sink(&mut fr, obs.as_slice(), sigma, obs.const_cost, out);
+    out[0].estimator = Estimator::Mle(Search::Thesis);
+    out[1].estimator = Estimator::MmseWindow { sigma };
     Ok(())
 }
 

@@ -15,7 +15,7 @@
 //! [`portable_weights`], [`div_shl`], [`mul_hi`]) is the reference every implementation must
 //! equal, bit for bit.
 
-use super::grid::{portable_finish, Estimate, SinkLocals};
+use super::grid::{portable_finish, portable_sink, Estimate, SinkFrame, SinkLocals};
 use super::math::{exp2_neg_q26, log2_fast, sq16, sq_q18};
 use super::refine::Obs;
 use super::tables;
@@ -125,6 +125,18 @@ pub trait TermKernel {
         Self: Sized,
     {
         portable_finish::<Self>(l, f, const_cost, out)
+    }
+
+    /// The sink's whole search on `fr`'s prepared lattice: exactly [`portable_sink`]`::<Self>(fr,
+    /// obs, sigma, const_cost, out)` (the default: observe, weights, search, finish;
+    /// `obs.len() ≤ MAX_ANCHORS`). A kernel overrides it to run the four as one routine (on AVR
+    /// one register save and one call instead of four).
+    #[inline(always)]
+    fn sink(fr: &mut SinkFrame, obs: &[Obs], sigma: u16, const_cost: u32, out: &mut [Estimate; 2])
+    where
+        Self: Sized,
+    {
+        portable_sink::<Self>(fr, obs, sigma, const_cost, out)
     }
 
     /// A search's coarse starting point (coarse indices, each ≤ 10) for `job` with its window
