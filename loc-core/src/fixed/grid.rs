@@ -428,24 +428,23 @@ fn prepare(l: &mut Lattice, model: PathLoss, area: AreaCm) {
     (l.s.p0, l.s.alpha) = (model.p0, model.alpha);
 }
 
-/// The sink's search state, one block ([`mle_and_mmse_window_into`]'s frame): the lattice
-/// first, its header (what [`prepare`] writes) within AVR's displacement of the frame pointer,
-/// then the small locals (only the kernel uses them). `repr(C)` (on AVR: `l` 0, `f` after it):
-/// an assembly kernel reads it by offset.
+/// The sink's search state, one block ([`mle_and_mmse_window_into`]'s frame): its small locals
+/// first, within AVR's displacement of a pointer, then the lattice. `repr(C)` (on AVR: `f` 0,
+/// `l` 38): an assembly kernel reads it by offset.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct SinkFrame {
-    /// The lattice (prepared: steps, table, model).
-    pub l: Lattice,
     /// The points and the posterior.
     pub f: SinkLocals,
+    /// The lattice (prepared: steps, table, model).
+    pub l: Lattice,
 }
 
 impl SinkFrame {
     /// All zero (zeroed memory, not a copy from flash, initialises it).
     pub const ZERO: SinkFrame = SinkFrame {
-        l: Lattice::EMPTY,
         f: SinkLocals::ZERO,
+        l: Lattice::EMPTY,
     };
 }
 

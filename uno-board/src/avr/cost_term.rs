@@ -83,8 +83,6 @@ const _: () = {
     // `finish`: best[1] at 6 (its cost at 8), k26 then flat_cost, PointMm's y after x, every
     // field it reaches within 63 bytes (the copy's size an 8-bit count).
     assert!(offset_of!(SinkLocals, best) == 0 && size_of::<LatticeMin>() == 6);
-    // `sink`: the lattice first (Y), the locals after it.
-    assert!(offset_of!(SinkFrame, l) == 0);
     assert!(offset_of!(Setup, flat_cost) == offset_of!(Setup, k26) + 4);
     assert!(offset_of!(PointMm, x) == 0 && offset_of!(PointMm, y) == 4);
     assert!(offset_of!(SinkLocals, post) + offset_of!(Posterior, sy) + 3 < 64);
@@ -2731,11 +2729,6 @@ pub fn finish(l: &Lattice, f: &SinkLocals, const_cost: u32, out: &mut [Estimate;
     }
 }
 
-/// `−x` in 16 bits (an address offset added with `subi`/`sbci`).
-const fn neg(x: usize) -> u16 {
-    (x as u16).wrapping_neg()
-}
-
 /// [`loc_core::fixed::portable_sink`]`::<AvrTerm>(fr, obs, sigma, const_cost, out)`, exactly:
 /// [`observe`], [`weights`], [`search`] and [`finish`] as one routine, their instruction texts
 /// one after the other (each takes its inputs in its registers and leaves nothing the next
@@ -2773,8 +2766,7 @@ pub fn sink(fr: &mut SinkFrame, obs: &[Obs], sigma: u16, const_cost: u32, out: &
             "ldd r24, Y+{fk2}",
             "ldd r25, Y+{fk3}",
             "movw r30, r28",
-            "subi r30, {nfw0}",
-            "sbci r31, {nfw1}",
+            "adiw r30, {fw}",
             weights_body!(),
             // ---- guess(&l.job) into r19:r18 (subroutine 97); search(l, &f.best, &f.post) ----
             "movw r30, r28",
@@ -2782,9 +2774,8 @@ pub fn sink(fr: &mut SinkFrame, obs: &[Obs], sigma: u16, const_cost: u32, out: &
             "rcall 97f",
             "movw r18, r24",
             "movw r24, r28",
+            "adiw r24, {fl}",
             "movw r22, r28",
-            "subi r22, {nff0}",
-            "sbci r23, {nff1}",
             "movw r20, r28",
             "subi r20, {nfp0}",
             "sbci r21, {nfp1}",
@@ -2797,9 +2788,8 @@ pub fn sink(fr: &mut SinkFrame, obs: &[Obs], sigma: u16, const_cost: u32, out: &
             "pop r21",
             "pop r20",
             "movw r24, r28",
+            "adiw r24, {fl}",
             "movw r22, r28",
-            "subi r22, {nff0}",
-            "sbci r23, {nff1}",
             finish_body!(),
             "pop r29",
             "pop r28",
@@ -2809,19 +2799,17 @@ pub fn sink(fr: &mut SinkFrame, obs: &[Obs], sigma: u16, const_cost: u32, out: &
             "ret",
             "98:",
             // glue
-            fj = const offset_of!(Lattice, job),
+            fj = const offset_of!(SinkFrame, l) + offset_of!(Lattice, job),
             n = const loc_core::MAX_ANCHORS,
             n1 = const loc_core::MAX_ANCHORS + 1,
-            fk0 = const offset_of!(Lattice, s) + offset_of!(Setup, k26),
-            fk1 = const offset_of!(Lattice, s) + offset_of!(Setup, k26) + 1,
-            fk2 = const offset_of!(Lattice, s) + offset_of!(Setup, k26) + 2,
-            fk3 = const offset_of!(Lattice, s) + offset_of!(Setup, k26) + 3,
-            nfw0 = const neg(offset_of!(SinkFrame, f) + offset_of!(SinkLocals, post) + offset_of!(Posterior, wts)) & 0xFF,
-            nfw1 = const neg(offset_of!(SinkFrame, f) + offset_of!(SinkLocals, post) + offset_of!(Posterior, wts)) >> 8,
-            nff0 = const neg(offset_of!(SinkFrame, f)) & 0xFF,
-            nff1 = const neg(offset_of!(SinkFrame, f)) >> 8,
-            nfp0 = const neg(offset_of!(SinkFrame, f) + offset_of!(SinkLocals, post)) & 0xFF,
-            nfp1 = const neg(offset_of!(SinkFrame, f) + offset_of!(SinkLocals, post)) >> 8,
+            fk0 = const offset_of!(SinkFrame, l) + offset_of!(Lattice, s) + offset_of!(Setup, k26),
+            fk1 = const offset_of!(SinkFrame, l) + offset_of!(Lattice, s) + offset_of!(Setup, k26) + 1,
+            fk2 = const offset_of!(SinkFrame, l) + offset_of!(Lattice, s) + offset_of!(Setup, k26) + 2,
+            fk3 = const offset_of!(SinkFrame, l) + offset_of!(Lattice, s) + offset_of!(Setup, k26) + 3,
+            fw = const offset_of!(SinkFrame, f) + offset_of!(SinkLocals, post) + offset_of!(Posterior, wts),
+            fl = const offset_of!(SinkFrame, l),
+            nfp0 = const ((offset_of!(SinkFrame, f) + offset_of!(SinkLocals, post)) as u16).wrapping_neg() & 0xFF,
+            nfp1 = const ((offset_of!(SinkFrame, f) + offset_of!(SinkLocals, post)) as u16).wrapping_neg() >> 8,
             // observe
             oz = const offset_of!(Obs, z),
             oz1 = const offset_of!(Obs, z) + 1,
