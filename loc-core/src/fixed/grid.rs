@@ -467,7 +467,7 @@ pub fn portable_sink<K: TermKernel>(
 /// The reference of [`TermKernel::finish`]: both estimates of the sink's finished search `f`
 /// on `l` into `out`, all but their `estimator`: the MLE's (the thesis' lattice point
 /// `f.best[1]` in mm, `C = K²·C'` (the flat cost if flat) plus `const_cost` saturating, the
-/// counts, [`window_evals`]`(f.best[0])[0]`), then the same into `out[1]` with the posterior
+/// counts, `window_evals(f.best[0])[0]`), then the same into `out[1]` with the posterior
 /// mean's position (unless it has no weight) and the window's evaluations. The area's sides are
 /// the job's steps.
 pub fn portable_finish<K: TermKernel>(
@@ -517,6 +517,7 @@ impl SinkLocals {
             s: 0,
             sx: 0,
             sy: 0,
+            table: core::ptr::null(),
         },
     };
 }

@@ -414,8 +414,8 @@ pub fn div_shl(a: u32, b: u32, e: u32) -> u32 {
 /// [`TermKernel::posterior`]: weights Q.20 relative to a reference cost `cref` that only ever
 /// decreases. In a search Σw < 2^27, Σw·c and Σw·r < 2^31: all `u32` (they wrap otherwise).
 ///
-/// `repr(C)` (on AVR: `cref` 0, `wts` 4, `col` 13, `s` 14, `sx` 18, `sy` 22; 26 bytes, on the
-/// sink's deepest stack path: the exp2 table's address is an argument of the AVR kernel).
+/// `repr(C)` (on AVR: `cref` 0, `wts` 4, `col` 13, `s` 14, `sx` 18, `sy` 22, `table` 26; 28
+/// bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct Posterior {
@@ -431,6 +431,9 @@ pub struct Posterior {
     pub sx: u32,
     /// …and `Σw·r`.
     pub sy: u32,
+    /// [`exp2_segment_table`], for kernels that read the table directly (the AVR one: there a
+    /// field, not an argument, lets the search call it as a local subroutine).
+    pub table: *const [u16; 2],
 }
 
 impl Posterior {
@@ -443,6 +446,7 @@ impl Posterior {
             s: 0,
             sx: 0,
             sy: 0,
+            table: exp2_segment_table(),
         }
     }
 
