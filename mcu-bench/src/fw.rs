@@ -128,7 +128,7 @@ fn kernel_inputs(i: u32, r: &mut u32) -> (u32, bool, i32, i32) {
     (lo, c.is_multiple_of(5), rho, clamp)
 }
 
-/// One pseudo-random [`loc_core::fixed::ColumnJob`] (1 to 8 anchors, 1 to 11 rows 1 to 5 fine
+/// One pseudo-random [`loc_core::fixed::ColumnJob`] (0 to 8 anchors: 0, no terms, 1 to 11 rows 1 to 5 fine
 /// rows apart, some skipped, shifts 0 to 7) and garbage in its sums (the kernel must overwrite
 /// them): the column's and every row's offsets stay below `2^16` after the anchor's shift, as
 /// the searches guarantee, except in one job in 8 (24-bit offsets anywhere: the kernels must
@@ -141,7 +141,7 @@ fn column_inputs(r: &mut u32, sums: &mut [u32; 11], job: &mut loc_core::fixed::C
     job.seg_base = loc_core::fixed::log2_segment_base();
     job.stride = 1 + ((b >> 8) % 5) as u8;
     let span = (rows - 1) as u32 * job.stride as u32;
-    let n = 1 + (b % 8) as u8;
+    let n = (b % 9) as u8;
     job.bound = match a % 4 {
         0 => u32::MAX,
         1 => next(),
@@ -248,14 +248,14 @@ fn column_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
 /// flat cost's unbounded span with `b = 0`, or any span with `ra` the fewest bits that bring it
 /// below 2^16, sometimes more up to 16, and `b` anywhere, so that `y` covers every shift, the
 /// cut-off at 27 and the wrap of `a·b`), a reference and sums so far anywhere, a column offset
-/// (0 to 10, one in 8 any byte) and 1 to 11 costs: at the reference or a little above it (within
+/// (0 to 10, one in 8 any byte) and 0 to 11 costs: at the reference or a little above it (within
 /// or beyond the span), below it (a new reference, weighing 1 to nothing), `u32::MAX` (a
 /// skipped row) or anything.
 fn posterior_inputs(r: &mut u32, sums: &mut [u32; 11]) -> (usize, u8, loc_core::fixed::Posterior) {
     use loc_core::fixed::{Posterior, Weights};
     let mut next = || xorshift(r);
     let (a, b, c) = (next(), next(), next());
-    let rows = 1 + (a % 11) as usize;
+    let rows = (a % 12) as usize;
     let wts = match b % 8 {
         0 => Weights {
             span: 1,

@@ -28,7 +28,7 @@ use super::kernel::{
     Weights, WINDOW_ROWS,
 };
 use super::refine::observations;
-use super::{AreaCm, Measurements, Observations, OnlineParams, PathLoss, PointMm, Refinement};
+use super::{AreaCm, Measurements, Obs, Observations, OnlineParams, PathLoss, PointMm, Refinement};
 use crate::grid::{Search, COARSE_DIVS, FINE_DIVS};
 use crate::LocError;
 use core::marker::PhantomData;
@@ -125,7 +125,7 @@ impl LatticeMin {
 /// coarse points); the window is `5·n − 4` columns by `5·m − 4` rows, `n`, `m` the coarse
 /// columns and rows in it (3 inside, 2 at a side), and the MLE skips its `n·m` coarse points.
 /// (Counted once here, not in the loops: a counter in the search loops costs flash on AVR.)
-fn window_evals(i: u8, j: u8) -> [u16; 2] {
+pub(crate) fn window_evals(i: u8, j: u8) -> [u16; 2] {
     let coarse_in = |c: u8| 1 + u8::from(c > 0) + u8::from(c < F8);
     let (n, m) = (coarse_in(i), coarse_in(j));
     let all = COARSE_EVALS + (5 * n - 4) as u16 * (5 * m - 4) as u16;
@@ -154,16 +154,8 @@ impl<K: TermKernel> Grid<K> {
     /// Inlined: a few stores around one call, smaller than a call's argument moves.)
     #[inline(always)]
     fn setup(&mut self, obs: &Observations, model: PathLoss, area: AreaCm) {
-        let g = self;
-        // The fine steps in lattice units: `W`, `H` (cm).
-        (g.l.job.xstep, g.l.job.ystep) = (area.width, area.height);
-        g.l.job.seg_base = log2_segment_base();
-        // |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32. Strongest anchor
-        // first (`place`): its term grows fastest away from the winner, so evaluations stop
-        // after fewer terms. A completed cost is the same sum in any order, and one that
-        // reaches its bound is set to the bound: no result depends on it.
-        (g.l.s.p0, g.l.s.alpha) = (model.p0, model.alpha);
-        K::observe(&mut g.l.job, &mut g.l.s, obs.as_slice());
+        prepare(&mut self.l, model, area);
+        K::observe(&mut self.l.job, &mut self.l.s, obs.as_slice());
     }
 
     fn flat(&self) -> bool {
@@ -407,43 +399,108 @@ impl<K: TermKernel> Grid<K> {
         e.estimator = estimator;
         e
     }
-
-    /// The sink's search ([`mle_and_mmse_window_into`]) on the grid set up for `obs`: one
-    /// coarse stage, one pass over the fine window for both estimates ([`TermKernel::search`]).
-    /// (Inlined into its one caller: with the loops in the kernel few locals are left, and a
-    /// frame fewer is 25 bytes of the sink's stack and 14 of flash.)
-    #[inline(always)]
-    fn both(
-        &mut self,
-        f: &mut SinkLocals,
-        obs: &Observations,
-        area: AreaCm,
-        sigma: u16,
-        out: &mut [Estimate; 2],
-    ) {
-        let (best, post) = (&mut f.best, &mut f.post);
-        K::weights(self.l.s.k26, sigma, &mut post.wts);
-        K::search(&mut self.l, best, post);
-        let evals = window_evals(best[0].i, best[0].j);
-        let best = &best[1];
-        let [mle, mmse] = out;
-        self.finish(obs, area, best, evals[0], mle);
-        mle.estimator = Estimator::Mle(Search::Thesis);
-        // The same lattice point and cost; its own position, estimator and evaluations.
-        *mmse = *mle;
-        post.mean::<K>(area, self.l.i0, self.l.j0, &mut mmse.pos);
-        mmse.estimator = Estimator::MmseWindow { sigma };
-        mmse.evaluations = evals[1];
-    }
 }
 
-/// [`Grid::both`]'s locals in one block (first in the sink's frame, where AVR reaches them with
-/// a displacement, not pointer arithmetic; zeroed memory, not a copy from flash;
-/// [`TermKernel::search`] sets the points and the posterior's reference).
+/// The sink search's locals in one block (first in its frame, [`SinkFrame`], where AVR reaches
+/// them with a displacement, not pointer arithmetic; zeroed memory, not a copy from flash;
+/// [`TermKernel::search`] sets the points and the posterior's reference, and
+/// [`TermKernel::finish`] reads them). `repr(C)` (on AVR: `best` 0, `post` 12): an assembly
+/// kernel reads it by offset.
 #[repr(C)]
-struct SinkLocals {
-    best: [LatticeMin; 2],
-    post: Posterior,
+#[derive(Clone, Copy, Debug)]
+pub struct SinkLocals {
+    /// The coarse winner and the thesis MLE ([`TermKernel::search`]'s `best`).
+    pub best: [LatticeMin; 2],
+    /// The windowed posterior.
+    pub post: Posterior,
+}
+
+/// The window's model and steps before its observations are set up (the grid's search and the
+/// sink's): the fine steps in lattice units `W`, `H` (cm), the log2 table, P0 and α.
+/// |ρ| ≤ 2^30 + 2^25: ρ plus the shift and any log2 d² stays an i32. Strongest anchor first
+/// (`place`): its term grows fastest away from the winner, so evaluations stop after fewer
+/// terms. A completed cost is the same sum in any order, and one that reaches its bound is set
+/// to the bound: no result depends on it.
+#[inline(always)]
+fn prepare(l: &mut Lattice, model: PathLoss, area: AreaCm) {
+    (l.job.xstep, l.job.ystep) = (area.width, area.height);
+    l.job.seg_base = log2_segment_base();
+    (l.s.p0, l.s.alpha) = (model.p0, model.alpha);
+}
+
+/// The sink's search state, one block ([`mle_and_mmse_window_into`]'s frame): its small locals
+/// first, within AVR's displacement of a pointer, then the lattice. `repr(C)` (on AVR: `f` 0,
+/// `l` 38): an assembly kernel reads it by offset.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct SinkFrame {
+    /// The points and the posterior.
+    pub f: SinkLocals,
+    /// The lattice (prepared: steps, table, model).
+    pub l: Lattice,
+}
+
+impl SinkFrame {
+    /// All zero (zeroed memory, not a copy from flash, initialises it).
+    pub const ZERO: SinkFrame = SinkFrame {
+        f: SinkLocals::ZERO,
+        l: Lattice::EMPTY,
+    };
+}
+
+/// The reference of [`TermKernel::sink`]: [`TermKernel::observe`] of `obs` on the prepared
+/// lattice, [`TermKernel::weights`] for its `|K|` and σ, [`TermKernel::search`], then
+/// [`TermKernel::finish`] with `const_cost` into `out`.
+pub fn portable_sink<K: TermKernel>(
+    fr: &mut SinkFrame,
+    obs: &[Obs],
+    sigma: u16,
+    const_cost: u32,
+    out: &mut [Estimate; 2],
+) {
+    K::observe(&mut fr.l.job, &mut fr.l.s, obs);
+    K::weights(fr.l.s.k26, sigma, &mut fr.f.post.wts);
+    K::search(&mut fr.l, &mut fr.f.best, &mut fr.f.post);
+    K::finish(&fr.l, &fr.f, const_cost, out);
+}
+
+/// The reference of [`TermKernel::finish`]: both estimates of the sink's finished search `f`
+/// on `l` into `out`, all but their `estimator`: the MLE's (the thesis' lattice point
+/// `f.best[1]` in mm, `C = K²·C'` (the flat cost if flat) plus `const_cost` saturating, the
+/// counts, `window_evals(f.best[0])[0]`), then the same into `out[1]` with the posterior
+/// mean's position (unless it has no weight) and the window's evaluations. The area's sides are
+/// the job's steps.
+pub fn portable_finish<K: TermKernel>(
+    l: &Lattice,
+    f: &SinkLocals,
+    const_cost: u32,
+    out: &mut [Estimate; 2],
+) {
+    let evals = window_evals(f.best[0].i, f.best[0].j);
+    let best = &f.best[1];
+    let [mle, mmse] = out;
+    let cost = if l.job.n == 0 {
+        l.s.flat_cost
+    } else {
+        // C = K²·C': K² Q.20 (< 2^32) × C' Q.20 → Q.8.
+        K::mul_hi(best.cost, K::mul_hi(l.s.k26, l.s.k26))
+    };
+    let (w, h) = (l.job.xstep, l.job.ystep);
+    mle.pos.x = to_mm(w, best.i, 0);
+    mle.pos.y = to_mm(h, best.j, 0);
+    mle.lattice = (best.i, best.j);
+    mle.min_cost = cost.saturating_add(const_cost);
+    mle.anchors = l.s.anchors;
+    mle.total_weight = l.s.weight;
+    mle.evaluations = evals[0];
+    // The same lattice point and cost; its own position and evaluations.
+    *mmse = *mle;
+    let p = &f.post;
+    if p.s != 0 {
+        mmse.pos.x = to_mm(w, l.i0, K::div_shl(p.sx, p.s, 12));
+        mmse.pos.y = to_mm(h, l.j0, K::div_shl(p.sy, p.s, 12));
+    }
+    mmse.evaluations = evals[1];
 }
 
 impl SinkLocals {
@@ -460,16 +517,18 @@ impl SinkLocals {
             s: 0,
             sx: 0,
             sy: 0,
+            table: core::ptr::null(),
         },
     };
 }
 
 /// `side·(o + f/2^12)/5` rounded: fine index `o` plus a fraction (`f ≤ 10·2^12`) in mm along a
 /// side of `side` cm (as [`AreaCm::lattice_mm`] for `f = 0`): `8·side·(…)` in Q.3 is below 2^32.
+/// (`side·f` wraps at 32 bits, as the assembly's.)
 #[inline(never)]
 fn to_mm(side: u16, o: u8, f: u32) -> u32 {
     let side = side as u32;
-    (side * o as u32 * 8 + ((side * f) >> 9) + 20) / 40
+    (side * o as u32 * 8 + (side.wrapping_mul(f) >> 9) + 20) / 40
 }
 
 fn check(obs: &Observations) -> Result<(), LocError> {
@@ -506,25 +565,6 @@ pub fn mle_with<K: TermKernel>(
         Search::Exhaustive => g.exhaustive(),
     };
     Ok(g.estimate(obs, area, &m, Estimator::Mle(search)))
-}
-
-impl Posterior {
-    /// The posterior mean of a window whose first point is `(i0, j0)`, mm, into `pos` (left
-    /// as it is if no weight; in place: a returned point is a stack copy on AVR).
-    fn mean<K: TermKernel>(&self, area: AreaCm, i0: u8, j0: u8, pos: &mut PointMm) {
-        if self.s == 0 {
-            return;
-        }
-        pos.x = mean_mm::<K>(area.width, i0, self.sx, self.s);
-        pos.y = mean_mm::<K>(area.height, j0, self.sy, self.s);
-    }
-}
-
-/// One coordinate of a posterior mean, mm: first index `o` plus the mean offset `Σw·k/Σw` (Q.12,
-/// ≤ 10 steps) along a side of `side` cm. (Out of line: one copy for both coordinates.)
-#[inline(never)]
-fn mean_mm<K: TermKernel>(side: u16, o: u8, swk: u32, sw: u32) -> u32 {
-    to_mm(side, o, K::div_shl(swk, sw, 12))
 }
 
 /// Posterior-mean position of `obs` under `model` within `area` with shadowing σ (Q.8 dB).
@@ -654,18 +694,11 @@ pub fn mle_and_mmse_window_into<K: TermKernel>(
     out: &mut [Estimate; 2],
 ) -> Result<(), LocError> {
     check(obs)?;
-    // One block: the small locals first, within AVR's displacement of the frame pointer.
-    #[repr(C)]
-    struct Frame<K> {
-        f: SinkLocals,
-        g: Grid<K>,
-    }
-    let mut fr = Frame {
-        f: SinkLocals::ZERO,
-        g: Grid::<K>::EMPTY,
-    };
-    fr.g.setup(obs, model, area);
-    fr.g.both(&mut fr.f, obs, area, sigma, out);
+    let mut fr = SinkFrame::ZERO;
+    prepare(&mut fr.l, model, area);
+    K::sink(&mut fr, obs.as_slice(), sigma, obs.const_cost, out);
+    out[0].estimator = Estimator::Mle(Search::Thesis);
+    out[1].estimator = Estimator::MmseWindow { sigma };
     Ok(())
 }
 

@@ -15,6 +15,7 @@
 //! [`portable_weights`], [`div_shl`], [`mul_hi`]) is the reference every implementation must
 //! equal, bit for bit.
 
+use super::grid::{portable_finish, portable_sink, Estimate, SinkFrame, SinkLocals};
 use super::math::{exp2_neg_q26, log2_fast, sq16, sq_q18};
 use super::refine::Obs;
 use super::tables;
@@ -112,6 +113,30 @@ pub trait TermKernel {
         Self: Sized,
     {
         portable_search::<Self>(l, best, post)
+    }
+
+    /// Both estimates of the sink's finished search (`f` from [`TermKernel::search`] on `l`)
+    /// into `out`, all but their `estimator`: exactly [`portable_finish`]`::<Self>(l, f,
+    /// const_cost, out)` (the default). A kernel overrides it: LLVM spends ≈ 700 bytes of AVR
+    /// flash on it (32-bit products and divisions, far frame slots).
+    #[inline(always)]
+    fn finish(l: &Lattice, f: &SinkLocals, const_cost: u32, out: &mut [Estimate; 2])
+    where
+        Self: Sized,
+    {
+        portable_finish::<Self>(l, f, const_cost, out)
+    }
+
+    /// The sink's whole search on `fr`'s prepared lattice: exactly [`portable_sink`]`::<Self>(fr,
+    /// obs, sigma, const_cost, out)` (the default: observe, weights, search, finish;
+    /// `obs.len() ≤ MAX_ANCHORS`). A kernel overrides it to run the four as one routine (on AVR
+    /// one register save and one call instead of four).
+    #[inline(always)]
+    fn sink(fr: &mut SinkFrame, obs: &[Obs], sigma: u16, const_cost: u32, out: &mut [Estimate; 2])
+    where
+        Self: Sized,
+    {
+        portable_sink::<Self>(fr, obs, sigma, const_cost, out)
     }
 
     /// A search's coarse starting point (coarse indices, each ≤ 10) for `job` with its window
@@ -389,8 +414,8 @@ pub fn div_shl(a: u32, b: u32, e: u32) -> u32 {
 /// [`TermKernel::posterior`]: weights Q.20 relative to a reference cost `cref` that only ever
 /// decreases. In a search Σw < 2^27, Σw·c and Σw·r < 2^31: all `u32` (they wrap otherwise).
 ///
-/// `repr(C)` (on AVR: `cref` 0, `wts` 4, `col` 13, `s` 14, `sx` 18, `sy` 22; 26 bytes, on the
-/// sink's deepest stack path: the exp2 table's address is an argument of the AVR kernel).
+/// `repr(C)` (on AVR: `cref` 0, `wts` 4, `col` 13, `s` 14, `sx` 18, `sy` 22, `table` 26; 28
+/// bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct Posterior {
@@ -406,6 +431,9 @@ pub struct Posterior {
     pub sx: u32,
     /// …and `Σw·r`.
     pub sy: u32,
+    /// [`exp2_segment_table`], for kernels that read the table directly (the AVR one: there a
+    /// field, not an argument, lets the search call it as a local subroutine).
+    pub table: *const [u16; 2],
 }
 
 impl Posterior {
@@ -418,6 +446,7 @@ impl Posterior {
             s: 0,
             sx: 0,
             sy: 0,
+            table: exp2_segment_table(),
         }
     }
 

@@ -111,7 +111,8 @@ mod tables;
 
 pub use grid::{
     estimate, estimate_with, locate, mle, mle_and_mmse_window_into, mle_and_mmse_window_with,
-    mle_with, mmse, mmse_window, mmse_window_with, mmse_with, sink_fix, Estimate, Estimator,
+    mle_with, mmse, mmse_window, mmse_window_with, mmse_with, portable_finish, portable_sink,
+    sink_fix, Estimate, Estimator, SinkFrame, SinkLocals,
 };
 pub use kernel::{
     div_shl, exp2_segment_table, log2_segment_base, log2_segment_table, mul_hi, offset_square,
