@@ -311,13 +311,17 @@ impl Fix {
 
     /// The two `fix` lines (MLE, then MMSE) of loc-proto's [`SinkLine`]: cm rounded from mm,
     /// α and P0 in hundredths, rounded.
-    pub fn lines(&self) -> [SinkLine; 2] {
-        [self.line(Estimator::Mle), self.line(Estimator::Mmse)]
+    /// `K`: the search's kernel, whose `mul_hi` makes the hundredths.
+    pub fn lines<K: TermKernel>(&self) -> [SinkLine; 2] {
+        [
+            self.line::<K>(Estimator::Mle),
+            self.line::<K>(Estimator::Mmse),
+        ]
     }
 
     /// The `fix` line of `estimator` (inlined: the firmware writes it where it builds it).
     #[inline]
-    pub fn line(&self, estimator: Estimator) -> SinkLine {
+    pub fn line<K: TermKernel>(&self, estimator: Estimator) -> SinkLine {
         let e = match estimator {
             Estimator::Mle => self.mle(),
             Estimator::Mmse => self.mmse(),
@@ -328,8 +332,8 @@ impl Fix {
             estimator,
             x: cm(e.pos.x),
             y: cm(e.pos.y),
-            alpha_x100: centi(self.model.alpha.max(0), 24) as u16,
-            p0_x100: centi(self.model.p0, 16) as i16,
+            alpha_x100: centi::<K>(self.model.alpha.max(0), 24) as u16,
+            p0_x100: centi::<K>(self.model.p0, 16) as i16,
             anchors: e.anchors,
             flags: if self.fitted { FLAG_FITTED } else { 0 },
         }
@@ -344,14 +348,16 @@ fn cm(mm: u32) -> i16 {
     ((mm.min(327_665) + 5) / 10) as i16
 }
 
-/// `v·100 / 2^q` rounded (half up), `q ≥ 8`, for `|v| ≤ 2^30`: `(v·100 + 2^(q−1)) >> q` in 32
-/// bits. With `v = 256·h + l` (`0 ≤ l < 256`), `v·100 + 2^(q−1) = 256·(100·h + 2^(q−9)) + 100·l`,
-/// and `⌊(256·a + b)/2^q⌋ = ⌊(a + ⌊b/256⌋)/2^(q−8)⌋`; `|100·h| < 2^29`. (A sink's α is within
-/// [`loc_core::fixed::ALPHA_LIMIT`] and its P0 within [`loc_core::fixed::P0_LIMIT`], both below
-/// 2^30.)
-fn centi(v: i32, q: u32) -> i32 {
-    let (h, l) = (v >> 8, v & 0xFF);
-    (100 * h + (1 << (q - 9)) + ((100 * l) >> 8)) >> (q - 8)
+/// `v·100 / 2^q` rounded (half up), `16 ≤ q ≤ 31`, for `|v| ≤ 2^30`, from the search's
+/// `K::mul_hi` (no 32-bit multiply: libgcc's `__mulsi3` & co., 80 B, would be linked for it
+/// alone). With `b = 200·2^16` (`bl = 0`) `mul_hi(a, b) = ⌊a·200 / 2^16⌋` exactly; `a = v + 2^31`
+/// is unsigned and adds `200·2^15` to that. Then `n = ⌊200·v / 2^q⌋ + 100·2^(32−q)` (nested
+/// floors), `⌊(n + 1) / 2⌋ = ⌊100·v / 2^q + 1/2⌋ + 100·2^(31−q)` (the offset is even), and the
+/// offset goes. (A sink's α is within [`loc_core::fixed::ALPHA_LIMIT`] and its P0 within
+/// [`loc_core::fixed::P0_LIMIT`], both below 2^30.)
+fn centi<K: TermKernel>(v: i32, q: u32) -> i32 {
+    let n = K::mul_hi(v as u32 ^ 1 << 31, 200 << 16) >> (q - 16);
+    ((n + 1) >> 1) as i32 - (100 << (31 - q))
 }
 
 /// The `nofix` line of agent `agent`'s report `seq` that failed with `e`.

@@ -186,7 +186,7 @@ fn fixes_and_failures_become_sink_lines_that_parse_back() {
     let f = s
         .on_measurements(5, 77, &report((300.0, 600.0), &[]))
         .unwrap();
-    let [mle, mmse] = f.lines();
+    let [mle, mmse] = f.lines::<Portable>();
     let SinkLine::Fix {
         agent,
         seq,
@@ -364,7 +364,7 @@ fn hundredths_are_the_64_bit_rounding() {
             _ => (x as i32) >> 1 >> (x >> 59),
         };
         for q in [16, 24] {
-            assert_eq!(centi(v, q), want(v, q), "{v} {q}");
+            assert_eq!(centi::<Portable>(v, q), want(v, q), "{v} {q}");
         }
     }
 }
