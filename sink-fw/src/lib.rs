@@ -311,17 +311,19 @@ impl Fix {
 
     /// The two `fix` lines (MLE, then MMSE) of loc-proto's [`SinkLine`]: cm rounded from mm,
     /// α and P0 in hundredths, rounded.
-    /// `K`: the search's kernel, whose `mul_hi` makes the hundredths.
-    pub fn lines<K: TermKernel>(&self) -> [SinkLine; 2] {
-        [
-            self.line::<K>(Estimator::Mle),
-            self.line::<K>(Estimator::Mmse),
-        ]
+    pub fn lines(&self) -> [SinkLine; 2] {
+        [self.line(Estimator::Mle), self.line(Estimator::Mmse)]
     }
 
     /// The `fix` line of `estimator` (inlined: the firmware writes it where it builds it).
     #[inline]
-    pub fn line<K: TermKernel>(&self, estimator: Estimator) -> SinkLine {
+    pub fn line(&self, estimator: Estimator) -> SinkLine {
+        self.line_with::<loc_core::fixed::Portable>(estimator)
+    }
+
+    /// [`Fix::line`] by `K`'s `mul_hi` (the firmware: its search kernel's, already linked).
+    #[inline]
+    pub fn line_with<K: TermKernel>(&self, estimator: Estimator) -> SinkLine {
         let e = match estimator {
             Estimator::Mle => self.mle(),
             Estimator::Mmse => self.mmse(),

@@ -156,9 +156,9 @@ mod lines {
     #[inline(never)]
     pub fn line(radio: &mut uno_board::NodeRadio, what: Line<'_>) {
         match what {
-            Line::Fix(fix, estimator) => {
-                fix.line::<uno_board::AvrTerm>(estimator).write(uart(radio))
-            }
+            Line::Fix(fix, estimator) => fix
+                .line_with::<uno_board::AvrTerm>(estimator)
+                .write(uart(radio)),
             Line::Status(counters) => counters.write_line(uart(radio)),
         }
     }

@@ -186,7 +186,7 @@ fn fixes_and_failures_become_sink_lines_that_parse_back() {
     let f = s
         .on_measurements(5, 77, &report((300.0, 600.0), &[]))
         .unwrap();
-    let [mle, mmse] = f.lines::<Portable>();
+    let [mle, mmse] = f.lines();
     let SinkLine::Fix {
         agent,
         seq,
