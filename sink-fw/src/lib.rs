@@ -358,7 +358,7 @@ fn cm(mm: u32) -> i16 {
 /// offset goes. (A sink's α is within [`loc_core::fixed::ALPHA_LIMIT`] and its P0 within
 /// [`loc_core::fixed::P0_LIMIT`], both below 2^30.)
 fn centi<K: TermKernel>(v: i32, q: u32) -> i32 {
-    let n = K::mul_hi(v as u32 ^ 1 << 31, 200 << 16) >> (q - 16);
+    let n = K::mul_hi((v as u32) ^ (1 << 31), 200 << 16) >> (q - 16);
     ((n + 1) >> 1) as i32 - (100 << (31 - q))
 }
 
