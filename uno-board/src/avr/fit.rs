@@ -29,10 +29,9 @@
 //! The solve's register plan: the job in Y (r29:r28, saved on the stack), its `stats` pointer in r3:r2;
 //! A = r25:r18 (`MUL`'s multiplicand and product, `DIV`'s dividend and quotient), B = r17:r10
 //! (`MUL`'s 32-bit factor in r13:r10, clobbered; `DIV`'s divisor, below 2^63, kept); r26/r27
-//! scratch and shift counts, T the division's sign, r8 the edge counter and r7:r6 its bound
-//! pointer; two 64-bit temporaries and
-//! the best candidate in 24 bytes of stack the routine reserves (at r5:r4: T, U, best), not in
-//! the job, which lives in the sink's frame during the position search; r1 is zero throughout.
+//! scratch and shift counts, T the division's sign, r8 the edge counter and r9 the best edge;
+//! two 64-bit temporaries in 16 bytes of stack the routine pushes (at r5:r4: T, U), not in the
+//! job, which lives in the sink's frame during the position search; r1 is zero throughout.
 
 use core::arch::asm;
 use core::mem::{offset_of, size_of};
@@ -591,12 +590,11 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
     // reference points to (40 bytes, offsets asserted in loc-core)
     // through Z; it writes only the job's `p0`, `alpha`, `sse` and `fitted`, the declared
     // registers, r0, r1 (left at 0), the flags, Y (saved on the stack and restored) and the
-    // stack below SP: 24 bytes it reserves by moving SP (interrupts off for the two writes, as
-    // avr-gcc does; restored at the end) and its own calls. STEP: both, on the `Smoothers` at
+    // stack below SP: 16 bytes it reserves by pushes (popped at the end) and its own calls. STEP: both, on the `Smoothers` at
     // r7:r6 (37 bytes, offsets asserted in loc-core), which it reads and writes.
     unsafe {
         asm!(
-            // ==== entry: Z = job; Y = job (saved), r3:r2 = stats, r5:r4 = 24 bytes of stack, r1 = 0 ====
+            // ==== entry: Z = job; Y = job (saved), r3:r2 = stats, r5:r4 = 16 bytes of stack, r1 = 0 ====
             "clr r1",
             "push r28",
             "push r29",
@@ -837,17 +835,17 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "std Y+12, r26",
             "ret",
             // ==== SOLVE: the job at Y ====
+            // (T and U in 16 bytes of stack: r5:r4 = SP − 15, then 16 pushes; no SREG/cli dance)
             "70:",
             "in r26, 0x3d",
             "in r27, 0x3e",
-            "sbiw r26, 16",
-            "in r0, 0x3f",
-            "cli",
-            "out 0x3e, r27",
-            "out 0x3f, r0",
-            "out 0x3d, r26",
-            "adiw r26, 1",
+            "sbiw r26, 15",
             "movw r4, r26",
+            "ldi r26, 16",
+            "120:",
+            "push r1",
+            "dec r26",
+            "brne 120b",
             "ldd r2, Y+0",
             "ldd r3, Y+1",
             "ldd r26, Y+34",
@@ -911,14 +909,11 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "rcall 28f",
             "rcall 92f",
             "17:",
-            "in r26, 0x3d",
-            "in r27, 0x3e",
-            "adiw r26, 16",
-            "in r0, 0x3f",
-            "cli",
-            "out 0x3e, r27",
-            "out 0x3f, r0",
-            "out 0x3d, r26",
+            "ldi r26, 16",
+            "121:",
+            "pop r0",
+            "dec r26",
+            "brne 121b",
             "ret",
             // ==== both: α = (Σx·Σb − n·Σxb)/dxx, P0 for it; inside the box: done ====
             "18:",
