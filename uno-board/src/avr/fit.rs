@@ -943,9 +943,10 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "brts 19f",
             "rjmp 16b",
             // ==== outside: the best of the four edges (r8 = edge, its bound at Y+2+4·r8; r9 =
-            // the best so far). The best is not copied: once all four are tried, its candidate is
-            // computed again (r8 = r9 + 0x80: bit 7 marks that pass, the bound's offset drops it)
-            // and left in the job, its residual sum already there ====
+            // the best so far, 0 on entry: x's top byte, 0 for FIT and STEP). The best is not
+            // copied: once all four are tried, its candidate is computed again (r8 = r9, then
+            // r9 complemented: bit 7 marks that pass) and left in the job, its residual sum
+            // already there ====
             "19:",
             "clr r8",
             "20:",
@@ -985,7 +986,7 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "rcall 44f",
             "rcall 32f",
             "24:",
-            "sbrc r8, 7",
+            "sbrc r9, 7",
             "rjmp 17b",
             "rcall 28f",
             "tst r8",
@@ -1003,8 +1004,7 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "sbrs r8, 2",
             "rjmp 20b",
             "mov r8, r9",
-            "set",
-            "bld r8, 7",
+            "com r9",
             "rjmp 20b",
             // ==== SSE: A = the residual sum at (Y+18, Y+22) (CalStats::sse_at) ====
             "28:",
@@ -1026,10 +1026,8 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "rcall 54f",
             "rcall 97f",
             "rcall 102f",
-            "ldi r26, 16",
-            "rcall 54f",
-            "ldi r27, 1",
-            "rcall 58f",
+            "rcall 122f",
+            "rcall 123f",
             "rcall 49f",
             "rcall 95f",
             "rcall 47f",
@@ -1063,8 +1061,7 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "movw r22, r18",
             "movw r24, r18",
             "29:",
-            "ldi r26, 16",
-            "rjmp 54f",
+            "rjmp 122f",
             // ==== SETA: α = r21:r18 stored, P0 = the best for it clamped stored; ST18/ST22 store r21:r18 ====
             "30:",
             "rcall 32f",
@@ -1110,8 +1107,7 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             // ==== AFOR: r21:r18 = the best α for P0 = r21:r18 (CalStats::alpha_for, Σx² > 0) ====
             "34:",
             "rcall 111f",
-            "ldi r26, 16",
-            "rcall 54f",
+            "rcall 122f",
             "rcall 95f",
             "rcall 47f",
             "rcall 49f",
@@ -1135,8 +1131,7 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "breq 40f",
             "cpi r25, 0x20",
             "brsh 39f",
-            "ldi r27, 1",
-            "rcall 58f",
+            "rcall 123f",
             "dec r26",
             "rjmp 36b",
             "39:",
@@ -1151,8 +1146,7 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "dec r26",
             "brne 39b",
             "40:",
-            "ldi r27, 1",
-            "rcall 58f",
+            "rcall 123f",
             "rcall 50f",
             "ror r25",
             "ror r24",
@@ -1278,7 +1272,9 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "com r18",
             "ldi r26, 1",
             "rjmp 52b",
-            // ==== A >>= r26 (arithmetic) ====
+            // ==== A >>= r26 (arithmetic; 16 at 122) ====
+            "122:",
+            "ldi r26, 16",
             "54:",
             "cpi r26, 8",
             "brlo 55f",
@@ -1309,7 +1305,9 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "brne 56b",
             "57:",
             "ret",
-            // ==== A <<= r26 (≥ 1) ====
+            // ==== A <<= r27 (≥ 1; 1 at 123) ====
+            "123:",
+            "ldi r27, 1",
             "58:",
             "lsl r18",
             "rol r19",
