@@ -594,7 +594,8 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
     // r7:r6 (37 bytes, offsets asserted in loc-core), which it reads and writes.
     unsafe {
         asm!(
-            // ==== entry: Z = job; Y = job (saved), r3:r2 = stats, r5:r4 = 16 bytes of stack, r1 = 0 ====
+            // ==== entry: Z = job; Y = job (saved), r1 = 0; SOLVE: r3:r2 = stats (loaded by FIT
+            // and STEP), r5:r4 = 16 bytes of stack ====
             "clr r1",
             "push r28",
             "push r29",
@@ -604,6 +605,8 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "movw r20, r8",
             "rcall 71f",
             ".elseif {op} == 0",
+            "ldd r2, Y+0",
+            "ldd r3, Y+1",
             "rcall 70f",
             ".else",
             // ==== STEP: Y = job, r7:r6 = the smoothers (s) ====
@@ -612,15 +615,14 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "movw r30, r6",
             "rcall 75f",
             // something to fit and no samples: nothing changes
+            "ldd r2, Y+0",
+            "ldd r3, Y+1",
             "ldd r26, Y+34",
             "tst r26",
             "breq 76f",
-            "ldd r2, Y+0",
-            "ldd r3, Y+1",
             "rcall 99f",
             "or r10, r11",
-            "brne 76f",
-            "rjmp 81f",
+            "breq 81f",
             "76:",
             "push r26",
             "rcall 70f",
@@ -834,7 +836,7 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "ldi r26, 1",
             "std Y+12, r26",
             "ret",
-            // ==== SOLVE: the job at Y ====
+            // ==== SOLVE: the job at Y, its stats at r3:r2 ====
             // (T and U in 16 bytes of stack: r5:r4 = SP − 15, then 16 pushes; no SREG/cli dance)
             "70:",
             "in r26, 0x3d",
@@ -846,16 +848,11 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "push r1",
             "dec r26",
             "brne 120b",
-            "ldd r2, Y+0",
-            "ldd r3, Y+1",
             "ldd r26, Y+34",
             "tst r26",
-            "brne 10f",
-            "rjmp 16f",
-            "10:",
+            "breq 16f",
             "cpi r26, 2",
-            "breq 11f",
-            "rjmp 14f",
+            "brne 14f",
             // ==== mode 2: T = dxx = n·Σx² − (Σx)² ====
             "11:",
             "rcall 46f",
@@ -891,8 +888,7 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "rcall 59f",
             "rcall 51f",
             "brlo 13f",
-            "breq 13f",
-            "rjmp 18f",
+            "brne 18f",
             // ==== α not fitted: P0 alone (mode 2: for the prior's α clamped to the bounds) ====
             "13:",
             "ldi r26, 1",
@@ -940,8 +936,7 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "rcall 43f",
             "rcall 93f",
             "rcall 44f",
-            "brts 19f",
-            "rjmp 16b",
+            "brtc 16b",
             // ==== outside: the best of the four edges (r8 = edge, its bound at Y+2+4·r8; r9 =
             // the best so far, 0 on entry: x's top byte, 0 for FIT and STEP). The best is not
             // copied: once all four are tried, its candidate is computed again (r8 = r9, then
