@@ -29,7 +29,7 @@
 //! The solve's register plan: the job in Y (r29:r28, saved on the stack), its `stats` pointer in r3:r2;
 //! A = r25:r18 (`MUL`'s multiplicand and product, `DIV`'s dividend and quotient), B = r17:r10
 //! (`MUL`'s 32-bit factor in r13:r10, clobbered; `DIV`'s divisor, below 2^63, kept); r26/r27
-//! scratch and shift counts, T the division's sign, r8 the edge counter and r9 the best edge;
+//! scratch and shift counts, T the division's sign, r8 four times the edge and r9 the best's;
 //! two 64-bit temporaries in 16 bytes of stack the routine pushes (at r5:r4: T, U), not in the
 //! job, which lives in the sink's frame during the position search; r1 is zero throughout.
 
@@ -931,23 +931,20 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "rcall 93f",
             "rcall 44f",
             "brtc 16b",
-            // ==== outside: the best of the four edges (r8 = edge, its bound at Y+2+4·r8; r9 =
+            // ==== outside: the best of the four edges (r8 = 4·edge, its bound at Y+2+r8; r9 =
             // the best so far, 0 on entry: x's top byte, 0 for FIT and STEP). The best is not
             // copied: once all four are tried, its candidate is computed again (r8 = r9, then
             // r9 complemented: bit 7 marks that pass) and left in the job, its residual sum
-            // already there ====
+            // recomputed (SOLVE returns it) ====
             "19:",
             "clr r8",
             "20:",
-            "mov r0, r8",
-            "lsl r0",
-            "lsl r0",
             "movw r30, r28",
             "adiw r30, 2",
-            "add r30, r0",
+            "add r30, r8",
             "adc r31, r1",
             "rcall 63f",
-            "sbrc r8, 1",
+            "sbrc r8, 3",
             "rjmp 21f",
             // α on an edge, the best P0 for it clamped
             "rcall 30f",
@@ -983,8 +980,9 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "rcall 92f",
             "mov r9, r8",
             "26:",
-            "inc r8",
-            "sbrs r8, 2",
+            "ldi r26, 4",
+            "add r8, r26",
+            "sbrs r8, 4",
             "rjmp 20b",
             "mov r8, r9",
             "com r9",
