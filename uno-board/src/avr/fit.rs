@@ -921,13 +921,7 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "movw r30, r4",
             "rcall 60f",
             "rcall 45f",
-            "rcall 32f",
-            "rcall 33f",
-            "rcall 31f",
-            "clt",
-            "movw r30, r28",
-            "adiw r30, 10",
-            "rcall 43f",
+            "rcall 30f",
             "rcall 93f",
             "rcall 44f",
             "brtc 16b",
@@ -1043,10 +1037,12 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "movw r24, r18",
             "29:",
             "rjmp 122f",
-            // ==== SETA: α = r21:r18 stored, P0 = the best for it clamped stored; ST18/ST22 store r21:r18 ====
+            // ==== SETA: α = r21:r18 stored, P0 = the best for it clamped stored (T set if the clamp
+            // changed it); ST18/ST22 store r21:r18 ====
             "30:",
             "rcall 32f",
             "rcall 33f",
+            "clt",
             "movw r30, r28",
             "adiw r30, 10",
             "rcall 43f",
