@@ -1078,6 +1078,7 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "adc r23, r1",
             "adc r24, r1",
             "adc r25, r1",
+            "126:",
             "ret",
             // ==== AFOR: r21:r18 = the best α for P0 = r21:r18 (CalStats::alpha_for, Σx² > 0) ====
             "34:",
@@ -1143,9 +1144,7 @@ fn kernel<const OP: u8>(p: *mut u8, x: i32) -> i32 {
             "clr r20",
             "mov r21, r26",
             "42:",
-            "brts 112f",
-            "ret",
-            "112:",
+            "brtc 126b",
             "rjmp 53f",
             // ==== CLAMP: r21:r18 limited to [Z+0, Z+4] (i32), T set if it changed ====
             "44:",
