@@ -77,14 +77,14 @@
 //! rows × anchors, the early exit at the bound and the column's minimum — in AVR assembly
 //! ([`TermKernel::column`], `uno_board::AvrTerm`): calibration statistics of the 6 anchor pairs
 //! ≈ 10 k cycles (the log, x, the sums in AVR assembly), the sink's least-squares round (fit,
-//! both AR(1) smoothers, σ) ≈ 12 k, Extended refinement ≈ 6 k, thesis MLE ≈ 115 k (312 anchor
+//! both AR(1) smoothers, σ; its multiply and divide written for flash) ≈ 19 k, Extended refinement ≈ 6 k, thesis MLE ≈ 113 k (312 anchor
 //! terms of the 932 a full evaluation takes, ≈ 300 cycles each with their row's share of the
-//! loop), ≈ 143 k in all (8.9 ms, 27× fewer than the same algorithm in f32): within the 160 k
+//! loop), ≈ 148 k in all (9.3 ms, 26× fewer than the same algorithm in f32): within the 160 k
 //! budget (`cargo bench -p hoploc --bench mcu_estimate`). The windowed MMSE (the sink's,
-//! [`mmse_window`]) is ≈ 256 k (≈ 284 k for the whole step): its weights need every window cost
+//! [`mmse_window`]) is ≈ 253 k (≈ 288 k for the whole step): its weights need every window cost
 //! up to 21 bits of weight below the best, so the early exits hardly ever fire. The sink's search
 //! ([`mle_and_mmse_window_into`] with the assembly setup, driver, column, posterior and weights,
-//! and the two tables) is ≈ 6.2 KB of flash in `sink-fw` (README, Footprint); its stack,
+//! and the two tables) is ≈ 4.9 KB of flash in `sink-fw` (README, Footprint); its stack,
 //! ≈ 0.4 KB below `Sink::locate`, is most of the way from the sink's report handler to its
 //! deepest point. Stack peak of `est-fixed` ≈ 1.1 KB.
 //!

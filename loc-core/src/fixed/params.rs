@@ -440,7 +440,7 @@ pub fn fit_least_squares_with<K: FitKernel>(
 }
 
 /// The least-squares solve of [`fit_least_squares`] for one [`FitJob`] (and the AR(1) step):
-/// [`PortableFit`] here, `uno_board::AvrFit` on the sink (one routine in AVR assembly: 1.5 KB
+/// [`PortableFit`] here, `uno_board::AvrFit` on the sink (one routine in AVR assembly: 1.6 KB
 /// where LLVM's 64-bit code took 3.8 KB). Both leave exactly the same results.
 pub trait FitKernel {
     /// Reads the job's inputs, writes `p0`, `alpha`, `sse` and `fitted` (see [`FitJob`]).
