@@ -84,3 +84,68 @@ pub const UART_BYTE_MS: f64 = loc_proto::schedule::UART_BYTE_NS as f64 / 1e6;
 pub fn rx_frame_delivery(tx_ms: f64, payload_len: usize) -> f64 {
     tx_ms + (9 + payload_len) as f64 * UART_BYTE_MS + simavr::xbee::time_on_air_ms(payload_len)
 }
+
+/// Agent 1's reports to a sink, for the sink firmware's tests: four anchors at the corners of a
+/// 10 m × 10 m room, RSSI bytes from P0 = −40 dBm, α = 3 with no noise.
+pub mod sink_reports {
+    use loc_proto::config::Config;
+    use loc_proto::msg::{ChannelList, Position, Report};
+    use loc_proto::{xbee_channel, Role};
+    use simavr::xbee::{Address, RxPacket};
+
+    /// The anchors' positions, cm.
+    pub const ANCHORS: [[i16; 2]; 4] = [[0, 0], [1000, 0], [1000, 1000], [0, 1000]];
+    /// Every anchor heard.
+    pub const ALL: &[usize] = &[0, 1, 2, 3];
+
+    /// The RSSI byte (−dBm, rounded) at `d_cm` under P0 = −40 dBm, α = 3.
+    fn byte(d_cm: f64) -> u8 {
+        (40.0 + 30.0 * (d_cm / 100.0).max(0.01).log10()).round() as u8
+    }
+
+    fn dist(a: [i16; 2], b: [f64; 2]) -> f64 {
+        ((a[0] as f64 - b[0]).powi(2) + (a[1] as f64 - b[1]).powi(2)).sqrt()
+    }
+
+    /// Agent 1's report of superframe `seq` from `at` (cm), anchors in `heard` only, channels 1
+    /// and 12.
+    pub fn report(seq: u16, at: [f64; 2], heard: &[usize]) -> Report {
+        let mut r = Report::new(1, seq, 4, ChannelList::new(&[1, 12]).unwrap());
+        for &i in heard {
+            r.positions[i] = Position {
+                x: ANCHORS[i][0],
+                y: ANCHORS[i][1],
+            };
+            for c in 0..2 {
+                r.rssi[c][i] = byte(dist(ANCHORS[i], at));
+                for &j in heard {
+                    if i != j {
+                        let b = ANCHORS[j];
+                        r.relay[c][i][j] = byte(dist(ANCHORS[i], [b[0] as f64, b[1] as f64]));
+                    }
+                }
+            }
+        }
+        r
+    }
+
+    /// `payload` as agent 1's packet to sink 1 on the default config's sink channel.
+    pub fn packet(payload: &[u8]) -> RxPacket {
+        RxPacket {
+            channel: xbee_channel(Config::DEFAULT.sink_channel).unwrap(),
+            pan_id: Config::DEFAULT.pan_id,
+            source: Address::Short(Role::Agent.address(1)),
+            dest: Address::Short(Role::Sink.address(1)),
+            options: 0,
+            rssi_dbm: -50,
+            payload: payload.to_vec(),
+        }
+    }
+
+    /// `r`'s bytes on the air.
+    pub fn encoded(r: &Report) -> Vec<u8> {
+        let mut buf = [0; 100];
+        let n = r.encode(&mut buf).unwrap();
+        buf[..n].to_vec()
+    }
+}

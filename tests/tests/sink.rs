@@ -9,65 +9,16 @@
 //! as a `report` line (what `hoploc replay` reads).
 
 use hoploc_tests::boot;
+use hoploc_tests::sink_reports::{encoded, packet, report, ALL};
 use loc_core::fixed::Portable;
 use loc_proto::config::Config;
 use loc_proto::line::BootLine;
-use loc_proto::msg::{ChannelList, Position, Report};
+use loc_proto::msg::Position;
 use loc_proto::sink_line::{Estimator, RawReport, SinkLine, SinkOutput};
 use loc_proto::{xbee_channel, Role};
 use simavr::ms_to_cycles;
-use simavr::xbee::{Address, RxPacket, XBee, XBeeConfig};
+use simavr::xbee::{XBee, XBeeConfig};
 use sink_fw::Sink;
-
-const ANCHORS: [[i16; 2]; 4] = [[0, 0], [1000, 0], [1000, 1000], [0, 1000]];
-
-/// The RSSI byte (−dBm, rounded) at `d_cm` under P0 = −40 dBm, α = 3.
-fn byte(d_cm: f64) -> u8 {
-    (40.0 + 30.0 * (d_cm / 100.0).max(0.01).log10()).round() as u8
-}
-
-fn dist(a: [i16; 2], b: [f64; 2]) -> f64 {
-    ((a[0] as f64 - b[0]).powi(2) + (a[1] as f64 - b[1]).powi(2)).sqrt()
-}
-
-/// Agent 1's report of superframe `seq` from `at` (cm), anchors in `heard` only.
-fn report(seq: u16, at: [f64; 2], heard: &[usize]) -> Report {
-    let mut r = Report::new(1, seq, 4, ChannelList::new(&[1, 12]).unwrap());
-    for &i in heard {
-        r.positions[i] = Position {
-            x: ANCHORS[i][0],
-            y: ANCHORS[i][1],
-        };
-        for c in 0..2 {
-            r.rssi[c][i] = byte(dist(ANCHORS[i], at));
-            for &j in heard {
-                if i != j {
-                    let b = ANCHORS[j];
-                    r.relay[c][i][j] = byte(dist(ANCHORS[i], [b[0] as f64, b[1] as f64]));
-                }
-            }
-        }
-    }
-    r
-}
-
-fn packet(payload: &[u8]) -> RxPacket {
-    RxPacket {
-        channel: xbee_channel(Config::DEFAULT.sink_channel).unwrap(),
-        pan_id: Config::DEFAULT.pan_id,
-        source: Address::Short(Role::Agent.address(1)),
-        dest: Address::Short(Role::Sink.address(1)),
-        options: 0,
-        rssi_dbm: -50,
-        payload: payload.to_vec(),
-    }
-}
-
-fn encoded(r: &Report) -> Vec<u8> {
-    let mut buf = [0; 100];
-    let n = r.encode(&mut buf).unwrap();
-    buf[..n].to_vec()
-}
 
 #[test]
 fn the_sink_writes_a_fix_per_report_and_counts_what_it_could_not_use() {
@@ -86,9 +37,9 @@ fn the_sink_writes_a_fix_per_report_and_counts_what_it_could_not_use() {
     // Reports 7, 8, 10 (9 lost), one with two anchors only (11), a foreign packet and a
     // broken report between them.
     let reports = [
-        report(7, [300.0, 600.0], &[0, 1, 2, 3]),
-        report(8, [500.0, 500.0], &[0, 1, 2, 3]),
-        report(10, [850.0, 120.0], &[0, 1, 2, 3]),
+        report(7, [300.0, 600.0], ALL),
+        report(8, [500.0, 500.0], ALL),
+        report(10, [850.0, 120.0], ALL),
         report(11, [500.0, 500.0], &[0, 2]),
     ];
     let mut at = 3_000.0;
@@ -203,7 +154,7 @@ fn a_burst_of_reports_faster_than_the_sink_neither_resets_nor_stalls_it() {
     radio.run_for_ms(&mut avr, 2_700.0);
     let (burst, period_ms) = (60u16, 50.0);
     for seq in 0..burst {
-        let r = report(seq, [300.0 + f64::from(seq), 600.0], &[0, 1, 2, 3]);
+        let r = report(seq, [300.0 + f64::from(seq), 600.0], ALL);
         radio.deliver(
             packet(&encoded(&r)),
             ms_to_cycles(3_000.0 + period_ms * f64::from(seq)),
@@ -211,7 +162,7 @@ fn a_burst_of_reports_faster_than_the_sink_neither_resets_nor_stalls_it() {
     }
     let after = 3_000.0 + period_ms * f64::from(burst) + 1_000.0;
     radio.deliver(
-        packet(&encoded(&report(burst, [500.0, 500.0], &[0, 1, 2, 3]))),
+        packet(&encoded(&report(burst, [500.0, 500.0], ALL))),
         ms_to_cycles(after),
     );
     radio.run_for_ms(&mut avr, 10_000.0);

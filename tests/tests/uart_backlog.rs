@@ -8,60 +8,14 @@
 //! lost reports, so a ring that wraps its read and write indices differently passed them.)
 
 use hoploc_tests::boot;
+use hoploc_tests::sink_reports::{encoded, packet, report, ALL};
 use loc_core::fixed::Portable;
-use loc_proto::config::Config;
-use loc_proto::msg::{ChannelList, Position, Report};
+use loc_proto::msg::Position;
 use loc_proto::sink_line::{RawReport, SinkLine, SinkOutput};
-use loc_proto::{xbee_channel, Role};
+use loc_proto::Role;
 use simavr::ms_to_cycles;
-use simavr::xbee::{Address, RxPacket, XBee, XBeeConfig};
+use simavr::xbee::{XBee, XBeeConfig};
 use sink_fw::Sink;
-
-const ANCHORS: [[i16; 2]; 4] = [[0, 0], [1000, 0], [1000, 1000], [0, 1000]];
-
-/// The RSSI byte (−dBm, rounded) at `d_cm` under P0 = −40 dBm, α = 3.
-fn byte(d_cm: f64) -> u8 {
-    (40.0 + 30.0 * (d_cm / 100.0).max(0.01).log10()).round() as u8
-}
-
-fn dist(a: [i16; 2], b: [f64; 2]) -> f64 {
-    ((a[0] as f64 - b[0]).powi(2) + (a[1] as f64 - b[1]).powi(2)).sqrt()
-}
-
-/// Agent 1's report of superframe `seq` from `at` (cm), all four anchors heard.
-fn report(seq: u16, at: [f64; 2]) -> Report {
-    let mut r = Report::new(1, seq, 4, ChannelList::new(&[1, 12]).unwrap());
-    for (i, a) in ANCHORS.iter().enumerate() {
-        r.positions[i] = Position { x: a[0], y: a[1] };
-        for c in 0..2 {
-            r.rssi[c][i] = byte(dist(*a, at));
-            for (j, b) in ANCHORS.iter().enumerate() {
-                if i != j {
-                    r.relay[c][i][j] = byte(dist(*a, [b[0] as f64, b[1] as f64]));
-                }
-            }
-        }
-    }
-    r
-}
-
-fn packet(payload: &[u8]) -> RxPacket {
-    RxPacket {
-        channel: xbee_channel(Config::DEFAULT.sink_channel).unwrap(),
-        pan_id: Config::DEFAULT.pan_id,
-        source: Address::Short(Role::Agent.address(1)),
-        dest: Address::Short(Role::Sink.address(1)),
-        options: 0,
-        rssi_dbm: -50,
-        payload: payload.to_vec(),
-    }
-}
-
-fn encoded(r: &Report) -> Vec<u8> {
-    let mut buf = [0; 100];
-    let n = r.encode(&mut buf).unwrap();
-    buf[..n].to_vec()
-}
 
 #[test]
 fn a_report_waiting_in_the_ring_while_the_sink_is_busy_comes_out_intact() {
@@ -79,6 +33,7 @@ fn a_report_waiting_in_the_ring_while_the_sink_is_busy_comes_out_intact() {
             let r = report(
                 2 * k + n,
                 [200.0 + 70.0 * f64::from(k), 300.0 + 50.0 * f64::from(n)],
+                ALL,
             );
             radio.deliver(packet(&encoded(&r)), ms_to_cycles(t + dt));
             reports.push(r);
