@@ -15,6 +15,18 @@ fn mark(serial: &mut Serial, b: u8) {
 
 pub use crate::rng::xorshift;
 
+/// The board's UART, with interrupts off for the whole run (the 1 ms tick would otherwise add
+/// its handler to whatever the firmware measures or checks): how every bench and check firmware
+/// starts. Inlined, as [`end`]: the bench measures its `main`'s layout.
+#[inline(always)]
+pub fn start() -> Serial {
+    let Some(board) = Board::take() else {
+        uno_board::reset()
+    };
+    avr_device::interrupt::disable();
+    board.serial
+}
+
 /// Writes `end`, waits until it has left and stops: the MCU sleeps with interrupts off, where
 /// simavr ends the run ("done"). Inlined: out of line it changed how LLVM laid out the bench's
 /// `main` (est-fixed's stack peak +82 B), which the bench measures.
@@ -63,11 +75,7 @@ fn write_report(serial: &mut Serial, tag: &[u8], r: &Report) {
 /// Interrupts stay off throughout (the 1 ms tick would otherwise add its handler to whichever
 /// phase it hits). At the end the MCU sleeps with interrupts off: simavr stops there ("done").
 pub fn main<P: Pipeline>(mut p: P) -> ! {
-    let Some(board) = Board::take() else {
-        uno_board::reset()
-    };
-    avr_device::interrupt::disable();
-    let mut serial = board.serial;
+    let mut serial = start();
     let inp = black_box(Inputs::BENCH);
     let [mle, mmse] = run(&mut p, &inp, |b| mark(&mut serial, b));
     serial.write_byte(b'\n');
@@ -79,11 +87,7 @@ pub fn main<P: Pipeline>(mut p: P) -> ! {
 /// Runs [`crate::sink::run_sink`] with the AVR cost kernel and stops: the two markers, `\n`, the
 /// sink's lines ([`crate::sink::write_lines`]), then `end`.
 pub fn sink_main() -> ! {
-    let Some(board) = Board::take() else {
-        uno_board::reset()
-    };
-    avr_device::interrupt::disable();
-    let mut serial = board.serial;
+    let mut serial = start();
     let inp = black_box(Inputs::BENCH);
     let lines = crate::sink::run_sink::<uno_board::AvrTerm>(&inp, |b| mark(&mut serial, b));
     crate::sink::write_lines(&lines, |b| serial.write_byte(b));
@@ -613,11 +617,7 @@ fn place_check(serial: &mut Serial, r: &mut u32) -> (u32, u32) {
 /// portable_posterior, portable_weights, div_shl, mul_hi}`; see `kernel-check`.
 pub fn kernel_check() -> ! {
     use loc_core::fixed::{portable_term, TermKernel};
-    let Some(board) = Board::take() else {
-        uno_board::reset()
-    };
-    avr_device::interrupt::disable();
-    let mut serial = board.serial;
+    let mut serial = start();
     let (mut r, mut bad) = (0x9E37_79B9u32, 0u32);
     let n = black_box(50_000u32);
     for i in 0..n {

@@ -33,7 +33,7 @@ mod avr {
     };
     use mcu_bench::fw::{write_line, write_u32};
     use mcu_bench::rng::Rng;
-    use uno_board::{AvrFit, Board};
+    use uno_board::AvrFit;
 
     /// Sums drawn, four jobs each (those with no samples and something to fit are skipped:
     /// `FitJob::new` refuses them): over 10 000 jobs.
@@ -157,11 +157,7 @@ mod avr {
     }
 
     pub fn run() -> ! {
-        let Some(board) = Board::take() else {
-            uno_board::reset()
-        };
-        avr_device::interrupt::disable();
-        let mut serial = board.serial;
+        let mut serial = mcu_bench::fw::start();
         let mut r = Rng(0x2545_F491);
         let (mut jobs, mut bad) = (0u32, 0u32);
         let mut counts = [0u32; 4];

@@ -32,7 +32,7 @@ mod avr {
     };
     use mcu_bench::fw::write_line;
     use mcu_bench::rng::Rng;
-    use uno_board::{AvrFit, Board};
+    use uno_board::AvrFit;
 
     /// Smoother states drawn (1 to 6 rounds each): over 10 000 rounds.
     const STATES: u32 = 2_900;
@@ -122,11 +122,7 @@ mod avr {
     }
 
     pub fn run() -> ! {
-        let Some(board) = Board::take() else {
-            uno_board::reset()
-        };
-        avr_device::interrupt::disable();
-        let mut serial = board.serial;
+        let mut serial = mcu_bench::fw::start();
         let mut r = Rng(0x1F2E_3D4C);
         let (mut rounds, mut bad) = (0u32, 0u32);
         let mut counts = [0u32; 4];

@@ -29,14 +29,10 @@ mod avr {
     use loc_core::fixed::{AreaCm, CalStats, Observations, ReportKernel};
     use mcu_bench::fw::write_u32;
     use mcu_bench::report_case::{digest, draw, Case, REPORTS, SEED};
-    use uno_board::{AvrFit, Board};
+    use uno_board::AvrFit;
 
     pub fn run() -> ! {
-        let Some(board) = Board::take() else {
-            uno_board::reset()
-        };
-        avr_device::interrupt::disable();
-        let mut serial = board.serial;
+        let mut serial = mcu_bench::fw::start();
         let mut seed = SEED;
         let mut case = Case {
             buf: [0; 13 + 4 * 8 + 4 * 8 * 8],

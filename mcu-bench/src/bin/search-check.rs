@@ -26,11 +26,7 @@ fn main() -> ! {
     use core::hint::black_box;
     use loc_core::fixed::{ColumnJob, Placement, TermKernel, I24};
     use mcu_bench::fw::xorshift;
-    let Some(board) = uno_board::Board::take() else {
-        uno_board::reset()
-    };
-    avr_device::interrupt::disable();
-    let mut serial = board.serial;
+    let mut serial = mcu_bench::fw::start();
     let mut r = 0x2545_F491u32;
     let line = mcu_bench::fw::write_line;
     // ---- guess ----

@@ -22,11 +22,7 @@ use search_inputs::search_inputs;
 #[uno_board::entry]
 fn main() -> ! {
     use core::hint::black_box;
-    let Some(board) = uno_board::Board::take() else {
-        uno_board::reset()
-    };
-    avr_device::interrupt::disable();
-    let mut serial = board.serial;
+    let mut serial = mcu_bench::fw::start();
     let mut r = 0x7F4A_7C15u32;
     let line = mcu_bench::fw::write_line;
     // ---- the search driver (the same kernels under both) ----
