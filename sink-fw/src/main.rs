@@ -5,8 +5,7 @@
 //! sink channel, then the loop — each report the radio hands over goes to the sink, and out on
 //! the UART (the USB serial) go its `report` line and its fix lines (or why there is none), as
 //! loc-proto's sink lines; a `status` line every [`STATUS_PERIOD_MS`]. Build: `cargo fw` (all
-//! firmwares) or `cargo fw-run -p sink-fw`. Flash: 16 070 B text + 114 B data = 16 184 B,
-//! within the SPEC's 16 KB (`hoploc footprint`).
+//! firmwares) or `cargo fw-run -p sink-fw`; `hoploc footprint` measures its flash and SRAM.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]
@@ -65,9 +64,9 @@ fn run(
     use loc_proto::msg::ReportView;
     use sink_fw::Sink;
     use uno_board::node::{self, Event};
-    use uno_board::{now_ms, rx_pending, sleep_unless, AvrTerm};
+    use uno_board::{now_ms, rx_pending, sleep_unless};
 
-    let mut sink = Sink::<AvrTerm>::new(sink_fw::room(config.position));
+    let mut sink = Sink::new(sink_fw::room(config.position));
     // The clock's low 16 bits: the loop looks at least once a second (the watchdog's 1 s sees
     // to that), far within their 65 s, and 16-bit arithmetic is half the AVR code.
     let mut last_status = now_ms() as u16;
@@ -124,7 +123,7 @@ mod glue {
     /// `nofix` line. Out of line, as [`super::run`].
     #[inline(never)]
     pub fn on_report(
-        sink: &mut sink_fw::Sink<uno_board::AvrTerm>,
+        sink: &mut sink_fw::Sink,
         report: &loc_proto::msg::ReportView,
         radio: &mut uno_board::NodeRadio,
     ) {
@@ -156,9 +155,7 @@ mod lines {
     #[inline(never)]
     pub fn line(radio: &mut uno_board::NodeRadio, what: Line<'_>) {
         match what {
-            Line::Fix(fix, estimator) => fix
-                .line_with::<uno_board::AvrTerm>(estimator)
-                .write(uart(radio)),
+            Line::Fix(fix, estimator) => fix.line(estimator).write(uart(radio)),
             Line::Status(counters) => counters.write_line(uart(radio)),
         }
     }

@@ -20,8 +20,6 @@
 //!   [`Serial`], the `loc_proto::line::BootLine` lines, the LED error code and the retry.
 //! * [`libm`]: safe wrappers of avr-libc's `f32` `log10`/`exp`/`sqrt` (for the f32 benchmark in
 //!   `mcu-bench`; the node firmware uses integer arithmetic only).
-//! * [`AvrTerm`]: the sink's position-search cost term and column loop in AVR assembly, plugged
-//!   into `loc_core::fixed` through its `TermKernel` trait (bit-exact with the portable ones).
 //! * With the default `panic-reset` feature, the `#[panic_handler]`: reset through the watchdog,
 //!   no formatting.
 //!
@@ -31,8 +29,8 @@
 //!
 //! `unsafe` in hoploc lives only here, and only for: the shared-state cell used inside critical
 //! sections, register access from interrupt handlers, the timed write sequences (watchdog,
-//! EEPROM) in inline assembly, the cost kernel's assembly ([`AvrTerm`]), and the calls into
-//! avr-libc's float math ([`libm`]). Each use carries a `SAFETY` comment.
+//! EEPROM) in inline assembly, and the calls into avr-libc's float math ([`libm`]). Each use
+//! carries a `SAFETY` comment.
 //!
 //! [`avr-device`]: https://docs.rs/avr-device
 #![no_std]

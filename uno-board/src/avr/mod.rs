@@ -1,26 +1,19 @@
 //! The AVR half of the crate: peripherals, interrupt handlers, panic handler.
 
-#[macro_use]
-mod asm_common;
 mod cell;
 mod config;
-mod cost_term;
 mod eeprom;
-mod fit;
 mod led;
 pub mod libm;
 pub mod node;
 mod power;
 mod radio;
-mod report;
 mod serial;
 mod time;
 mod watchdog;
 
 pub use config::{load_config, radio_config};
-pub use cost_term::AvrTerm;
 pub use eeprom::Eeprom;
-pub use fit::AvrFit;
 pub use led::Led;
 pub use power::{sleep_idle, sleep_unless};
 pub use radio::{bring_up_radio, uart_out, write_line, NodeRadio};
