@@ -49,7 +49,7 @@ use simavr::{ms_to_cycles, Avr};
 /// The default seed (override with `HOPLOC_TEST_SEED`).
 const SEED: u64 = 0x51CE_F00D_2026_1127;
 /// Reports per sink, spread evenly over the classes that can be sent.
-const REPORTS: usize = 36 * 40;
+const REPORTS: usize = 36 * 50;
 /// One frame in this many is garbage.
 const GARBAGE_ONE_IN: u64 = 25;
 /// The sink's status period, ms.
@@ -74,10 +74,12 @@ impl HostSink {
     /// The lines the sink writes for a frame it received: a report's `report` line and its
     /// `fix` lines or `nofix` line; none for a frame that is no report (it is only counted).
     fn frame(&mut self, payload: &[u8]) -> Vec<Vec<u8>> {
-        let Ok(view) = ReportView::accept(payload) else {
-            let e = ReportView::accept(payload).unwrap_err();
-            self.0.on_bad_frame(e.into());
-            return Vec::new();
+        let view = match ReportView::accept(payload) {
+            Ok(view) => view,
+            Err(e) => {
+                self.0.on_bad_frame(e.into());
+                return Vec::new();
+            }
         };
         let r = Report::decode(payload)
             .unwrap_or_else(|e| panic!("accepted but not decoded ({e:?}): {payload:02x?}"));
@@ -102,6 +104,11 @@ impl HostSink {
         let l = self.0.counters().line();
         line(|v| l.write(|b| v.push(b)))
     }
+
+    /// The counters so far.
+    fn counters(&self) -> sink_fw::Counters {
+        *self.0.counters()
+    }
 }
 
 fn line(write: impl FnOnce(&mut Vec<u8>)) -> Vec<u8> {
@@ -123,7 +130,7 @@ impl Class {
         Report::wire_size(self.anchors.into(), self.channels.into(), self.relay) <= MAX_PAYLOAD
     }
 
-    /// Every class, and whether its reports fit the radio payload.
+    /// Every class: 3…8 anchors × 1…4 channels × relay matrix or not.
     fn all() -> Vec<Class> {
         let mut v = Vec::new();
         for anchors in 3..=8 {
@@ -382,8 +389,8 @@ impl Bench {
         }
     }
 
-    /// Delivers frame `k` (`payload`) from `agent` a few ms from now, out of the status lines'
-    /// way, and runs until its lines are out.
+    /// Delivers frame `k` (`payload`; a report of `class`, or garbage) a few ms from now, out of
+    /// the status lines' way, and runs until its lines are out.
     fn send(
         &mut self,
         rng: &mut Rng,
@@ -484,7 +491,7 @@ fn run(name: &str, seed: u64, config: Option<Config>) {
     }
     bench.radio.run_for_ms(&mut bench.avr, 300.0);
     let got = bench.firmware_groups();
-    let counters = *bench.host.0.counters();
+    let counters = bench.host.counters();
     println!(
         "{name}: seed {seed:#x}, {frames} frames ({garbage_frames} garbage), {} status lines, \
          {} fixes, {} without, {} missing by sequence; {:.0} s simulated in {:.1} s",
