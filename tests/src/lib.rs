@@ -153,9 +153,9 @@ pub mod sink_reports {
 /// `role`'s firmware on a fresh simulated Uno with a modelled XBee already in API mode 2 at
 /// 57600, run until the radio is up: with `config` written into its EEPROM first (as `hoploc
 /// provision` stores it), or with the ELF's built-in config for `None` (the ELF's `.eeprom`
-/// image of it, as simavr loads it). Returns the time the
-/// radio line was written (ms). Panics if the node does not say it runs that config, or if the
-/// radio is not up within 1.5 s of the provisioning window.
+/// image of it, as simavr loads it). Returns the time the radio line was written (ms). Panics
+/// if the node does not say it runs that config, or if the radio is not up within 1.5 s of the
+/// provisioning window.
 pub fn boot_configured(
     role: Role,
     config: Option<&loc_proto::config::Config>,

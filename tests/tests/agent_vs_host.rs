@@ -409,7 +409,7 @@ fn the_agent_firmware_reports_what_the_host_agent_makes_of_random_beacons() {
         }
     }
     println!(
-        "agent: seed {seed:#x}, {} runs in {:.1} s",
+        "agent: HOPLOC_TEST_SEED={seed:#x}, {} runs in {:.1} s",
         runs.len(),
         wall.elapsed().as_secs_f64()
     );
@@ -427,7 +427,7 @@ fn the_agent_firmware_reports_what_the_host_agent_makes_of_random_beacons() {
     }
     assert!(
         failed == 0,
-        "{failed} of {} runs differ (seed {seed:#x}):{failures}",
+        "{failed} of {} runs differ (HOPLOC_TEST_SEED={seed:#x}):{failures}",
         runs.len()
     );
     // Each class whose reports fit was compared on many of them, with bytes heard in them.

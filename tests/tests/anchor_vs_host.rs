@@ -296,13 +296,13 @@ fn the_anchor_firmware_beacons_what_the_host_anchor_makes_of_random_beacons() {
         }
     }
     println!(
-        "anchor: seed {seed:#x}, {} runs of {SUPERFRAMES} superframes in {:.1} s: {beacons} beacons, {relayed} RSSI bytes relayed",
+        "anchor: HOPLOC_TEST_SEED={seed:#x}, {} runs of {SUPERFRAMES} superframes in {:.1} s: {beacons} beacons, {relayed} RSSI bytes relayed",
         runs.len(),
         wall.elapsed().as_secs_f64()
     );
     assert!(
         failed == 0,
-        "{failed} of {} runs differ (seed {seed:#x}):{failures}",
+        "{failed} of {} runs differ (HOPLOC_TEST_SEED={seed:#x}):{failures}",
         runs.len()
     );
     let mut per_class: BTreeMap<(u8, u8), usize> = BTreeMap::new();
