@@ -38,7 +38,6 @@ use std::time::Instant;
 
 use hoploc_tests::boot_configured;
 use hoploc_tests::random::{self, anchor_layout, dist_cm, edge_byte, garbage, PathLoss, Rng};
-use loc_core::fixed::Portable;
 use loc_proto::config::Config;
 use loc_proto::msg::{Position, Report, ReportView, MAX_PAYLOAD};
 use loc_proto::sink_line::RawReport;
@@ -63,12 +62,12 @@ const LINES_DEADLINE_MS: f64 = 1_000.0;
 
 /// The host's sink, which the firmware must equal. Everything that uses `sink_fw::Sink`'s API is
 /// in this impl.
-struct HostSink(sink_fw::Sink<Portable>);
+struct HostSink(sink_fw::Sink);
 
 impl HostSink {
     /// The sink of a node whose config position is `position` (its room, or none).
     fn new(position: Position) -> HostSink {
-        HostSink(sink_fw::Sink::<Portable>::new(sink_fw::room(position)))
+        HostSink(sink_fw::Sink::new(sink_fw::room(position)))
     }
 
     /// The lines the sink writes for a frame it received: a report's `report` line and its
