@@ -54,10 +54,9 @@ pub const VERSION: u8 = 1;
 pub const HEADER_LEN: usize = 4;
 /// The largest RF payload of an XBee 802.15.4 TX frame.
 pub const MAX_PAYLOAD: usize = 100;
-/// The most anchors a network has.
-pub const MAX_ANCHORS: usize = 8;
-/// The most channels in a channel list.
-pub const MAX_CHANNELS: usize = 4;
+/// The most anchors a network has, and the most channels in a channel list: what the estimator
+/// (loc-core) takes, so that every report it can be sent, it can locate.
+pub use loc_core::{MAX_ANCHORS, MAX_CHANNELS};
 /// The highest testbed channel number.
 pub const MAX_CHANNEL: u8 = 16;
 
