@@ -569,13 +569,13 @@ impl Testbed {
                         continue;
                     }
                 };
-                RawReport::write(data, |b| self.log.push(b as char));
+                let Ok(()) = RawReport::write(data, &mut self.log);
                 let written = match h.sink.on_report(&r) {
                     Ok(fix) => fix.lines().to_vec(),
                     Err(e) => vec![sink_fw::no_fix_line(r.agent, r.seq, e)],
                 };
                 for l in written {
-                    l.write(|b| self.log.push(b as char));
+                    let Ok(()) = l.write(&mut self.log);
                     lines.push((ms, l, None));
                 }
                 self.refs.add(ms, r, &mut lines);

@@ -90,7 +90,7 @@ pub fn sink_main() -> ! {
     let mut serial = start();
     let inp = black_box(Inputs::BENCH);
     let lines = crate::sink::run_sink::<uno_board::AvrTerm>(&inp, |b| mark(&mut serial, b));
-    crate::sink::write_lines(&lines, |b| serial.write_byte(b));
+    let Ok(()) = crate::sink::write_lines(&lines, &mut serial);
     end(&mut serial)
 }
 

@@ -388,7 +388,7 @@ pub fn run_sink_elf(elf: &Path) -> Result<SinkRun, String> {
 /// the portable cost kernel.
 pub fn host_sink(inp: &Inputs) -> String {
     let lines = crate::sink::run_sink::<loc_core::fixed::Portable>(inp, |_| {});
-    let mut out = Vec::new();
-    crate::sink::write_lines(&lines, |b| out.push(b));
-    String::from_utf8_lossy(&out).into_owned()
+    let mut out = String::new();
+    let Ok(()) = crate::sink::write_lines(&lines, &mut out);
+    out
 }

@@ -57,9 +57,13 @@ pub fn run_sink<K: TermKernel>(inp: &Inputs, mut mark: impl FnMut(u8)) -> [Optio
 }
 
 /// `\n` (the end of the timed part), then `lines` as the sink writes them.
-pub fn write_lines(lines: &[Option<SinkLine>; 2], mut out: impl FnMut(u8)) {
-    out(b'\n');
+pub fn write_lines<W: ufmt::uWrite + ?Sized>(
+    lines: &[Option<SinkLine>; 2],
+    out: &mut W,
+) -> Result<(), W::Error> {
+    out.write_str("\n")?;
     for line in lines.iter().flatten() {
-        line.write(&mut out);
+        line.write(out)?;
     }
+    Ok(())
 }
