@@ -870,8 +870,7 @@ mod tests {
             seq,
             channel,
             position: Position { x: 0, y: 0 },
-            relay_count: 4,
-            relay: [0; 8],
+            relay: loc_proto::msg::Relay::from_slice(&[0; 4]).unwrap(),
         };
         let mut buf = [0; 64];
         let n = b.encode(&mut buf).unwrap();

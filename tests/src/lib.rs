@@ -57,7 +57,7 @@ pub fn beacons_sent(radio: &simavr::xbee::XBee) -> Vec<(f64, loc_proto::msg::Bea
 
 /// A beacon's payload.
 pub fn beacon_packet(anchor: u8, seq: u16, channel: u8, pos: [i16; 2], relay: &[u8]) -> Vec<u8> {
-    let mut b = loc_proto::msg::Beacon {
+    let b = loc_proto::msg::Beacon {
         anchor,
         seq,
         channel,
@@ -65,10 +65,8 @@ pub fn beacon_packet(anchor: u8, seq: u16, channel: u8, pos: [i16; 2], relay: &[
             x: pos[0],
             y: pos[1],
         },
-        relay_count: relay.len() as u8,
-        relay: [0; 8],
+        relay: loc_proto::msg::Relay::from_slice(relay).unwrap(),
     };
-    b.relay[..relay.len()].copy_from_slice(relay);
     let mut buf = [0; 32];
     let n = b.encode(&mut buf).unwrap();
     buf[..n].to_vec()
