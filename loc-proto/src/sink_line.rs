@@ -338,29 +338,21 @@ pub const MAX_REPORT_LINE: usize = 19 + 2 * MAX_PAYLOAD + 6;
 
 /// A `report` line's message: the bytes of a [`crate::msg::Report`] as the sink received them
 /// (decode with [`RawReport::report`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct RawReport {
-    len: u8,
-    bytes: [u8; MAX_PAYLOAD],
-}
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct RawReport(heapless::Vec<u8, MAX_PAYLOAD, u8>);
 
 impl RawReport {
     /// The message `msg`, if the radio can carry it (at most [`MAX_PAYLOAD`] bytes, not empty).
     pub fn new(msg: &[u8]) -> Option<RawReport> {
-        if msg.is_empty() || msg.len() > MAX_PAYLOAD {
+        if msg.is_empty() {
             return None;
         }
-        let mut bytes = [0; MAX_PAYLOAD];
-        bytes[..msg.len()].copy_from_slice(msg);
-        Some(RawReport {
-            len: msg.len() as u8,
-            bytes,
-        })
+        heapless::Vec::from_slice(msg).ok().map(RawReport)
     }
 
     /// The message bytes.
     pub fn bytes(&self) -> &[u8] {
-        &self.bytes[..self.len as usize]
+        &self.0
     }
 
     /// The report the bytes encode.
@@ -400,7 +392,7 @@ impl uDisplay for ReportText<'_> {
 }
 
 /// Any line the sink writes: a [`SinkLine`] or a `report` line.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum SinkOutput {
     /// A `fix`, `nofix` or `status` line.
     Line(SinkLine),
@@ -418,23 +410,22 @@ impl SinkOutput {
         }
         let bad = SinkLineError::BadField { index: 0 };
         let word = words.next().ok_or(bad)?.as_bytes();
-        if word.len() % 2 != 0 || word.is_empty() || word.len() > 2 * MAX_PAYLOAD {
+        if word.len() % 2 != 0 || word.is_empty() {
             return Err(bad);
         }
-        let mut bytes = [0; MAX_PAYLOAD];
-        for (b, pair) in bytes.iter_mut().zip(word.chunks(2)) {
-            *b = match (unhex(pair[0]), unhex(pair[1])) {
+        let mut bytes = heapless::Vec::new();
+        for pair in word.chunks_exact(2) {
+            let b = match (unhex(pair[0]), unhex(pair[1])) {
                 (Some(h), Some(l)) => h << 4 | l,
                 _ => return Err(bad),
             };
+            // More than MAX_PAYLOAD bytes do not fit.
+            bytes.push(b).map_err(|_| bad)?;
         }
         if words.next().is_some() {
             return Err(SinkLineError::TooManyFields);
         }
-        Ok(SinkOutput::Report(RawReport {
-            len: (word.len() / 2) as u8,
-            bytes,
-        }))
+        Ok(SinkOutput::Report(RawReport(bytes)))
     }
 }
 

@@ -280,7 +280,10 @@ fn report_lines_carry_the_message_both_ways() {
     let raw = RawReport::parse(&line).unwrap();
     assert_eq!(raw.bytes(), &buf[..n]);
     assert_eq!(raw.report(), Ok(r));
-    assert_eq!(SinkOutput::parse(&line), Ok(SinkOutput::Report(raw)));
+    assert_eq!(
+        SinkOutput::parse(&line),
+        Ok(SinkOutput::Report(raw.clone()))
+    );
     assert_eq!(RawReport::new(&buf[..n]), Some(raw));
     // SinkLine::parse reads the three small kinds only; SinkOutput::parse reads them too.
     assert_eq!(SinkLine::parse(&line), Err(SinkLineError::UnknownKind));
