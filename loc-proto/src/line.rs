@@ -135,11 +135,40 @@ fn word<W: uWrite + ?Sized>(k: u8, f: &mut Formatter<'_, W>) -> Result<(), W::Er
     loop {
         let b = word_byte(i);
         i += 1;
-        f.write_str(char::from(b & 0x7F).encode_utf8(&mut [0; 4]))?;
+        ascii(b & 0x7F, f)?;
         if b & 0x80 != 0 {
             return Ok(());
         }
     }
+}
+
+/// Writes the ASCII byte `b` (below 0x80) as a one-byte `str` from a register: the lines'
+/// punctuation and hex digits are written this way, not as string literals, which would be
+/// copied into the MCU's SRAM at boot. Out of line: one copy per writer type.
+#[inline(never)]
+pub(crate) fn ascii<W: uWrite + ?Sized>(b: u8, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+    f.write_str(char::from(b).encode_utf8(&mut [0; 4]))
+}
+
+/// A byte as two upper-case hex digits: the sink lines' checksum and a `report` line's
+/// message. (ufmt's `{:02X}` links its general hex routine, with padding and `0x` prefixes, for
+/// these two digits.)
+#[derive(Clone, Copy)]
+pub(crate) struct Hex(pub(crate) u8);
+
+impl uDisplay for Hex {
+    #[inline(always)]
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+        hex(self.0, f)
+    }
+}
+
+/// [`Hex`]'s digits. Out of line and by value (see [`word`]).
+#[inline(never)]
+fn hex<W: uWrite + ?Sized>(b: u8, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+    let digit = |n: u8| if n < 10 { b'0' + n } else { b'A' + n - 10 };
+    ascii(digit(b >> 4), f)?;
+    ascii(digit(b & 15), f)
 }
 
 /// How every line starts: `hoploc`, the role of the node that writes it, and the line's kind
@@ -197,7 +226,7 @@ fn dec<W: uWrite + ?Sized>(
     f: &mut Formatter<'_, W>,
 ) -> Result<(), W::Error> {
     if negative {
-        f.write_str("-")?;
+        ascii(b'-', f)?;
     }
     n.fmt(f)
 }
@@ -269,11 +298,14 @@ pub(crate) fn write_line<W: uWrite + ?Sized>(
     let mut w = Crc8Writer::new(out);
     text.fmt(&mut Formatter::new(&mut w))?;
     let crc = w.crc();
-    let mut f = Formatter::new(&mut w);
+    let f = &mut Formatter::new(&mut w);
     if checked {
-        uwrite!(f, " *{:02X}", crc)?;
+        ascii(b' ', f)?;
+        ascii(b'*', f)?;
+        Hex(crc).fmt(f)?;
     }
-    f.write_str("\r\n")
+    ascii(b'\r', f)?;
+    ascii(b'\n', f)
 }
 
 /// A `core::fmt` formatter as a [`uWrite`]: [`fmt::Display`] of a line is its [`uDisplay`].

@@ -120,7 +120,7 @@ impl Reply {
 /// `hoploc <role> provisioned` ([`BootLine::Provisioned`]), all through the writer of the
 /// node's lines. The reply is ASCII (`HL`, `A` or `N`, and [`VERSION`] or a code of at most
 /// [`WRITE_FAILED`], the codes `node_reply` gives), so each of its bytes is a one-byte `str`;
-/// a code from 0x80 on, which no node sends, would go out UTF-8 encoded. Always inlined, as
+/// a code from 0x80 on, which no node sends, would lose its bit 7. Always inlined, as
 /// [`BootLine::write`].
 ///
 /// [`BootLine::Provisioned`]: crate::line::BootLine::Provisioned
@@ -139,7 +139,7 @@ impl ufmt::uDisplay for Reply {
     #[inline(always)]
     fn fmt<W: uWrite + ?Sized>(&self, f: &mut ufmt::Formatter<'_, W>) -> Result<(), W::Error> {
         for b in self.bytes() {
-            f.write_str(char::from(b).encode_utf8(&mut [0; 4]))?;
+            crate::line::ascii(b & 0x7F, f)?;
         }
         Ok(())
     }

@@ -37,7 +37,7 @@ use core::fmt;
 use ufmt::{uDisplay, uWrite, uwrite, Formatter};
 
 pub use crate::line::Crc8Writer;
-use crate::line::{write_line, Dec, Head, SignedDec, Word};
+use crate::line::{write_line, Dec, Head, Hex, SignedDec, Word};
 use crate::msg::MAX_PAYLOAD;
 use crate::Role;
 
@@ -385,7 +385,7 @@ impl uDisplay for ReportText<'_> {
     fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
         uwrite!(f, "{} ", Head(Role::Sink, Word::REPORT))?;
         for b in self.0 {
-            uwrite!(f, "{:02X}", *b)?;
+            Hex(*b).fmt(f)?;
         }
         Ok(())
     }
