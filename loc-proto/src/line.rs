@@ -647,9 +647,10 @@ mod tests {
         }
     }
 
-    /// ufmt's decimals (the lines' numbers) are `core::fmt`'s, at every width's edges.
+    /// The lines' numbers ([`Dec`], [`SignedDec`]: ufmt's decimal) and hex bytes ([`Hex`]) are
+    /// `core::fmt`'s, at every width's edges and for every byte.
     #[test]
-    fn decimals_match_core_fmt() {
+    fn numbers_match_core_fmt() {
         fn text(n: impl uDisplay) -> String {
             let mut s = String::new();
             let Ok(()) = uwrite!(s, "{}", n);
@@ -671,16 +672,13 @@ mod tests {
         .into_iter()
         .chain([1_000_000_000, 4_000_000_001, u32::MAX - 1, u32::MAX])
         {
-            assert_eq!(text(n), std::format!("{n}"));
-            for n in [n as u8, u8::MAX] {
-                assert_eq!(text(n), std::format!("{n}"));
-            }
-            for n in [n as u16, u16::MAX] {
-                assert_eq!(text(n), std::format!("{n}"));
-            }
+            assert_eq!(text(Dec(n)), std::format!("{n}"));
             for n in [n as i16, (n as i16).wrapping_neg(), i16::MIN, i16::MAX, -1] {
-                assert_eq!(text(n), std::format!("{n}"));
+                assert_eq!(text(SignedDec(n)), std::format!("{n}"));
             }
+        }
+        for b in 0..=u8::MAX {
+            assert_eq!(text(Hex(b)), std::format!("{b:02X}"));
         }
     }
 
