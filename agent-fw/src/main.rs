@@ -114,7 +114,7 @@ fn run(
                             rssi: rssi.max(1),
                             at_us,
                             pos: [b.position.x, b.position.y],
-                            relay: b.relayed(),
+                            relay: &b.relay,
                         });
                     }
                 }

@@ -16,7 +16,7 @@ pub use config::{load_config, radio_config};
 pub use eeprom::Eeprom;
 pub use led::Led;
 pub use power::{sleep_idle, sleep_unless};
-pub use radio::{bring_up_radio, uart_out, write_line, NodeRadio};
+pub use radio::{bring_up_radio, write_line, NodeRadio};
 pub use serial::{rx_frame_start_us, rx_pending, RxStats, Serial};
 pub use time::{delay_ms, now_ms, now_us, SysClock};
 pub use watchdog::{reset, ResetCause, Watchdog};
