@@ -32,10 +32,10 @@ fn sqrtf(x: f32) -> f32 {
     x.sqrt()
 }
 
-/// Coarse divisions per side (10 % steps).
-const COARSE_DIVS: usize = 10;
-/// Fine divisions per side (2 % steps).
-const FINE_DIVS: usize = 50;
+/// Coarse divisions per side (the thesis' 10 % steps): loc-core's lattice.
+use loc_core::grid::COARSE_DIVS;
+/// Fine divisions per side (the thesis' 2 % steps): loc-core's lattice.
+use loc_core::grid::FINE_DIVS;
 const RATIO: usize = FINE_DIVS / COARSE_DIVS;
 /// The model's smallest distance (1 cm), squared, m².
 const MIN_D2: f32 = 1e-4;
