@@ -10,7 +10,7 @@ use simavr::{Avr, State};
 use crate::{float, run, Inputs, Report, MARKS, N_ANCHORS, N_CHANNELS, SIGMA_DB};
 
 /// The firmwares, baseline first.
-pub const BINS: [&str; 9] = [
+pub const BINS: [&str; 10] = [
     "est-none",
     "est-fixed",
     "est-f32",
@@ -20,9 +20,11 @@ pub const BINS: [&str; 9] = [
     "search-check",
     "search-check2",
     "report-check",
+    "board-check",
 ];
 /// The benchmark variants among [`BINS`] (`kernel-check`, `fit-check`, `fit-check2`,
-/// `search-check`, `search-check2` and `report-check` are correctness checks).
+/// `search-check`, `search-check2` and `report-check` are correctness checks, `board-check`
+/// uno-board's).
 pub const ESTIMATES: [&str; 3] = ["est-none", "est-fixed", "est-f32"];
 
 /// Simulated time after which a run that has not stopped counts as hung.

@@ -26,6 +26,7 @@
 
 use core::hint::black_box;
 
+pub mod board;
 pub mod fixed;
 pub mod float;
 #[cfg(target_arch = "avr")]
