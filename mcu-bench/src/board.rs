@@ -67,7 +67,7 @@ pub enum DelayKind {
 }
 
 /// The delay phase's cases, in order: the method and its argument.
-pub const DELAYS: [(DelayKind, u32); 17] = [
+pub const DELAYS: [(DelayKind, u32); 18] = [
     (DelayKind::Ms, 0),
     (DelayKind::Ms, 1),
     (DelayKind::Ms, 2),
@@ -85,6 +85,7 @@ pub const DELAYS: [(DelayKind, u32); 17] = [
     (DelayKind::Ns, 999),
     (DelayKind::Ns, 1_001),
     (DelayKind::Ns, 250_000),
+    (DelayKind::Ns, 4_000_000),
 ];
 
 /// How long the full-ring phase does not read, ms.
