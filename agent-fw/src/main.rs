@@ -1,10 +1,11 @@
 //! agent-fw: the hoploc agent firmware for the Arduino Uno.
 //!
-//! Wiring only (the logic is `agent_fw::Agent`, host-tested): boot line, node config, radio
-//! bring-up, then the loop — feed the µs clock to the agent and do what it asks (tune to an
-//! anchor channel or the sink channel, send the report to the sink), feed it the beacons and
-//! TX statuses the radio hands over, idle until its next event. Build: `cargo fw` (all
-//! firmwares) or `cargo fw-run -p agent-fw` (build and flash).
+//! Wiring only (the logic is `agent_fw::Agent`, host-tested): `uno_board::boot` (boot line,
+//! node config, radio bring-up, watchdog), then the loop — feed the µs clock to the agent and
+//! do what it asks (tune to an anchor channel or the sink channel, send the report to the
+//! sink), feed it the beacons and TX statuses the radio hands over, idle until its next event.
+//! Build: `cargo fw` (all firmwares); build and flash: `cargo run` in this directory, or
+//! `cargo fw-run -p agent-fw` from the workspace root.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]
@@ -39,8 +40,7 @@ fn main() -> ! {
 }
 
 /// The node's loop, out of line: on the AVR every access beyond 63 bytes into a stack frame
-/// costs 14 bytes of code, and `main`'s frame is big with the bring-up's state (measured: the
-/// agent 17 038 → 16 592 B).
+/// costs extra code, and `main`'s frame is big with the bring-up's state.
 #[cfg(target_arch = "avr")]
 #[inline(never)]
 fn run(mut agent: agent_fw::Agent, node: &mut uno_board::Node) -> ! {

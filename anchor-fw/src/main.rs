@@ -1,9 +1,10 @@
 //! anchor-fw: the hoploc anchor firmware for the Arduino Uno.
 //!
-//! Wiring only (the logic is `anchor_fw::Anchor`, host-tested): boot line, node config, radio
-//! bring-up, then the loop — feed the µs clock to the anchor and do what it asks (tune, send a
-//! beacon), feed it the beacons the radio hears, idle until its next event. Build: `cargo fw`
-//! (all firmwares) or `cargo fw-run -p anchor-fw` (build and flash).
+//! Wiring only (the logic is `anchor_fw::Anchor`, host-tested): `uno_board::boot` (boot line,
+//! node config, radio bring-up, watchdog), then the loop — feed the µs clock to the anchor and
+//! do what it asks (tune, send a beacon), feed it the beacons the radio hears, idle until its
+//! next event. Build: `cargo fw` (all firmwares); build and flash: `cargo run` in this
+//! directory, or `cargo fw-run -p anchor-fw` from the workspace root.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]
@@ -42,7 +43,7 @@ fn main() -> ! {
 }
 
 /// The node's loop, out of line: `main`'s frame holds the bring-up's state, and on the AVR
-/// every access beyond 63 bytes into a frame costs 14 bytes of code (measured: the anchor 16 322 → 15 208 B).
+/// every access beyond 63 bytes into a frame costs extra code.
 #[cfg(target_arch = "avr")]
 #[inline(never)]
 fn run(mut anchor: anchor_fw::Anchor, node: &mut uno_board::Node) -> ! {

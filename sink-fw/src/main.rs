@@ -1,12 +1,13 @@
 //! sink-fw: the hoploc sink firmware for the Arduino Uno.
 //!
-//! Wiring only (the logic is `sink_fw::Sink`, host-tested): boot line, node config (provisioning
-//! window, then EEPROM or the build-time config of `HOPLOC_*` variables), radio bring-up on the
-//! sink channel, then the loop — each report the radio hands over goes to the sink, and out on
-//! the UART (the USB serial) go its `report` line and its fix lines (or why there is none), as
-//! loc-proto's sink lines; a `status` line every [`STATUS_PERIOD_MS`]. Build: `cargo fw` (all
-//! firmwares) or `cargo fw-run -p sink-fw`. Flash: 16 070 B text + 114 B data = 16 184 B,
-//! within the SPEC's 16 KB (`hoploc footprint`).
+//! Wiring only (the logic is `sink_fw::Sink`, host-tested): `uno_board::boot` (boot line, node
+//! config: provisioning window, then EEPROM or the build-time config of `HOPLOC_*` variables;
+//! radio bring-up on the sink channel; watchdog), then the loop — each report the radio hands
+//! over goes to the sink, and out on the UART (the USB serial) go its `report` line and its fix
+//! lines (or why there is none), as loc-proto's sink lines; a `status` line every
+//! [`STATUS_PERIOD_MS`]. Build: `cargo fw` (all firmwares); build and flash: `cargo run` in this
+//! directory, or `cargo fw-run -p sink-fw` from the workspace root. Flash and SRAM:
+//! `hoploc footprint`.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]

@@ -225,14 +225,14 @@ fn handler_cycles(avr: &mut Avr, handlers: &[&str], cycles: u64) -> Vec<Vec<u64>
 /// Cycles between two bytes at 57600 baud on the 16 MHz Uno.
 const BYTE_CYCLES: u64 = 16_000_000 * 10 / 57_600;
 
-/// The RX handler in the node firmwares (the anchor's stamps frame starts, the sink's does not
-/// need to) and the tick, measured while bytes stream in during the provisioning window: each run
-/// must take a small part of the time between two bytes, so the ring keeps up at 57600 baud
-/// even after the main program's longest critical section.
+/// The RX handler in the node firmwares (the anchor's and the agent's stamp frame starts, the
+/// sink's does not need to) and the tick, measured while bytes stream in during the provisioning
+/// window: each run must take a small part of the time between two bytes, so the ring keeps up
+/// at 57600 baud even after the main program's longest critical section.
 #[test]
 fn interrupt_handlers_take_a_small_part_of_a_byte_time() {
     let mut lines = Vec::new();
-    for role in [Role::Anchor, Role::Sink] {
+    for role in [Role::Anchor, Role::Agent, Role::Sink] {
         let mut avr = boot(role);
         avr.run_for_ms(100.0);
         let bytes = pattern(150, 7);

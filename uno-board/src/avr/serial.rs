@@ -123,7 +123,7 @@ impl Serial {
                 .ucsz0()
                 .chr8()
         });
-        // U2X0 before UBRR0: simavr computes its byte time when UBRR0 is written (SPEC §9).
+        // U2X0 before UBRR0: simavr computes its byte time when UBRR0 is written.
         // SAFETY: a valid UCSR0A value (see `UCSR0A_BASE`).
         usart.ucsr0a().write(|w| unsafe { w.bits(UCSR0A_BASE) });
         usart
