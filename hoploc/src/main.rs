@@ -36,7 +36,7 @@ enum Command {
     #[command(verbatim_doc_comment)]
     Demo(demo::Args),
     /// Print each firmware's flash, static SRAM and stack peak (measured in simavr) against the
-    /// budgets: 16 KB flash, static SRAM + stack ≤ 1.5 KB. Fails if one is over.
+    /// budgets: 28 672 B flash, static SRAM + stack ≤ 1 536 B. Fails if one is over.
     ///
     /// The stack peak is the deepest of two runs per firmware: boot with a factory-fresh radio
     /// (full command-mode bring-up, then traffic) and boot with no radio (failed bring-up, LED

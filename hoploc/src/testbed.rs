@@ -8,7 +8,7 @@
 //! * [`SinkSource::Firmware`]: the sink node's firmware (`sink-fw`), its lines read off its
 //!   UART as `hoploc monitor` would read them off the USB serial: the testbed as on boards.
 //! * [`SinkSource::Host`]: the host sink, a host radio on the sink channel at the sink's
-//!   address whose received reports go through `sink_fw::Sink<loc_core::fixed::Portable>` —
+//!   address whose received reports go through `sink_fw::Sink` —
 //!   the sink firmware's logic, bit-identical to it, but run on the host, not in simavr
 //!   (`hoploc/tests/testbed.rs` checks that both write the same lines).
 //!
@@ -17,7 +17,7 @@
 
 use std::path::Path;
 
-use loc_core::fixed::{mle_and_mmse_window_with, AreaCm, PathLoss, Portable};
+use loc_core::fixed::{mle_and_mmse_window, AreaCm, PathLoss};
 use loc_core::grid::{self, Search};
 use loc_core::params::{Bounds, FitMethod, OnlineParams, ParamMode};
 use loc_core::refine::{observations, Refinement};
@@ -138,7 +138,7 @@ impl Default for RunConfig {
 struct HostSink {
     node: NodeId,
     decoder: Decoder,
-    sink: Sink<Portable>,
+    sink: Sink,
 }
 
 /// The host's references of every report the sink received (either sink: the firmware's
@@ -157,9 +157,7 @@ impl References {
     fn add(&mut self, ms: f64, r: Report, lines: &mut Vec<(f64, SinkLine, Option<Reference>)>) {
         let (model, area) = self.fixed;
         let (_, obs) = sink_fw::report_inputs(&r);
-        if let Ok([mle, mmse]) =
-            mle_and_mmse_window_with::<Portable>(&obs, model, area, sink_fw::DEFAULT_SIGMA)
-        {
+        if let Ok([mle, mmse]) = mle_and_mmse_window(&obs, model, area, sink_fw::DEFAULT_SIGMA) {
             let fix = sink_fw::Fix {
                 agent: r.agent,
                 seq: r.seq,

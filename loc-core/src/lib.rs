@@ -13,7 +13,10 @@
 //!
 //! This is the f64 reference the host study uses. The crate is `no_std` (math from `libm`).
 #![no_std]
-#![forbid(unsafe_code)]
+#![cfg_attr(target_arch = "avr", feature(asm_experimental_arch))]
+// `unsafe` only for the AVR column kernel (`fixed::column`'s `avr` module) and the flash
+// placement of the table it reads (`fixed::tables`).
+#![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 #[cfg(test)]

@@ -495,7 +495,7 @@ fn one_pass_sink_search_equals_both_estimators() {
             2 => u16::MAX,
             _ => rng.below(8 << 8) as u16,
         };
-        let both = fx::mle_and_mmse_window_with::<fx::Portable>(&obs, model, tr.af, sigma);
+        let both = fx::mle_and_mmse_window(&obs, model, tr.af, sigma);
         let mle = fx::mle(&obs, model, tr.af, Search::Thesis);
         let mmse = fx::mmse_window(&obs, model, tr.af, sigma);
         match both {
@@ -754,7 +754,7 @@ proptest! {
                 }
             }
         }
-        let both = fx::mle_and_mmse_window_with::<fx::Portable>(&obs, model, area, sigma);
+        let both = fx::mle_and_mmse_window(&obs, model, area, sigma);
         let mle = fx::mle(&obs, model, area, Search::Thesis);
         let mmse = fx::mmse_window(&obs, model, area, sigma);
         prop_assert_eq!(both.map(|[a, _]| a), mle);

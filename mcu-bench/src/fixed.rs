@@ -1,25 +1,15 @@
-//! The fixed-point pipeline: loc-core's lean sink sequence ([`loc_core::fixed`] module docs).
+//! The fixed-point pipeline: the sink's sequence of loc-core calls ([`loc_core::fixed`]), with
+//! the search's column kernel `K`: `Fixed<Native>` is what the sink runs (the AVR assembly
+//! column on the MCU, the portable one on the host, with the same results: `checkasm`),
+//! `Fixed<Portable>` the same with the portable column on the MCU too.
 
 use crate::{Inputs, Pipeline, Report, N_ANCHORS, N_CHANNELS, SIGMA_DB};
+use core::marker::PhantomData;
 use loc_core::fixed::{
-    estimate_with, mle_with, mmse_window_with, observations_of, AreaCm, Bounds, CalStats,
-    ChannelBytes, Estimator, FitJob, FitMethod, Observations, OnlineParams, PairBytes, ParamMode,
-    PathLoss, PointCm, Refinement, Search,
+    estimate_with, fit_least_squares, mle_with, mmse_window_with, observations_of, AreaCm, Bounds,
+    CalStats, ChannelBytes, ColumnKernel, Estimator, FitMethod, Native, Observations, OnlineParams,
+    ParamMode, PathLoss, PointCm, Refinement, Search,
 };
-
-/// The cost kernel: the AVR assembly one on the MCU (what the sink runs), the portable one on
-/// the host; they return the same values (`kernel-check`), so the host reference is exact.
-#[cfg(target_arch = "avr")]
-type Kernel = uno_board::AvrTerm;
-#[cfg(not(target_arch = "avr"))]
-type Kernel = loc_core::fixed::Portable;
-
-/// The least-squares solve, likewise: the sink's AVR assembly on the MCU, the portable twin on
-/// the host (the same results: `fit-check`).
-#[cfg(target_arch = "avr")]
-type Fit = uno_board::AvrFit;
-#[cfg(not(target_arch = "avr"))]
-type Fit = loc_core::fixed::PortableFit;
 
 /// The MMSE variant the fixed path runs: the windowed posterior mean
 /// ([`loc_core::fixed::mmse_window`]: the thesis' coarse stage, then the posterior mean over its
@@ -39,20 +29,21 @@ pub const MMSE_IS_WINDOWED: bool = matches!(MMSE, Estimator::MmseWindow { .. });
 /// Its [`Report`]: position in mm, P0 Q.16 dBm and α Q.24 (as `i32` bits); all `u32::MAX` if
 /// the estimate failed.
 #[derive(Clone, Copy, Debug)]
-pub struct Fixed {
+pub struct Fixed<K = Native> {
     /// The online parameter state.
     pub params: OnlineParams,
+    kernel: PhantomData<K>,
 }
 
-impl Default for Fixed {
+impl<K> Default for Fixed<K> {
     fn default() -> Self {
         Fixed::new()
     }
 }
 
-impl Fixed {
+impl<K> Fixed<K> {
     /// Fresh state: the thesis' prior, no fit yet.
-    pub fn new() -> Fixed {
+    pub fn new() -> Fixed<K> {
         Fixed {
             params: OnlineParams::new(
                 ParamMode::P0AndAlpha,
@@ -60,6 +51,7 @@ impl Fixed {
                 Bounds::THESIS,
                 PathLoss::THESIS,
             ),
+            kernel: PhantomData,
         }
     }
 
@@ -94,7 +86,7 @@ fn area(inp: &Inputs) -> AreaCm {
     AreaCm::new(inp.area[0], inp.area[1])
 }
 
-impl Pipeline for Fixed {
+impl<K: ColumnKernel> Pipeline for Fixed<K> {
     type Stats = CalStats;
     type Obs = Observations;
 
@@ -104,24 +96,25 @@ impl Pipeline for Fixed {
         for i in 0..N_ANCHORS {
             for j in i + 1..N_ANCHORS {
                 // Both directions' bytes as a report carries them (0: not heard), one distance
-                // (one log) per pair, the sums by the sink's kernel (AVR assembly on the MCU).
-                let mut bytes: PairBytes = [0; 2 * loc_core::MAX_CHANNELS];
+                // (one log) per pair.
+                let mut bytes = [0; 2 * loc_core::MAX_CHANNELS];
                 for c in 0..N_CHANNELS {
                     bytes[c] = inp.a2a_byte(i, j, c);
                     bytes[loc_core::MAX_CHANNELS + c] = inp.a2a_byte(j, i, c);
                 }
-                stats.push_pair_with::<Fit>(a[i], a[j], &bytes);
+                stats.push_pair_bytes(a[i], a[j], &bytes);
             }
         }
         stats
     }
 
-    /// The sink's round (`sink_fw::Sink::locate`): fit, both smoothers fed and σ, in one step
-    /// (one AVR routine on the MCU); the same model as `fit_least_squares` then `feed`.
+    /// The sink's round (`sink_fw::Sink`): the least-squares fit from the current model, fed to
+    /// the smoothers.
     fn fit(&mut self, stats: &CalStats) {
-        let p = &mut self.params;
-        let mut job = FitJob::for_step(stats, p.mode, &p.bounds);
-        p.step_with::<Fit>(&mut job);
+        let p = &self.params;
+        if let Ok(f) = fit_least_squares(stats, p.mode, p.current(), &p.bounds) {
+            self.params.feed(&f);
+        }
     }
 
     fn refine(&mut self, inp: &Inputs) -> Observations {
@@ -135,7 +128,7 @@ impl Pipeline for Fixed {
     }
 
     fn mle(&mut self, obs: &Observations, inp: &Inputs) -> Report {
-        let e = mle_with::<Kernel>(obs, self.params.current(), area(inp), Search::Thesis);
+        let e = mle_with::<K>(obs, self.params.current(), area(inp), Search::Thesis);
         self.report(e)
     }
 
@@ -144,9 +137,9 @@ impl Pipeline for Fixed {
         // would be linked in).
         let e = match MMSE {
             Estimator::MmseWindow { sigma } => {
-                mmse_window_with::<Kernel>(obs, self.params.current(), area(inp), sigma)
+                mmse_window_with::<K>(obs, self.params.current(), area(inp), sigma)
             }
-            other => estimate_with::<Kernel>(obs, self.params.current(), area(inp), other),
+            other => estimate_with::<K>(obs, self.params.current(), area(inp), other),
         };
         self.report(e)
     }

@@ -10,22 +10,17 @@ use simavr::{Avr, State};
 use crate::{float, run, Inputs, Report, MARKS, N_ANCHORS, N_CHANNELS, SIGMA_DB};
 
 /// The firmwares, baseline first.
-pub const BINS: [&str; 10] = [
+pub const BINS: [&str; 6] = [
     "est-none",
     "est-fixed",
     "est-f32",
-    "kernel-check",
-    "fit-check",
-    "fit-check2",
-    "search-check",
-    "search-check2",
-    "report-check",
+    "est-portable",
+    "checkasm",
     "board-check",
 ];
-/// The benchmark variants among [`BINS`] (`kernel-check`, `fit-check`, `fit-check2`,
-/// `search-check`, `search-check2` and `report-check` are correctness checks, `board-check`
-/// uno-board's).
-pub const ESTIMATES: [&str; 3] = ["est-none", "est-fixed", "est-f32"];
+/// The benchmark variants among [`BINS`] (`checkasm` is the kernel's equality harness,
+/// `board-check` uno-board's checks).
+pub const ESTIMATES: [&str; 4] = ["est-none", "est-fixed", "est-f32", "est-portable"];
 
 /// Simulated time after which a run that has not stopped counts as hung.
 const RUN_LIMIT_MS: f64 = 20_000.0;
@@ -232,7 +227,7 @@ pub fn host_fixed(inp: &Inputs) -> [Report; 2] {
         }
     }
     let area = AreaCm::new(inp.area[0], inp.area[1]);
-    let mut fx = crate::fixed::Fixed::new();
+    let mut fx = crate::fixed::Fixed::<loc_core::fixed::Portable>::new();
     let _ = fx.params.update(&CalStats::from_measurements(&m, None));
     let mut one = |est: Estimator| {
         let e = sink_fix(&m, area, &mut fx.params, Refinement::Extended, est);
@@ -296,101 +291,114 @@ pub fn host_f64(inp: &Inputs) -> [Fix; 2] {
     [mle, mmse]
 }
 
-/// What an `est-sink` run gave.
+/// One case of a `checkasm` run.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CheckCase {
+    /// The case's name.
+    pub name: String,
+    /// Jobs checked.
+    pub jobs: u32,
+    /// Jobs whose results differed.
+    pub mismatches: u32,
+    /// The digest of the portable column's results on the MCU.
+    pub portable: u32,
+    /// The digest of the kernel's.
+    pub kernel: u32,
+}
+
+/// What a `checkasm` run gave.
 #[derive(Clone, Debug)]
-pub struct SinkRun {
-    /// Cycles of the timed report (between the two [`crate::sink::SINK_MARKS`], one marker's
-    /// overhead included: subtract `est-none`'s empty phase).
-    pub cycles: u64,
-    /// What it wrote after the markers (`\n` first), up to and without `end\n`.
-    pub lines: String,
-    /// Flash bytes.
-    pub flash: usize,
-    /// Static data bytes.
-    pub static_sram: usize,
-    /// Stack peak, bytes.
-    pub stack_peak: usize,
+pub struct CheckRun {
+    /// The table's cases, in order.
+    pub cases: Vec<CheckCase>,
+    /// The first mismatches, as printed.
+    pub mismatches: Vec<String>,
+    /// The timed case and its jobs per loop.
+    pub bench: (String, u32),
+    /// Cycles of the timed loops: portable column, kernel, generator alone (each one marker's
+    /// overhead included).
+    pub loops: [u64; 3],
 }
 
-/// The ATmega328P's flash, bytes.
-pub const FLASH: usize = 32 * 1024;
-
-/// Builds `est-sink` (`cargo fw-sink`, a no-op when current) unless `HOPLOC_FIRMWARE_DIR` points
-/// elsewhere, where it must exist; returns its flash bytes (`.text` + `.data`, read from the ELF:
-/// also when it does not fit).
-pub fn build_sink() -> Result<usize, String> {
-    let elf = elf("est-sink");
-    if std::env::var_os("HOPLOC_FIRMWARE_DIR").is_none() {
-        let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
-            .arg("fw-sink")
-            .current_dir(workspace_root())
-            .status()
-            .map_err(|e| format!("could not run cargo fw-sink: {e}"))?;
-        if !status.success() {
-            return Err("cargo fw-sink failed".into());
-        }
-    }
-    let out = Command::new("avr-size")
-        .arg(&elf)
-        .output()
-        .map_err(|e| format!("could not run avr-size: {e}"))?;
-    let text = String::from_utf8_lossy(&out.stdout);
-    let words: Vec<usize> = text
-        .lines()
-        .nth(1)
-        .unwrap_or("")
-        .split_whitespace()
-        .take(2)
-        .filter_map(|w| w.parse().ok())
-        .collect();
-    match words[..] {
-        [t, d] => Ok(t + d),
-        _ => Err(format!("{}: avr-size said {text:?}", elf.display())),
+impl CheckRun {
+    /// Cycles per column call of the portable column and of the kernel, net of the generator.
+    pub fn per_call(&self) -> (f64, f64) {
+        let jobs = self.bench.1.max(1) as f64;
+        let [p, k, g] = self.loops;
+        (
+            p.saturating_sub(g) as f64 / jobs,
+            k.saturating_sub(g) as f64 / jobs,
+        )
     }
 }
 
-/// Runs the `est-sink` ELF `elf` in simavr until it stops.
-pub fn run_sink_elf(elf: &Path) -> Result<SinkRun, String> {
+/// Runs the `checkasm` ELF `elf` in simavr until it stops and parses its lines.
+pub fn run_checkasm(elf: &Path) -> Result<CheckRun, String> {
     let err = |e: simavr::Error| format!("{}: {e}", elf.display());
     let mut avr = Avr::load(elf).map_err(err)?;
     let mut state = State::Running;
-    while state.is_alive() && avr.time_ms() < RUN_LIMIT_MS {
-        state = avr.run_for_ms(50.0);
+    while state.is_alive() && avr.time_ms() < 20.0 * RUN_LIMIT_MS {
+        state = avr.run_for_ms(100.0);
     }
     let text = avr.uart_output_string();
     if state != State::Done {
         return Err(format!(
-            "{}: did not stop ({state:?}): {text:?}",
-            elf.display()
+            "{}: did not stop ({state:?} at {:.0} ms): {text:?}",
+            elf.display(),
+            avr.time_ms()
         ));
     }
+    let bad = |what: &str| format!("{}: {what} in {text:?}", elf.display());
+    let (mut cases, mut mismatches, mut bench) = (Vec::new(), Vec::new(), None);
     let out = avr.uart_output();
-    let marks = &crate::sink::SINK_MARKS;
-    let got: Vec<u8> = out.iter().take(marks.len()).map(|b| b.byte).collect();
-    let body = text.get(marks.len()..).unwrap_or("");
-    let lines = body.strip_suffix("end\n");
-    match (got == marks, lines) {
-        (true, Some(lines)) => {
-            let need = |v: Option<usize>, what: &str| {
-                v.ok_or_else(|| format!("{}: no {what} (symbols missing)", elf.display()))
-            };
-            Ok(SinkRun {
-                cycles: out[1].cycle - out[0].cycle,
-                lines: lines.to_string(),
-                flash: need(avr.flash_size(), "flash size")?,
-                static_sram: need(avr.static_data_size(), "static data size")?,
-                stack_peak: need(avr.stack_peak(), "stack peak")?,
-            })
+    let mut at = 0;
+    for line in text.split_inclusive('\n') {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.first().copied() {
+            Some("case") => {
+                let num = |k: usize| words.get(k).and_then(|w| w.parse::<u32>().ok());
+                match (words.get(1), num(2), num(3), num(4), num(5)) {
+                    (Some(n), Some(jobs), Some(mismatches), Some(portable), Some(kernel)) => cases
+                        .push(CheckCase {
+                            name: n.to_string(),
+                            jobs,
+                            mismatches,
+                            portable,
+                            kernel,
+                        }),
+                    _ => return Err(bad("a bad case line")),
+                }
+            }
+            Some("mismatch") => mismatches.push(line.trim_end().to_string()),
+            Some("bench") => {
+                let jobs = words.get(2).and_then(|w| w.parse().ok());
+                bench = Some((words.get(1).unwrap_or(&"").to_string(), jobs.unwrap_or(0)));
+                at += line.len();
+                break;
+            }
+            _ => return Err(bad("an unexpected line")),
         }
-        _ => Err(format!("{}: unexpected output {text:?}", elf.display())),
+        at += line.len();
     }
-}
-
-/// What `est-sink` must print after its markers: [`crate::sink::run_sink`] on the host, with
-/// the portable cost kernel.
-pub fn host_sink(inp: &Inputs) -> String {
-    let lines = crate::sink::run_sink::<loc_core::fixed::Portable>(inp, |_| {});
-    let mut out = Vec::new();
-    crate::sink::write_lines(&lines, |b| out.push(b));
-    String::from_utf8_lossy(&out).into_owned()
+    let bench = bench.ok_or_else(|| bad("no bench line"))?;
+    let marks: Vec<u64> = out
+        .get(at..at + 4)
+        .filter(|m| m.iter().all(|b| b.byte == b'A'))
+        .ok_or_else(|| bad("no bench markers"))?
+        .iter()
+        .map(|b| b.cycle)
+        .collect();
+    if text.get(at + 4..) != Some("\nend\n") {
+        return Err(bad("no end after the bench markers"));
+    }
+    Ok(CheckRun {
+        cases,
+        mismatches,
+        bench,
+        loops: [
+            marks[1] - marks[0],
+            marks[2] - marks[1],
+            marks[3] - marks[2],
+        ],
+    })
 }

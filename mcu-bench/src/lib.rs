@@ -1,16 +1,15 @@
-//! mcu-bench: one full sink estimate on the ATmega328P, counted in simavr (SPEC §8, issue 4b).
+//! mcu-bench: one full sink estimate on the ATmega328P, counted in simavr, and the column
+//! kernel's equality harness.
 //!
-//! Three firmwares run the same sequence on the same inputs (4 anchors × 2 channels in a
-//! 10 m × 10 m room), writing one marker byte to the UART at every phase boundary; simavr stamps
-//! each byte with the cycle at which the firmware wrote `UDR0`, so the cycles between markers are
-//! exact:
+//! The benchmark firmwares run the same sequence on the same inputs (4 anchors × 2 channels in
+//! a 10 m × 10 m room), writing one marker byte to the UART at every phase boundary; simavr
+//! stamps each byte with the cycle at which the firmware wrote `UDR0`, so the cycles between
+//! markers are exact:
 //!
-//! * `est-fixed`: loc-core's integer path ([`loc_core::fixed`], the lean sink sequence);
+//! * `est-fixed`: loc-core's integer path ([`loc_core::fixed`]) as the sink runs it, with the
+//!   AVR assembly column kernel ([`fixed`]);
+//! * `est-portable`: the same with loc-core's portable column (what the kernel saves);
 //! * `est-f32`: the same algorithm in plain `f32` with avr-libc's `log10`/`exp` ([`float`]);
-//! * `est-sink`: not phase by phase: the sink's whole per-report path
-//!   (`sink_fw::Sink::on_report` of a `loc_proto` report, then its text lines; [`sink`]), for
-//!   its flash (SPEC §8: the sink firmware within 16 KB) and its cycles; built apart, by
-//!   `cargo fw-sink`, while it does not fit the 32 KB;
 //! * `est-none`: no estimator: the baseline whose phases measure the markers' own cost, and whose
 //!   flash and SRAM are subtracted to attribute the rest to the estimator.
 //!
@@ -20,22 +19,24 @@
 //! the Extended refinement, and then the thesis MLE (first estimate) or the windowed MMSE (second).
 //! After the timed part the firmware prints both results (see [`Report`]) and stops.
 //!
-//! `cargo fw-bench` builds the three ELFs; `cargo bench -p hoploc --bench mcu_estimate` runs them
-//! and prints the table; `tests/tests/mcu_bench.rs` checks the results against the host.
+//! `checkasm` is the kernel's equality harness ([`checkasm`]).
+//!
+//! `cargo fw-bench` builds the ELFs; `cargo bench -p hoploc --bench mcu_estimate` runs them
+//! and prints the tables; `tests/tests/mcu_bench.rs` and `tests/tests/checkasm.rs` check the
+//! results against the host.
 #![cfg_attr(target_arch = "avr", no_std)]
 
 use core::hint::black_box;
 
 pub mod board;
+pub mod checkasm;
 pub mod fixed;
 pub mod float;
 #[cfg(target_arch = "avr")]
 pub mod fw;
 #[cfg(not(target_arch = "avr"))]
 pub mod harness;
-pub mod report_case;
 pub mod rng;
-pub mod sink;
 
 /// Anchors.
 pub const N_ANCHORS: usize = 4;

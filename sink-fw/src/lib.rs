@@ -1,41 +1,29 @@
-//! The sink's logic, sans-IO (SPEC §4): per agent report, P0/α from the relayed anchor-to-anchor
-//! RSSI (least squares + AR(1)), then the agent located by loc-core's fixed-point path twice —
-//! the thesis MLE and the windowed MMSE — and the counters of the status lines.
+//! The sink's logic, sans-IO: per agent report, P0/α from the relayed anchor-to-anchor RSSI
+//! (least squares + AR(1)), then the agent located by loc-core's fixed-point path twice — the
+//! thesis MLE and the windowed MMSE — and the counters of the status lines.
 //!
 //! [`Sink`] is fed what the shell decoded ([`Sink::on_report`], [`Sink::on_bad_frame`]) and
 //! answers with a [`Fix`] (or why there is none); `main.rs` writes them as loc-proto's sink
-//! lines. It is generic over the cost kernel: the AVR assembly one on the Uno, the portable one
-//! on the host, with identical results.
+//! lines. It runs the same `loc_core::fixed` code on the host and on the Uno (where the search's
+//! column is loc-core's AVR kernel), so the host computes exactly the lines the firmware writes.
 //!
-//! What a report costs (SPEC §8: the sink firmware within 16 KB of flash): [`Sink::on_report`]
-//! takes the calibration statistics and the Extended observations straight from the report's
-//! bytes ([`report_inputs`] over a [`ReportView`] in the firmware: no decoded [`Report`], no
-//! [`Measurements`] of 8 × 8 × 4 optional bytes in between; on the AVR one assembly routine,
-//! `uno_board::AvrFit`'s [`ReportKernel`], which widens the anchors' box too), fits
-//! P0/α by least squares only, and gets both estimates from one search
+//! Per report: [`Sink::on_report`] takes the calibration statistics and the Extended
+//! observations straight from the report ([`report_inputs`], through [`ReportData`]'s
+//! accessors: a [`ReportView`] over the packet's bytes in the firmware, so no decoded [`Report`]
+//! is built), fits P0/α by least squares, and gets both estimates from one search
 //! (`loc_core::fixed::mle_and_mmse_window_into`: the MMSE's window is the thesis' fine window,
 //! so the coarse stage and the window run once). The results are those of the generic path,
-//! [`Sink::on_measurements`] (thesis MLE, then windowed MMSE), bit for bit (`tests`). The sink
-//! firmware with all of this is 16 184 B (`hoploc footprint`), within the budget.
+//! [`Sink::on_measurements`] (thesis MLE, then windowed MMSE), bit for bit (`tests`).
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-use core::marker::PhantomData;
 use loc_core::fixed::{
-    extended, mle_and_mmse_window_into, observations, AreaCm, Bounds, CalStats, Estimate, FitJob,
-    FitMethod, LocError, Measurements, Obs, Observations, OnlineParams, ParamMode, PathLoss,
-    PointCm, Refinement, ReportBytes, ReportKernel, TermKernel,
+    extended, fit_least_squares, mle_and_mmse_window_into, mul_hi, observations, AreaCm, Bounds,
+    CalStats, Estimate, FitMethod, LocError, Measurements, Native, Obs, Observations, OnlineParams,
+    ParamMode, PathLoss, PointCm, Refinement,
 };
 use loc_proto::msg::{NotReport, Position, Report, ReportView};
-
-/// The least-squares round (solve, AR(1) smoothers, σ) and the anchor pairs' sums (distance and
-/// bytes): AVR assembly on the MCU (one routine, ≈ 1.6 KB), the portable twin on the host; the
-/// same results (`fit-check`, `fit-check2`).
-#[cfg(target_arch = "avr")]
-type Fit = uno_board::AvrFit;
-#[cfg(not(target_arch = "avr"))]
-type Fit = loc_core::fixed::PortableFit;
 use loc_proto::sink_line::{write_status, Estimator, SinkLine, FLAG_FITTED};
 use loc_proto::Error;
 
@@ -84,8 +72,6 @@ pub trait ReportData {
     /// The relayed byte anchor `i + 1` heard from `j + 1` on channel number `c`, 0 without the
     /// relay matrix.
     fn relay(&self, c: usize, i: usize, j: usize) -> u8;
-    /// [`report_inputs_into`].
-    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations, area: &mut AreaCm);
 }
 
 impl ReportData for Report {
@@ -114,9 +100,6 @@ impl ReportData for Report {
             0
         }
     }
-    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations, area: &mut AreaCm) {
-        inputs_by_accessors(self, stats, obs, area)
-    }
 }
 
 impl ReportData for ReportView<'_> {
@@ -142,20 +125,6 @@ impl ReportData for ReportView<'_> {
     fn relay(&self, c: usize, i: usize, j: usize) -> u8 {
         ReportView::relay(self, c, i, j)
     }
-    /// The report's bytes from the first position on, by [`ReportKernel::report_inputs`]
-    /// (one assembly routine on the AVR).
-    #[inline(always)]
-    fn inputs_into(&self, stats: &mut CalStats, obs: &mut Observations, area: &mut AreaCm) {
-        let c = self.channels() as u8;
-        let r = ReportBytes {
-            bytes: self.bytes(),
-            start: 9 + c,
-            anchors: self.anchors() as u8,
-            channels: c,
-            relay: self.has_relay(),
-        };
-        Fit::report_inputs(&r, stats, obs, area)
-    }
 }
 
 /// Most agents a sink tracks (report sequence numbers for the drop count).
@@ -164,9 +133,7 @@ pub const MAX_AGENTS: usize = 16;
 pub const DEFAULT_SIGMA: u16 = 4 << 8;
 
 /// What the status line shows (the uptime, then the counters) and `no_fixes`, which it does
-/// not: one array in the line's order, so the firmware writes it in one loop and bumps a
-/// counter by its index (seven named fields and the uptime apart were eight calls and eight
-/// offsets: 0.1 KB more AVR flash).
+/// not: one array in the line's order, written in one loop, each counter bumped by its index.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Counters([u32; 8]);
 
@@ -279,7 +246,7 @@ pub struct Fix {
     pub agent: u8,
     /// The report's superframe sequence.
     pub seq: u16,
-    /// The thesis MLE, then the windowed MMSE: one array, which the search writes in place
+    /// The thesis MLE, then the windowed MMSE, which the search writes in place
     /// ([`Sink::on_report_with`]).
     pub estimates: [Estimate; 2],
     /// The path-loss model both used (after this report's fit and AR(1)).
@@ -289,7 +256,7 @@ pub struct Fix {
 }
 
 impl Fix {
-    /// A fix to be filled in ([`Sink::on_report_with`]): all zeros (no constant in SRAM).
+    /// A fix to be filled in ([`Sink::on_report_with`]).
     pub const NONE: Fix = Fix {
         agent: 0,
         seq: 0,
@@ -314,15 +281,8 @@ impl Fix {
         [self.line(Estimator::Mle), self.line(Estimator::Mmse)]
     }
 
-    /// The `fix` line of `estimator` (inlined: the firmware writes it where it builds it).
-    #[inline]
+    /// The `fix` line of `estimator`.
     pub fn line(&self, estimator: Estimator) -> SinkLine {
-        self.line_with::<loc_core::fixed::Portable>(estimator)
-    }
-
-    /// [`Fix::line`] by `K`'s `mul_hi` (the firmware: its search kernel's, already linked).
-    #[inline]
-    pub fn line_with<K: TermKernel>(&self, estimator: Estimator) -> SinkLine {
         let e = match estimator {
             Estimator::Mle => self.mle(),
             Estimator::Mmse => self.mmse(),
@@ -333,8 +293,8 @@ impl Fix {
             estimator,
             x: cm(e.pos.x),
             y: cm(e.pos.y),
-            alpha_x100: centi::<K>(self.model.alpha.max(0), 24) as u16,
-            p0_x100: centi::<K>(self.model.p0, 16) as i16,
+            alpha_x100: centi(self.model.alpha.max(0), 24) as u16,
+            p0_x100: centi(self.model.p0, 16) as i16,
             anchors: e.anchors,
             flags: if self.fitted { FLAG_FITTED } else { 0 },
         }
@@ -349,15 +309,15 @@ fn cm(mm: u32) -> i16 {
     ((mm.min(327_665) + 5) / 10) as i16
 }
 
-/// `v·100 / 2^q` rounded (half up), `16 ≤ q ≤ 31`, for `|v| ≤ 2^30`, from the search's
-/// `K::mul_hi` (no 32-bit multiply: libgcc's `__mulsi3` & co., 80 B, would be linked for it
-/// alone). With `b = 200·2^16` (`bl = 0`) `mul_hi(a, b) = ⌊a·200 / 2^16⌋` exactly; `a = v + 2^31`
-/// is unsigned and adds `200·2^15` to that. Then `n = ⌊200·v / 2^q⌋ + 100·2^(32−q)` (nested
-/// floors), `⌊(n + 1) / 2⌋ = ⌊100·v / 2^q + 1/2⌋ + 100·2^(31−q)` (the offset is even), and the
-/// offset goes. (A sink's α is within [`loc_core::fixed::ALPHA_LIMIT`] and its P0 within
+/// `v·100 / 2^q` rounded (half up), `16 ≤ q ≤ 31`, for `|v| ≤ 2^30`, by the search's
+/// [`mul_hi`] (the firmware links no other 32-bit multiply for it). With `b = 200·2^16`
+/// (`bl = 0`) `mul_hi(a, b) = ⌊a·200 / 2^16⌋` exactly; `a = v + 2^31` is unsigned and adds
+/// `200·2^15` to that. Then `n = ⌊200·v / 2^q⌋ + 100·2^(32−q)` (nested floors),
+/// `⌊(n + 1) / 2⌋ = ⌊100·v / 2^q + 1/2⌋ + 100·2^(31−q)` (the offset is even), and the offset
+/// goes. (A sink's α is within [`loc_core::fixed::ALPHA_LIMIT`] and its P0 within
 /// [`loc_core::fixed::P0_LIMIT`], both below 2^30.)
-fn centi<K: TermKernel>(v: i32, q: u32) -> i32 {
-    let n = K::mul_hi((v as u32) ^ (1 << 31), 200 << 16) >> (q - 16);
+fn centi(v: i32, q: u32) -> i32 {
+    let n = mul_hi((v as u32) ^ (1 << 31), 200 << 16) >> (q - 16);
     ((n + 1) >> 1) as i32 - (100 << (31 - q))
 }
 
@@ -371,8 +331,7 @@ pub fn no_fix_line(agent: u8, seq: u16, e: LocError) -> SinkLine {
 }
 
 impl Counters {
-    /// Writes [`Counters::line`], the fields in a loop, each read as it is written (the
-    /// firmware: through the built line all seven were loaded first).
+    /// Writes [`Counters::line`], the fields in a loop.
     pub fn write_line(&self, out: impl FnMut(u8)) {
         let shown: &[u32; SHOWN] = self.0.first_chunk().unwrap_or(&[0; SHOWN]);
         write_status(shown, out);
@@ -392,28 +351,21 @@ impl Counters {
     }
 }
 
-/// The sink state machine over cost kernel `K`.
+/// The sink state machine.
 #[derive(Clone, Debug)]
-// In this order (`repr(C)`): of the orders tried, the one the AVR code is smallest with (the
-// room and the params' constants at near offsets of the firmware loop's frame; with the room
-// after the params its stores were past `Y+63`: 14 B more flash; the counters before the
-// params: 72 B more).
-#[repr(C)]
-pub struct Sink<K> {
+pub struct Sink {
     /// The room, or `None`: each report's anchors' bounding box.
     area: Option<AreaCm>,
     params: OnlineParams,
     counters: Counters,
-    /// Next expected sequence per agent (index agent − 1), valid where `seen`: all zeros at
-    /// first (no `Option` array to build field by field).
+    /// Next expected sequence per agent (index agent − 1), valid where `seen`.
     next_seq: [u16; MAX_AGENTS],
     /// Whether agent `k + 1` has reported.
     seen: [bool; MAX_AGENTS],
-    kernel: PhantomData<K>,
 }
 
 /// The sink's model at start: P0 and α by least squares within the thesis' bounds, from the
-/// thesis' prior. One constant (on the AVR a copy from `.data`, not a store per byte).
+/// thesis' prior.
 const START: OnlineParams = OnlineParams::new(
     ParamMode::P0AndAlpha,
     FitMethod::LeastSquares,
@@ -421,18 +373,17 @@ const START: OnlineParams = OnlineParams::new(
     PathLoss::THESIS,
 );
 
-impl<K: TermKernel> Sink<K> {
+impl Sink {
     /// A sink for the room `area` (`None`: each report's anchors' bounding box, [`anchors_box`];
     /// see [`room`]), estimating P0 and α by least squares within the thesis' bounds from the
     /// thesis' prior.
-    pub fn new(area: Option<AreaCm>) -> Sink<K> {
+    pub fn new(area: Option<AreaCm>) -> Sink {
         Sink {
             area,
             params: START,
             counters: Counters::default(),
             next_seq: [0; MAX_AGENTS],
             seen: [false; MAX_AGENTS],
-            kernel: PhantomData,
         }
     }
 
@@ -446,17 +397,13 @@ impl<K: TermKernel> Sink<K> {
         self.params.current()
     }
 
-    /// `secs` more seconds since boot, for the status line's uptime: one [`Sink::bump`] per
-    /// second (the sink adds 10 every 10 s; a 32-bit add of its own was 16 B more AVR flash).
+    /// `secs` more seconds since boot, for the status line's uptime.
     pub fn add_uptime(&mut self, secs: u8) {
-        for _ in 0..secs {
-            Self::bump(&mut self.counters.0[UPTIME]);
-        }
+        let up = &mut self.counters.0[UPTIME];
+        *up = up.wrapping_add(secs as u32);
     }
 
-    /// `c + 1`, out of line: each inlined 32-bit increment of a counter in memory costs ≈ 20 B
-    /// of AVR flash. A `Sink<K>` item: generic, it is laid out with the firmware's own code,
-    /// within `rcall` range of its callers (4 long calls less).
+    /// `c + 1` (one copy of the 32-bit increment for every counter).
     #[inline(never)]
     fn bump(c: &mut u32) {
         *c = c.wrapping_add(1);
@@ -475,37 +422,28 @@ impl<K: TermKernel> Sink<K> {
 
     /// A decoded report: as [`Sink::on_measurements`] of its [`measurements`] (the same
     /// result, `tests` checks), with the calibration statistics and the observations taken
-    /// straight from the report's bytes.
+    /// straight from the report.
     pub fn on_report(&mut self, r: &impl ReportData) -> Result<Fix, LocError> {
         self.on_report_with(r, |result| result.copied())
     }
 
-    /// [`Sink::on_report`], its result handed to `then` (the firmware: the search writes the
-    /// estimates where the lines read them, no copies; the fix, the statistics and the
-    /// observations zeroed by one `memset`).
-    #[inline(always)]
+    /// [`Sink::on_report`], its result handed to `then` (the firmware writes its lines from
+    /// the fix where the search left it: no copies).
     pub fn on_report_with<T>(
         &mut self,
         r: &impl ReportData,
         then: impl FnOnce(Result<&Fix, LocError>) -> T,
     ) -> T {
-        #[repr(C)]
-        struct Work {
-            fix: Fix,
-            stats: CalStats,
-            obs: Observations,
-        }
-        let mut w = Work {
-            fix: Fix::NONE,
-            stats: CalStats::new(),
-            obs: Observations::new(),
+        let mut fix = Fix::NONE;
+        let result = {
+            let (mut stats, mut obs) = (CalStats::new(), Observations::new());
+            // `anchors_box` of the report's positions, from the same pass over it.
+            let mut anchors = AreaCm::new(0, 0);
+            report_inputs_into(r, &mut stats, &mut obs, &mut anchors);
+            let area = self.area.unwrap_or(anchors);
+            self.locate(r.agent(), r.seq(), area, &stats, &obs, &mut fix)
         };
-        // `anchors_box` of the report's positions, from the same pass over its bytes.
-        let mut anchors = AreaCm::new(0, 0);
-        report_inputs_into(r, &mut w.stats, &mut w.obs, &mut anchors);
-        let area = self.area.unwrap_or(anchors);
-        let result = self.locate(r.agent(), r.seq(), area, &w.stats, &w.obs, &mut w.fix);
-        then(result.map(|()| &w.fix))
+        then(result.map(|()| &fix))
     }
 
     /// Agent `agent`'s report of superframe `seq`, as measurements: fit, smooth, locate.
@@ -551,23 +489,21 @@ impl<K: TermKernel> Sink<K> {
             *seen = true;
             *next = seq.wrapping_add(1);
         }
-        // The least-squares fit, fed to the smoothers, in one step (through
-        // `OnlineParams::update` the thesis' grid fit would be linked in too), with the mode and
-        // bounds `Sink::new` gave `params` as constants; the job then holds the new model. In a
-        // block: the job's stack slot is then free for the search's (25 B less stack peak).
-        let (fitted, model) = {
-            let mut job = FitJob::for_step(stats, ParamMode::P0AndAlpha, &Bounds::THESIS);
-            let fitted = self.params.step_with::<Fit>(&mut job);
-            let model = PathLoss {
-                p0: job.p0,
-                alpha: job.alpha,
-            };
-            (fitted, model)
+        // The least-squares fit from the current model, fed to the smoothers (a round without
+        // samples keeps the model).
+        let p = &self.params;
+        let fitted = match fit_least_squares(stats, p.mode, p.current(), &p.bounds) {
+            Ok(f) => {
+                self.params.feed(&f);
+                true
+            }
+            Err(_) => false,
         };
+        let model = self.params.current();
         let sigma = self.params.sigma().unwrap_or(DEFAULT_SIGMA);
         (fix.agent, fix.seq, fix.model, fix.fitted) = (agent, seq, model, fitted);
-        // Straight into the fix: a returned pair, or storage of our own, is one more copy.
-        let result = mle_and_mmse_window_into::<K>(obs, model, area, sigma, &mut fix.estimates);
+        let result =
+            mle_and_mmse_window_into::<Native>(obs, model, area, sigma, &mut fix.estimates);
         Self::bump(
             &mut self.counters.0[match result {
                 Ok(_) => FIXES,
@@ -588,23 +524,10 @@ pub fn report_inputs(r: &impl ReportData) -> (CalStats, Observations) {
     (stats, obs)
 }
 
-/// [`report_inputs`] added to `stats` and `obs` (new ones: [`report_inputs`]'s result), in
-/// place: a returned pair is copied on the AVR. A [`ReportView`]'s straight from its bytes
-/// ([`ReportKernel`]: assembly on the AVR, inlined into [`Sink::on_report`], which saves the
-/// registers it clobbers anyway), a [`Report`]'s through its accessors.
-#[inline(always)]
+/// [`report_inputs`] added to `stats` and `obs`, and `area` widened to every anchor's
+/// position ([`anchors_box`]), in place: every anchor pair's relayed bytes (both directions)
+/// into `stats`, each anchor's Extended refinement into `obs`.
 pub fn report_inputs_into(
-    r: &impl ReportData,
-    stats: &mut CalStats,
-    obs: &mut Observations,
-    area: &mut AreaCm,
-) {
-    r.inputs_into(stats, obs, area)
-}
-
-/// [`report_inputs_into`] by [`ReportData`]'s accessors: every anchor pair's relayed bytes
-/// (both directions) into `stats`, each anchor's Extended refinement into `obs`.
-fn inputs_by_accessors(
     r: &impl ReportData,
     stats: &mut CalStats,
     obs: &mut Observations,
@@ -612,8 +535,7 @@ fn inputs_by_accessors(
 ) {
     let n = r.anchors();
     let c = r.channels();
-    // Without the relay matrix every byte is 0 (not heard): no samples. The bytes as they are
-    // (0: not heard), the sums by `Fit`.
+    // Without the relay matrix every byte is 0 (not heard): no samples.
     for i in 0..n {
         for j in i + 1..n {
             let mut bytes = [0; 2 * loc_core::MAX_CHANNELS];
@@ -621,10 +543,9 @@ fn inputs_by_accessors(
                 bytes[ch] = r.relay(ch, i, j);
                 bytes[loc_core::MAX_CHANNELS + ch] = r.relay(ch, j, i);
             }
-            stats.push_pair_with::<Fit>(r.position(i), r.position(j), &bytes);
+            stats.push_pair_bytes(r.position(i), r.position(j), &bytes);
         }
     }
-    // The Extended refinement of each anchor's bytes (0 = not heard), as `observations_of`.
     for i in 0..n {
         widen(area, r.position(i));
         let mut bytes = [0u8; loc_core::MAX_CHANNELS];

@@ -40,7 +40,7 @@ fn run(node: &mut uno_board::Node) -> ! {
     use sink_fw::Sink;
     use uno_board::node::{self, Event};
     use uno_board::prelude::*;
-    use uno_board::{now_ms, rx_pending, sleep_unless, AvrTerm};
+    use uno_board::{now_ms, rx_pending, sleep_unless};
     let uno_board::Node {
         radio,
         led,
@@ -48,7 +48,7 @@ fn run(node: &mut uno_board::Node) -> ! {
         config,
     } = node;
 
-    let mut sink = Sink::<AvrTerm>::new(sink_fw::room(config.position));
+    let mut sink = Sink::new(sink_fw::room(config.position));
     // The clock's low 16 bits: the loop looks at least once a second (the watchdog's 1 s sees
     // to that), far within their 65 s, and 16-bit arithmetic is half the AVR code.
     let mut last_status = now_ms() as u16;
@@ -105,7 +105,7 @@ mod glue {
     /// `nofix` line. Out of line, as [`super::run`].
     #[inline(never)]
     pub fn on_report(
-        sink: &mut sink_fw::Sink<uno_board::AvrTerm>,
+        sink: &mut sink_fw::Sink,
         report: &loc_proto::msg::ReportView,
         radio: &mut uno_board::NodeRadio,
     ) {
@@ -137,9 +137,7 @@ mod lines {
     #[inline(never)]
     pub fn line(radio: &mut uno_board::NodeRadio, what: Line<'_>) {
         match what {
-            Line::Fix(fix, estimator) => fix
-                .line_with::<uno_board::AvrTerm>(estimator)
-                .write(uart(radio)),
+            Line::Fix(fix, estimator) => fix.line(estimator).write(uart(radio)),
             Line::Status(counters) => counters.write_line(uart(radio)),
         }
     }

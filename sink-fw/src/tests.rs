@@ -1,7 +1,7 @@
 //! The sink on noise-free reports from the path-loss model (P0 = −40 dBm, α = 3).
 
 use super::*;
-use loc_core::fixed::{PointCm, Portable, Search};
+use loc_core::fixed::{PointCm, Search};
 
 const ANCHORS: [(i16, i16); 4] = [(0, 0), (1000, 0), (1000, 1000), (0, 1000)];
 
@@ -37,7 +37,7 @@ fn report(at: (f64, f64), missing: &[usize]) -> Measurements {
     m
 }
 
-fn sink() -> Sink<Portable> {
+fn sink() -> Sink {
     Sink::new(Some(AreaCm::new(1000, 1000)))
 }
 
@@ -364,7 +364,7 @@ fn hundredths_are_the_64_bit_rounding() {
             _ => (x as i32) >> 1 >> (x >> 59),
         };
         for q in [16, 24] {
-            assert_eq!(centi::<Portable>(v, q), want(v, q), "{v} {q}");
+            assert_eq!(centi(v, q), want(v, q), "{v} {q}");
         }
     }
 }
@@ -418,9 +418,9 @@ fn the_configs_position_is_the_room_or_the_anchors_box() {
 #[test]
 fn a_sink_without_a_room_uses_each_reports_anchors_box() {
     use loc_proto::msg::{ChannelList, Position};
-    let mut boxed = Sink::<Portable>::new(None);
+    let mut boxed = Sink::new(None);
     let mut given = sink();
-    let mut other = Sink::<Portable>::new(Some(AreaCm::new(2000, 1000)));
+    let mut other = Sink::new(Some(AreaCm::new(2000, 1000)));
     let at = (620.0, 280.0);
     let m = report(at, &[]);
     let f = boxed.on_measurements(1, 1, &m).unwrap();
@@ -435,9 +435,9 @@ fn a_sink_without_a_room_uses_each_reports_anchors_box() {
             r.rssi[c][i] = byte(dist((x, y), (1200.0, 100.0)));
         }
     }
-    let mut in_box = Sink::<Portable>::new(Some(AreaCm::new(1500, 600)));
-    let mut from_m = Sink::<Portable>::new(None);
-    let got = Sink::<Portable>::new(None).on_report(&r).unwrap();
+    let mut in_box = Sink::new(Some(AreaCm::new(1500, 600)));
+    let mut from_m = Sink::new(None);
+    let got = Sink::new(None).on_report(&r).unwrap();
     assert_eq!(Ok(got), in_box.on_report(&r));
     assert_eq!(Ok(got), from_m.on_measurements(1, 2, &measurements(&r)));
     assert!(

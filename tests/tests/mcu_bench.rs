@@ -1,6 +1,6 @@
 //! The MCU estimate benchmark's firmwares compute the right thing (not how fast: that is
-//! `cargo bench -p hoploc --bench mcu_estimate`): `est-fixed` in simavr prints exactly what
-//! `loc_core::fixed` computes on the host for the same inputs, `est-f32` what the same f32 code
+//! `cargo bench -p hoploc --bench mcu_estimate`): `est-fixed` and `est-portable` in simavr print
+//! exactly what `loc_core::fixed` computes on the host for the same inputs, `est-f32` what the same f32 code
 //! computes on the host and a position within one fine lattice step (20 cm) of the fixed path's,
 //! and `est-none` runs the same markers; and on the host, the f32 port and the fixed path against
 //! loc-core's f64 reference (thesis MLE, windowed MMSE).
@@ -40,49 +40,12 @@ fn fixed_firmware_equals_host_fixed() {
     assert!(mle.x_mm <= 10_000.0 && mle.y_mm <= 10_000.0, "{mle:?}");
 }
 
-/// `est-sink` (the sink's `on_report` with the AVR kernel, and its lines) prints exactly what
-/// `sink_fw::Sink` with the portable kernel gives on the host: two `fix` lines. (It fails, saying
-/// by how much, if est-sink outgrows the ATmega328P's flash.)
+/// `est-portable` (the same sequence with the portable column on the MCU) prints exactly what
+/// est-fixed and the host print: the kernel changes the cycles, not the results.
 #[test]
-fn sink_firmware_equals_host_sink() {
-    let flash = harness::build_sink().unwrap_or_else(|e| panic!("est-sink: {e}"));
-    assert!(
-        flash <= harness::FLASH,
-        "est-sink is {flash} B of flash, over the {} B of the ATmega328P",
-        harness::FLASH
-    );
-    let fw = harness::run_sink_elf(&harness::elf("est-sink")).unwrap_or_else(|e| panic!("{e}"));
-    let host = harness::host_sink(&Inputs::BENCH);
-    assert_eq!(fw.lines, host, "est-sink vs host sink_fw::Sink");
-    let fix_lines = host
-        .lines()
-        .filter(|l| l.starts_with("hoploc sink fix "))
-        .count();
-    assert_eq!(fix_lines, 2, "{host:?}");
-}
-
-/// The host side of `est-sink`: the sink's lines for the benchmark's report are two `fix` lines
-/// that parse back, with the same positions as the fixed path's sequence (MLE and a windowed
-/// MMSE on the same fitted model, the MMSE with the fitted σ).
-#[test]
-fn host_sink_gives_two_fix_lines() {
-    use loc_proto::sink_line::SinkLine;
-    let host = harness::host_sink(&Inputs::BENCH);
-    let body = host.strip_prefix('\n').expect("timed part's end");
-    let lines: Vec<SinkLine> = body
-        .split_inclusive('\n')
-        .map(|l| SinkLine::parse(l).unwrap_or_else(|e| panic!("{l:?}: {e:?}")))
-        .collect();
-    assert_eq!(lines.len(), 2, "{host:?}");
-    let fixed = harness::host_fixed(&Inputs::BENCH);
-    let SinkLine::Fix { x, y, .. } = lines[0] else {
-        panic!("{:?}", lines[0])
-    };
-    // The same thesis MLE as est-fixed's (same inputs, same fit and smoothing), in cm.
-    assert_eq!(
-        (x as u32, y as u32),
-        ((fixed[0].x + 5) / 10, (fixed[0].y + 5) / 10)
-    );
+fn portable_column_firmware_equals_host_fixed() {
+    let fw = run("est-portable");
+    assert_eq!(fw.reports, harness::host_fixed(&Inputs::BENCH));
 }
 
 #[test]
@@ -239,32 +202,4 @@ fn baseline_runs_the_same_markers() {
     // time at 57600 baud, 3080 cycles, and the polling) plus the driver's `black_box`es.
     let p = none.phases();
     assert!(p.iter().all(|&c| (3080..3500).contains(&c)), "{p:?}");
-}
-
-/// `uno_board::AvrTerm` (the cost term, the column loop and the posterior's accumulation in AVR
-/// assembly, what the sink runs) returns exactly `loc_core::fixed::portable_term`'s value on the
-/// MCU (edge cases and 50 000 random inputs), leaves exactly `portable_column`'s sums (5 000
-/// random columns) and `portable_posterior`'s reference and sums (5 000 random columns), and
-/// sets the weights up exactly as `portable_weights` (5 000 random `K`, σ) and divides exactly as
-/// `div_shl` and `mul_hi` (5 000 random divisions, 5 000 random products), and moves a window
-/// exactly as `portable_move` (5 000 random moves) and places anchors exactly as `portable_place`
-/// (700 random jobs of 8).
-#[test]
-fn avr_cost_kernel_equals_the_portable_one() {
-    if let Err(e) = BUILD.get_or_init(harness::build) {
-        panic!("bench firmware: {e}");
-    }
-    let mut avr = simavr::Avr::load(harness::elf("kernel-check")).unwrap();
-    while !avr.uart_output_string().contains("end\n") && avr.time_ms() < 40_000.0 {
-        avr.run_for_ms(100.0);
-    }
-    let out = avr.uart_output_string();
-    assert!(out.contains("kernel 50000 0\n"), "{out}");
-    assert!(out.contains("column 5000 0\n"), "{out}");
-    assert!(out.contains("posterior 5000 0\n"), "{out}");
-    assert!(out.contains("weights 5000 0\n"), "{out}");
-    assert!(out.contains("div_shl 5000 0\n"), "{out}");
-    assert!(out.contains("mul_hi 5000 0\n"), "{out}");
-    assert!(out.contains("move_window 5000 0\n"), "{out}");
-    assert!(out.contains("place 5600 0\n"), "{out}");
 }

@@ -10,7 +10,6 @@
 
 use hoploc_tests::boot;
 use hoploc_tests::sink_reports::{encoded, packet, report, ALL};
-use loc_core::fixed::Portable;
 use loc_proto::config::Config;
 use loc_proto::line::BootLine;
 use loc_proto::msg::Position;
@@ -98,7 +97,7 @@ fn the_sink_writes_a_fix_per_report_and_counts_what_it_could_not_use() {
         })
         .collect();
     // What the same logic computes on the host, line for line.
-    let mut host = Sink::<Portable>::new(sink_fw::room(Position { x: 0, y: 0 }));
+    let mut host = Sink::new(sink_fw::room(Position { x: 0, y: 0 }));
     let mut want = Vec::new();
     for r in &reports {
         match host.on_report(r) {

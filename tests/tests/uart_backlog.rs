@@ -9,7 +9,6 @@
 
 use hoploc_tests::boot;
 use hoploc_tests::sink_reports::{encoded, packet, report, ALL};
-use loc_core::fixed::Portable;
 use loc_proto::msg::Position;
 use loc_proto::sink_line::{RawReport, SinkLine, SinkOutput};
 use loc_proto::Role;
@@ -53,7 +52,7 @@ fn a_report_waiting_in_the_ring_while_the_sink_is_busy_comes_out_intact() {
         })
         .collect();
     assert_eq!(raws, reports.iter().map(encoded).collect::<Vec<_>>());
-    let mut host = Sink::<Portable>::new(sink_fw::room(Position { x: 0, y: 0 }));
+    let mut host = Sink::new(sink_fw::room(Position { x: 0, y: 0 }));
     let want: Vec<SinkLine> = reports
         .iter()
         .flat_map(|r| host.on_report(r).unwrap().lines())

@@ -21,20 +21,17 @@
 //! `loc_proto::line::BootLine` lines, the LED error code and the retry), the watchdog; and
 //! [`node`], what the node loops do with the radio.
 //!
-//! Also here until they move: [`libm`] (safe wrappers of avr-libc's `f32` `log10`/`exp`/`sqrt`,
-//! for the f32 benchmark in `mcu-bench`), [`AvrTerm`] and [`AvrFit`] (the sink's search and
-//! P0/α fit in AVR assembly, bit-exact with loc-core's portable kernels). With the default
-//! `panic-reset` feature the crate provides the `#[panic_handler]`: reset through the watchdog,
-//! no formatting.
+//! Also here: [`libm`] (safe wrappers of avr-libc's `f32` `log10`/`exp`/`sqrt`, for the f32
+//! benchmark in `mcu-bench`). With the default `panic-reset` feature the crate provides the
+//! `#[panic_handler]`: reset through the watchdog, no formatting.
 //!
 //! Everything AVR-specific is behind `cfg(target_arch = "avr")`: on the host the crate only has
 //! its portable, unit-tested parts ([`baud`], [`WdtTimeout`], [`eeprom_range`]), so the
 //! workspace builds and tests there.
 //!
-//! `unsafe` in hoploc lives only here, and only for: register access from interrupt handlers,
-//! the timed write sequences (watchdog, EEPROM) and `SEI; SLEEP` in inline assembly, the
-//! estimator kernels' assembly ([`AvrTerm`], [`AvrFit`]), and the calls into avr-libc's float
-//! math ([`libm`]). Each use carries a `SAFETY` comment.
+//! `unsafe` in uno-board is only for: register access from interrupt handlers, the timed write
+//! sequences (watchdog, EEPROM) and `SEI; SLEEP` in inline assembly, and the calls into
+//! avr-libc's float math ([`libm`]). Each use carries a `SAFETY` comment.
 //!
 //! [`avr-device`]: https://docs.rs/avr-device
 #![no_std]

@@ -170,31 +170,63 @@ pub(crate) fn sq16(v: i32) -> u32 {
     a.wrapping_mul(a)
 }
 
-/// `v² >> s` as `u32`, exactly rounded down (the caller picks `s` so that it fits).
+/// `⌊a·b / 2^32⌋`, within 2 below, from three 16 × 16 products (no 64-bit arithmetic).
 #[inline(never)]
-pub(crate) fn sq_shr(v: i32, s: u8) -> u32 {
-    (square(v) >> s) as u32
+pub fn mul_hi(a: u32, b: u32) -> u32 {
+    let (ah, al, bh, bl) = (a >> 16, a & 0xFFFF, b >> 16, b & 0xFFFF);
+    ah * bh + ((ah * bl) >> 16) + ((al * bh) >> 16)
 }
 
-/// `v²` exactly, for `|v| < 2^31`.
+/// `a·b` exactly, as its high and low 32-bit words, from four 16 × 16 → 32-bit products (a
+/// 64-bit multiply is a library call of a few hundred cycles on an 8-bit MCU, and there a
+/// 16 × 16-bit product of `u16`s is a short one; a `u64` result would come back through memory).
+#[inline(always)]
+pub fn mul_wide(a: u32, b: u32) -> (u32, u32) {
+    let m = |x: u32, y: u32| (x as u16 as u32) * (y as u16 as u32);
+    let (ah, al, bh, bl) = (a >> 16, a & 0xFFFF, b >> 16, b & 0xFFFF);
+    let (mid, c1) = m(ah, bl).overflowing_add(m(al, bh));
+    let (lo, c2) = m(al, bl).overflowing_add(mid << 16);
+    let hi = m(ah, bh) + (mid >> 16) + ((c1 as u32) << 16) + c2 as u32;
+    (hi, lo)
+}
+
+/// `⌊a·2^e / b⌋` for `1 ≤ b < 2^31`, saturating at `u32::MAX` (one 32-bit division, then a bit
+/// per step).
 #[inline(never)]
-pub(crate) fn square(v: i32) -> u64 {
-    let a = v.unsigned_abs();
-    if a < 1 << 16 {
-        // One 16 × 16 → 32 multiply.
-        return (a * a) as u64;
+pub fn div_shl(a: u32, b: u32, e: u32) -> u32 {
+    let (mut q, mut r) = (a / b, a % b);
+    for _ in 0..e {
+        if q >> 31 != 0 {
+            return u32::MAX;
+        }
+        q <<= 1;
+        r <<= 1;
+        if r >= b {
+            r -= b;
+            q |= 1;
+        }
     }
-    let (h, l) = (a >> 16, a & 0xFFFF);
-    // a² = h²·2^32 + 2hl·2^16 + l², each product < 2^32.
-    // h²·2^32 | l² (no overlap: l² < 2^32), plus the cross term.
-    ((((h * h) as u64) << 32) | (l * l) as u64) + (((h * l) as u64) << 17)
+    q
 }
 
-/// A shift `s` with `(v² >> s) < 2^32` for every `|v| ≤ max`: 0 for `max < 2^16`, else
-/// `2·(bits(max) − 16)` (at most one more than the least such shift).
-pub(crate) fn square_shift(max: u32) -> u8 {
-    let bits = 32 - max.leading_zeros();
-    (2 * bits).saturating_sub(32) as u8
+/// `log2(x)` in Q.20, rounded to the nearest, for `x ≥ 1`, at compile time: the constants of
+/// the lattice and the fit are written as the logarithms they are. The fraction's bits come
+/// from repeated squaring of the mantissa in Q.62 (24 of them, then rounded to 20); the
+/// squarings' truncations stay far below the rounding (`tests` compares with f64).
+pub const fn log2_q20(x: u64) -> i32 {
+    let e = 63 - x.leading_zeros();
+    let mut m = ((x as u128) << 62) >> e;
+    let (mut frac, mut i) = (0u32, 0);
+    while i < 24 {
+        m = (m * m) >> 62;
+        frac <<= 1;
+        if m >= 2 << 62 {
+            m >>= 1;
+            frac |= 1;
+        }
+        i += 1;
+    }
+    ((e << 20) + ((frac + 8) >> 4)) as i32
 }
 
 /// `⌊√x⌋` (bit by bit; no table, no division).
@@ -326,20 +358,6 @@ mod tests {
 
     #[test]
     fn squares_and_roots() {
-        for v in [
-            0i32,
-            1,
-            -1,
-            65535,
-            65536,
-            -65537,
-            4_900_000,
-            -(1 << 23),
-            i32::MAX,
-            -i32::MAX,
-        ] {
-            assert_eq!(square(v), (v as i64 * v as i64) as u64, "{v}");
-        }
         for x in [
             0u32,
             1,
@@ -358,24 +376,6 @@ mod tests {
             let x = x as u64;
             assert!(r * r <= x && (r + 1) * (r + 1) > x, "{x}");
         }
-        for m in [
-            0u32,
-            1,
-            65535,
-            65536,
-            92681,
-            1 << 20,
-            4_900_000,
-            u32::MAX >> 1,
-        ] {
-            let s = square_shift(m);
-            assert!(square(m as i32) >> s <= u32::MAX as u64, "{m}");
-            assert!(
-                s == 0 || square(m as i32) >> (s - 2) > u32::MAX as u64 >> 2,
-                "{m}"
-            );
-            assert_eq!(sq_shr(m as i32, s) as u64, square(m as i32) >> s);
-        }
         assert_eq!(sq16(-65535), 65535 * 65535);
         for v in [
             0u32,
@@ -393,6 +393,65 @@ mod tests {
             assert!(got <= exact && exact - got <= 2, "{v}: {got} vs {exact}");
         }
         assert_eq!(mul_shr(3, 5, 1), 8);
+    }
+
+    #[test]
+    fn compile_time_logs_are_rounded_logs() {
+        for x in [
+            1u64,
+            2,
+            3,
+            7,
+            10,
+            2500,
+            10_000,
+            25_000_000,
+            1 << 40,
+            u64::MAX,
+        ] {
+            let want = libm::round(libm::log2(x as f64) * (1 << 20) as f64) as i32;
+            assert_eq!(log2_q20(x), want, "{x}");
+        }
+        let mut r: u64 = 0x9E37_79B9_7F4A_7C15;
+        for _ in 0..20_000 {
+            r ^= r << 13;
+            r ^= r >> 7;
+            r ^= r << 17;
+            let x = (r >> (r % 50)).max(1);
+            let exact = libm::log2(x as f64) * (1 << 20) as f64;
+            // Away from a rounding tie (which f64 cannot settle), the nearest Q.20 value.
+            if (exact - libm::floor(exact) - 0.5).abs() > 1e-3 {
+                assert_eq!(log2_q20(x), libm::round(exact) as i32, "{x}");
+            }
+        }
+    }
+
+    #[test]
+    fn high_products_and_shifted_quotients() {
+        let mut r: u64 = 0x2545_F491_4F6C_DD1D;
+        for _ in 0..100_000 {
+            r ^= r << 13;
+            r ^= r >> 7;
+            r ^= r << 17;
+            let (a, b) = (r as u32, (r >> 32) as u32);
+            let (hi, lo) = mul_wide(a, b);
+            assert_eq!(
+                (hi as u64) << 32 | lo as u64,
+                a as u64 * b as u64,
+                "{a} {b}"
+            );
+            let exact = ((a as u64 * b as u64) >> 32) as u32;
+            let got = mul_hi(a, b);
+            assert!(got <= exact && exact - got <= 2, "{a} {b}");
+            let (d, e) = ((b >> (r % 31)).max(1) & 0x7FFF_FFFF, (r >> 59) as u32);
+            let d = d.max(1);
+            let want = ((a as u128) << e) / d as u128;
+            assert_eq!(
+                div_shl(a, d, e) as u128,
+                want.min(u32::MAX as u128),
+                "{a} {d} {e}"
+            );
+        }
     }
 
     #[test]

@@ -18,9 +18,10 @@
 //!
 //! # How the cost is computed
 //!
-//! The lattice is the reference's ([`crate::grid::lattice_point`]): `(W·i/50, H·j/50)`, which in
-//! units of 1/50 cm is the integer `(W·i, H·j)`, so every squared anchor distance `d²` is an exact
-//! integer (≤ 46 bits). With `K = 5·α·log10 2` the reference cost is
+//! The lattice is the reference's ([`crate::grid::lattice_point`]): `(W·i/F, H·j/F)` with
+//! `F =` [`crate::grid::FINE_DIVS`], which in lattice units of `1/F` cm is the integer
+//! `(W·i, H·j)`, so every squared anchor distance `d²` is an exact integer. With
+//! `K = 5·α·log10 2` the reference cost is
 //! `C = Σ wᵢ (zᵢ − P0 + K·log2(dᵢ² / 1 m²))² = K² · Σ wᵢ (ρᵢ + log2 dᵢ²)²`,
 //! `ρᵢ = (zᵢ − P0)/K − log2(1 m²)` (one division per estimate, none per lattice point): the
 //! position search compares `C' = C/K²`, in log2 units, which has the same minimisers and the
@@ -30,41 +31,42 @@
 //! `dy` from anywhere in the area below 2^16 once rounded to `2^h` lattice units (`h = 0`
 //! within 13.1 m of the anchor; `ρ` and the clamp absorb the `2h`), so every lattice point costs
 //! the same wherever the search evaluates it. A window (the coarse grid, the fine window, a
-//! descent step's 3 × 3 block) is evaluated a column at a time, anchor by anchor
-//! ([`TermKernel::column`]): per column each anchor's `dx²`, per row `dy²` from the row's
-//! offset (24-bit, then `|·|` rounded to `2^h`, squared in 32 bits), `d²` one 32-bit add with
-//! carry. Then per (anchor, lattice point): `log2` from a 64-segment quadratic table in flash
-//! (error < 2.2·10⁻⁶, six 8 × 8 multiplies, constant shifts only), the clamp at the model's
-//! 1 cm ([`crate::model::MIN_DISTANCE`]), `u = ρ + log2 d²` (Q.20), `u²` in Q.20 from five
-//! 8 × 8 multiplies (`|u|` saturates at 32, i.e. `|z − p| ≥ 32·K` dB, where no estimate lives),
-//! the weight, and a saturating 32-bit sum that stops as soon as it cannot beat the point it is
-//! compared with (exact: the terms are non-negative; it skips about a third of the terms). The
-//! cost is within about 10⁻⁵ dB per observation of the reference's within 13 m of every anchor
-//! (farther, the rounding of the offsets adds up to `2^h/d` relative in `d²`), so a lattice
-//! decision differs from the f64 one only on a near-tie: of 2 100 random trials in 1–30 m rooms
-//! one thesis decision differs (99.95 % within 1 cm; `tests/fixed.rs`).
+//! descent step's 3 × 3 block) is evaluated a column at a time ([`column`]): per column each
+//! anchor's `dx²`, per row `dy²`, `d²` one 32-bit add with carry. Then per (anchor, lattice
+//! point): `log2` from a 64-segment quadratic table in flash (error < 2.2·10⁻⁶, six 8 × 8
+//! multiplies, constant shifts only), the clamp at the model's 1 cm
+//! ([`crate::model::MIN_DISTANCE`]), `u = ρ + log2 d²` (Q.20), `u²` in Q.20 from five 8 × 8
+//! multiplies (`|u|` saturates at 32, i.e. `|z − p| ≥ 32·K` dB, where no estimate lives), the
+//! weight, and a saturating 32-bit sum that stops as soon as it cannot beat the point it is
+//! compared with (exact: the terms are non-negative). The cost is within about 10⁻⁵ dB per
+//! observation of the reference's within 13 m of every anchor (farther, the rounding of the
+//! offsets adds up to `2^h/d` relative in `d²`), so a lattice decision differs from the f64 one
+//! only on a near-tie (`tests/fixed.rs` measures how often).
 //!
 //! # Map
 //!
-//! * Refinements ([`observations`], [`observations_of`], [`refine_anchor`]): Single, Max,
-//!   LinearAvg (`10^(−k/10)` from two 10-entry tables, the log from the log2 table), Extended (dB
-//!   mean, weight = channel count, and `const_cost`).
+//! * Refinements ([`observations`], [`observations_of`], [`refine_anchor`], [`extended`]):
+//!   Single, Max, LinearAvg (`10^(−k/10)` from two 10-entry tables, the log from the log2
+//!   table), Extended (dB mean, weight = channel count, and `const_cost`).
 //! * Path-loss fit ([`CalStats`], [`fit`], [`Ar1`], [`OnlineParams`]): both methods of
-//!   [`crate::params::fit`], with the same modes, bounds handling, identifiability rule and σ: the
-//!   exact box-constrained least squares ([`fit_least_squares`]: the MCU's method, one solve) and
-//!   the thesis' grid ([`fit_grid`]: 31 α steps); AR(1) smoothing in Q.16.
+//!   [`crate::params::fit`], with the same modes, bounds handling, identifiability rule and σ:
+//!   the exact box-constrained least squares ([`fit_least_squares`]: the MCU's method, one
+//!   solve) and the thesis' grid ([`fit_grid`]); AR(1) smoothing in Q.16.
 //! * Position ([`mle`] with [`Search::Thesis`], [`Search::MultiStart`] or [`Search::Exhaustive`];
 //!   [`mmse`] over the full lattice (host-sized: 64-bit totals), weights `2^(−y)` from a
 //!   32-entry table, and [`mmse_window`] over the thesis' fine window only, the sink's MMSE;
 //!   [`estimate`], [`locate`]); [`sink_fix`] runs the whole sink step (fit, smoothing,
 //!   refinement, estimate).
-//! * The sink's two estimates at once ([`mle_and_mmse_window_with`]): the windowed MMSE's window
+//! * The sink's two estimates at once ([`mle_and_mmse_window`]): the windowed MMSE's window
 //!   *is* the thesis' fine window around the same coarse winner, so one coarse stage and one pass
 //!   over the window give both the thesis MLE and the windowed MMSE, bit for bit the
-//!   [`Estimate`]s of [`mle_with`] (`Search::Thesis`) and [`mmse_window_with`] (tested on
-//!   random inputs, evaluation counts included). `sink-fw` runs this, and it links nothing
-//!   else of the search: 32-bit arithmetic only (no 64-bit multiply or division), one window
-//!   routine, the posterior in `u32` sums (weights Q.20 of the window's ≤ 121 points).
+//!   [`Estimate`]s of [`mle`] (`Search::Thesis`) and [`mmse_window`]; only 32-bit arithmetic
+//!   (the posterior in `u32` sums, weights Q.20).
+//! * The search's column ([`column`]): the one piece with a hand-written twin. Every search
+//!   takes its [`ColumnKernel`] as a type parameter (`mle_with::<Portable>`); the functions
+//!   without `_with` use [`Native`]: on the ATmega328P the AVR assembly kernel [`Avr`], which is
+//!   held equal to [`Portable`] in simavr, elsewhere [`Portable`] itself. Everything else is the
+//!   same Rust on the host and on the sink.
 //!
 //! Errors are [`LocError`]: fewer than three usable anchors is
 //! [`LocError::TooFewAnchors`]; a fit without samples [`LocError::NoCalibrationData`]. Nothing
@@ -72,63 +74,59 @@
 //!
 //! # On the ATmega328P
 //!
-//! `cargo bench -p hoploc --bench mcu_estimate` runs the whole sink step (4 anchors × 2
-//! channels in a 10 m room) as firmware in simavr (`mcu-bench`), with each search column —
-//! rows × anchors, the early exit at the bound and the column's minimum — in AVR assembly
-//! ([`TermKernel::column`], `uno_board::AvrTerm`): calibration statistics of the 6 anchor pairs
-//! ≈ 10 k cycles (the log, x, the sums in AVR assembly), the sink's least-squares round (fit,
-//! both AR(1) smoothers, σ; its multiply and divide written for flash) ≈ 19 k, Extended refinement ≈ 6 k, thesis MLE ≈ 113 k (312 anchor
-//! terms of the 932 a full evaluation takes, ≈ 300 cycles each with their row's share of the
-//! loop), ≈ 148 k in all (9.3 ms, 26× fewer than the same algorithm in f32): within the 160 k
-//! budget (`cargo bench -p hoploc --bench mcu_estimate`). The windowed MMSE (the sink's,
-//! [`mmse_window`]) is ≈ 253 k (≈ 288 k for the whole step): its weights need every window cost
-//! up to 21 bits of weight below the best, so the early exits hardly ever fire. The sink's search
-//! ([`mle_and_mmse_window_into`] with the assembly setup, driver, column, posterior and weights,
-//! and the two tables) is ≈ 4.9 KB of flash in `sink-fw` (README, Footprint); its stack,
-//! ≈ 0.4 KB below `Sink::locate`, is most of the way from the sink's report handler to its
-//! deepest point. Stack peak of `est-fixed` ≈ 1.1 KB.
+//! `cargo bench -p hoploc --bench mcu_estimate` runs the sink step (4 anchors × 2 channels in a
+//! 10 m room) as firmware in simavr (`mcu-bench`) and prints its cycles phase by phase, against
+//! the same algorithm in `f32`; the README keeps the measured figures.
 //!
-//! ```ignore
-//! // The lean sink step (what a firmware calls; `sink_fix` does the same from a `Measurements`):
+//! ```
+//! use loc_core::fixed::*;
+//! // Three anchors of a 10 m room, the agent's RSSI bytes on two channels (−dBm), and the
+//! // anchor-to-anchor bytes they relayed (here: one pair).
+//! let anchors = [PointCm::new(0, 0), PointCm::new(1000, 0), PointCm::new(0, 1000)];
 //! let mut stats = CalStats::new();
-//! for (a, b, bytes) in anchor_pairs { stats.push_pair(a, b, &bytes); } // both directions' bytes
+//! stats.push_pair_bytes(anchors[0], anchors[1], &[70, 71, 0, 0, 69, 72, 0, 0]);
+//! let mut params = OnlineParams::new(
+//!     ParamMode::P0AndAlpha,
+//!     FitMethod::LeastSquares,
+//!     Bounds::THESIS,
+//!     PathLoss::THESIS,
+//! );
 //! if let Ok(f) = fit_least_squares(&stats, params.mode, params.current(), &params.bounds) {
 //!     params.feed(&f);
 //! }
-//! let obs = observations_of(&anchors, &rssi, n_channels, Refinement::Extended);
-//! let fix = mle(&obs, params.current(), area, Search::Thesis)?;
+//! let rssi: [ChannelBytes; 3] = [
+//!     [Some(62), Some(63), None, None],
+//!     [Some(68), Some(66), None, None],
+//!     [Some(67), Some(69), None, None],
+//! ];
+//! let obs = observations_of(&anchors, &rssi, 2, Refinement::Extended);
+//! let fix = mle(&obs, params.current(), AreaCm::new(1000, 1000), Search::Thesis).unwrap();
+//! assert!(fix.pos.x <= 10_000 && fix.pos.y <= 10_000);
 //! ```
 
-mod grid;
-mod kernel;
-// `square`, `sq_shr` and `square_shift` served the position search's old shifted-square path;
-// they are left to math.rs' owner (the fit's rework) to remove.
-#[allow(dead_code)]
+pub mod column;
 mod math;
 mod params;
 mod refine;
+mod search;
 mod tables;
 
-pub use grid::{
-    estimate, estimate_with, locate, mle, mle_and_mmse_window_into, mle_and_mmse_window_with,
-    mle_with, mmse, mmse_window, mmse_window_with, mmse_with, portable_finish, portable_sink,
-    sink_fix, Estimate, Estimator, SinkFrame, SinkLocals,
-};
-pub use kernel::{
-    div_shl, exp2_segment_table, log2_segment_base, log2_segment_table, mul_hi, offset_square,
-    portable_coarse_from, portable_column, portable_fine_post, portable_guess, portable_move,
-    portable_observe, portable_place, portable_posterior, portable_search, portable_term,
-    portable_weights, AnchorTerm, ColumnJob, Lattice, LatticeMin, Placement, Portable, Posterior,
-    Setup, TermKernel, Weights, I24, LOG2_CLAMP, LOG2_M2, SQ_SAT, U_SAT, WINDOW_ROWS,
-};
+#[cfg(target_arch = "avr")]
+pub use column::Avr;
+pub use column::{ColumnJob, ColumnKernel, Native, Portable};
+pub use math::{div_shl, log2_q20, mul_hi};
 pub use params::{
-    distance_x, fit, fit_grid, fit_least_squares, fit_least_squares_with, portable_ar1_update,
-    portable_fit, portable_push, portable_step, portable_weigh, Ar1, Bounds, CalStats, FitJob,
-    FitKernel, OnlineParams, PairBytes, ParamFit, PortableFit, Smoothers, MAX_SAMPLES,
+    distance_x, fit, fit_grid, fit_least_squares, Ar1, Bounds, CalStats, OnlineParams, ParamFit,
+    MAX_SAMPLES,
 };
 pub use refine::{
-    db_mean, extended, linear_avg, max_rssi, observations, observations_of, portable_report_inputs,
-    refine_anchor, Obs, Observations, ReportBytes, ReportKernel,
+    db_mean, extended, linear_avg, max_rssi, observations, observations_of, refine_anchor, Obs,
+    Observations,
+};
+pub use search::{
+    estimate, estimate_with, locate, mle, mle_and_mmse_window, mle_and_mmse_window_into, mle_with,
+    mmse, mmse_window, mmse_window_with, mmse_with, sink_fix, Estimate, Estimator, Weights,
+    LOG2_CLAMP, LOG2_M2, WINDOW_ROWS,
 };
 
 pub use crate::grid::Search;
@@ -187,9 +185,11 @@ impl AreaCm {
         AreaCm { width, height }
     }
 
-    /// Fine lattice point `(i, j)` (`i, j ≤ 50`) in mm, rounded: `(10·W·i/50, 10·H·j/50)`.
+    /// Fine lattice point `(i, j)` (`i, j ≤ F`, [`crate::grid::FINE_DIVS`]) in mm, rounded:
+    /// `(10·W·i/F, 10·H·j/F)`.
     pub fn lattice_mm(self, i: usize, j: usize) -> PointMm {
-        let f = |side: u16, k: usize| (side as u32 * k.min(50) as u32 + 2) / 5;
+        const F: u32 = crate::grid::FINE_DIVS as u32;
+        let f = |side: u16, k: usize| (10 * side as u32 * (k as u32).min(F) + F / 2) / F;
         PointMm {
             x: f(self.width, i),
             y: f(self.height, j),

@@ -10,14 +10,14 @@
 //! Q.16 dB², σ Q.8 dB (on demand). At most [`MAX_SAMPLES`] samples (8 anchors × 7 × 4 channels =
 //! 224 fit), which keeps every product inside `i64`.
 //!
-//! On AVR a 64-bit multiply is a ≈ 350-cycle library call, a 64-bit division ≈ 1.2 k and a
-//! variable 64-bit shift a loop of 1-bit shifts: a pair's x takes one 64-bit product, its sums
-//! only 8 × 8 and 16 × 16 ones (the byte sums in 16/32 bits, the x sums by the sign of x, `k·x²`
-//! by additions), and an unconstrained fit divides once in 64 bits (α, with the reference's
-//! rounding) and once in 32 (P0). `tests` holds every result to the previous all-`i64`
-//! implementation (`params_old.rs`).
+//! The sums are laid out for an 8-bit MCU, where a 64-bit multiply or division is a library
+//! call and a variable 64-bit shift a loop of 1-bit shifts: a pair's x takes one 64-bit
+//! product, its sums only 8 × 8 and 16 × 16 ones (the byte sums in 16/32 bits, the x sums by the
+//! sign of x), and an unconstrained fit divides once in 64 bits (α, with the reference's
+//! rounding) and once in 32 (P0). `tests` holds every result to the same fit written with plain
+//! `i64` sums and `u64` divisions (`fit_reference.rs`).
 
-use super::math::{clamp_i32, clamp_i64, isqrt_u32, log2_u33, m8, mul_shr, sq_u16};
+use super::math::{clamp_i32, clamp_i64, isqrt_u32, log2_q20, log2_u33, m8, mul_wide, sq_u16};
 use super::{Measurements, PathLoss, PointCm, ALPHA, ALPHA_LIMIT, DB, P0_LIMIT};
 use crate::params::{FitMethod, ParamMode};
 use crate::{LocError, MAX_CHANNELS};
@@ -26,9 +26,9 @@ use crate::{LocError, MAX_CHANNELS};
 pub const MAX_SAMPLES: u16 = 256;
 
 /// `5·log10(2)`, Q.30.
-const FIVE_LOG10_2_Q30: i64 = 1_616_142_483;
-/// `log2(10⁴ cm²) = log2(1 m²)`, Q.20.
-const LOG2_M2_IN_CM2: i64 = 13933176;
+const FIVE_LOG10_2_Q30: u32 = 1_616_142_483;
+/// `log2(1 m²)` in cm², Q.20.
+const LOG2_M2_IN_CM2: i32 = log2_q20(100 * 100);
 
 /// `x = −10·log10(d / 1 m)` of the distance between `a` and `b`, Q.18; `None` for coincident
 /// anchors (the reference skips distances below 1 cm, and positions are whole cm).
@@ -38,9 +38,15 @@ pub fn distance_x(a: PointCm, b: PointCm) -> Option<i32> {
     if lo == 0 && !carry {
         return None;
     }
-    // −5·log10(d²/1 m²) = −5·log10(2)·(log2 d² − log2 1 m²): Q.30 × Q.20 → Q.18.
-    let l = log2_u33(lo, carry) as i64 - LOG2_M2_IN_CM2;
-    Some(-mul_shr(FIVE_LOG10_2_Q30, l, 32) as i32)
+    // −5·log10(d²/1 m²) = −5·log10(2)·(log2 d² − log2 1 m²): Q.30 × Q.20 → Q.18, rounded
+    // (|l| < 2^26: the product is 32 × 32 bits, by `mul_wide`).
+    let l = log2_u33(lo, carry) - LOG2_M2_IN_CM2;
+    let (hi, lo) = mul_wide(FIVE_LOG10_2_Q30, l.unsigned_abs());
+    // ⌊(±p + 2^31) / 2^32⌋ for the product p: for −p, −⌈(p − 2^31) / 2^32⌉ =
+    // −⌊(p + 2^31 − 1) / 2^32⌋.
+    let round = if l >= 0 { 1 << 31 } else { (1 << 31) - 1 };
+    let q = (hi + lo.overflowing_add(round).1 as u32) as i32;
+    Some(if l >= 0 { -q } else { q })
 }
 
 /// Allowed parameter range (inclusive), fixed point. Reversed bounds are used as if sorted; values
@@ -88,9 +94,7 @@ fn sorted(a: i32, b: i32, limit: i32) -> (i32, i32) {
 
 /// Sufficient statistics of calibration samples, as exact integer sums (`z = −b` for the RSSI
 /// byte `b`, so the byte sums are kept; the x sums apart for negative and positive x).
-/// `repr(C)`: a [`FitKernel`] in assembly reads the sums at the offsets asserted below.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-#[repr(C)]
 pub struct CalStats {
     n: u16,
     /// Σb (= −Σz), at most 255 · [`MAX_SAMPLES`].
@@ -104,18 +108,6 @@ pub struct CalStats {
     /// Σ|x|·b over the samples with x ≥ 0, then with x < 0, Q.18.
     sxb: [u64; 2],
 }
-
-// The layout a [`FitKernel`] in assembly reads (the same on the host: no padding).
-const _: () = {
-    use core::mem::offset_of;
-    assert!(offset_of!(CalStats, n) == 0);
-    assert!(offset_of!(CalStats, sb) == 2);
-    assert!(offset_of!(CalStats, sbb) == 4);
-    assert!(offset_of!(CalStats, sx) == 8);
-    assert!(offset_of!(CalStats, sxx) == 16);
-    assert!(offset_of!(CalStats, sxb) == 24);
-    assert!(core::mem::size_of::<CalStats>() == 40);
-};
 
 impl CalStats {
     /// No samples.
@@ -135,7 +127,10 @@ impl CalStats {
     /// beyond [`MAX_SAMPLES`]).
     #[inline(never)]
     pub fn push_at(&mut self, x: i32, bytes: &[Option<u8>]) -> usize {
-        self.push_x(clamp_i32(x, -(32 << 18), 32 << 18), bytes)
+        self.push_x(
+            clamp_i32(x, -(32 << 18), 32 << 18),
+            bytes.iter().flatten().copied(),
+        )
     }
 
     /// Adds the samples `bytes` of the anchor pair `a`, `b` (skipped, returning 0, when the
@@ -143,34 +138,26 @@ impl CalStats {
     #[inline(never)]
     pub fn push_pair(&mut self, a: PointCm, b: PointCm, bytes: &[Option<u8>]) -> usize {
         match distance_x(a, b) {
-            Some(x) => self.push_x(x, bytes),
+            Some(x) => self.push_x(x, bytes.iter().flatten().copied()),
             None => 0,
         }
     }
 
-    /// [`CalStats::push_pair`] for a pair's bytes as a report carries them (0: not heard), the
-    /// sums added by `K` ([`FitKernel::push`]: the sink's is AVR assembly, no 64-bit library
-    /// arithmetic). Returns how many samples were added.
-    #[inline(always)]
-    pub fn push_pair_with<K: FitKernel>(
-        &mut self,
-        a: PointCm,
-        b: PointCm,
-        bytes: &PairBytes,
-    ) -> usize {
-        match K::distance_x(a, b) {
-            Some(x) => K::push(self, x, bytes) as usize,
+    /// [`CalStats::push_pair`] for a pair's bytes as a report carries them (0: not heard).
+    #[inline(never)]
+    pub fn push_pair_bytes(&mut self, a: PointCm, b: PointCm, bytes: &[u8]) -> usize {
+        match distance_x(a, b) {
+            Some(x) => self.push_x(x, bytes.iter().copied().filter(|&b| b != 0)),
             None => 0,
         }
     }
 
-    /// [`CalStats::push_at`] for `|x| ≤ 2^23` ([`distance_x`] stays within ±30 dB), inlined into
-    /// both entry points (a firmware links one of them).
+    /// [`CalStats::push_at`] for `|x| ≤ 2^23` ([`distance_x`] stays within ±30 dB).
     #[inline(always)]
-    fn push_x(&mut self, x: i32, bytes: &[Option<u8>]) -> usize {
+    fn push_x(&mut self, x: i32, bytes: impl Iterator<Item = u8>) -> usize {
         let room = MAX_SAMPLES - self.n;
         let (mut k, mut s, mut s2) = (0u16, 0u16, 0u32);
-        for &b in bytes.iter().flatten() {
+        for b in bytes {
             if k == room {
                 break;
             }
@@ -185,11 +172,12 @@ impl CalStats {
         self.sb += s;
         self.sbb += s2;
         // |x| ≤ 2^23: x² < 2^46. Plain 64-bit products (per anchor pair, not per sample), but
-        // |x|·Σb from two 32-bit ones: 16 B more AVR flash, 1 000 cycles less per report (a
-        // 64-bit product costs ≈ 170 cycles; x² and k·x² that way cost 0.2 KB of flash).
+        // |x|·Σb from two 32-bit ones (a 64-bit product is a library call on an 8-bit MCU).
         let ax = x.unsigned_abs();
-        let x2 = ax as u64 * ax as u64;
-        self.sxx += k as u64 * x2;
+        // k·x² < 2^8·2^46, from 32 × 32-bit products (`mul_wide`: no 64-bit multiply).
+        let (h, l) = mul_wide(ax, ax);
+        let (kh, kl) = mul_wide(k as u32, l);
+        self.sxx += ((kh + k as u32 * h) as u64) << 32 | kl as u64;
         let side = (x < 0) as usize;
         self.sx[side] += k as u32 * ax;
         let (h, l) = (ax >> 16, ax & 0xFFFF);
@@ -317,25 +305,38 @@ fn div_n(num: i64, n: u16) -> i32 {
 /// `num·2^s/den` with `sq = s | q << 8`, rounded as the reference computed it, saturated at
 /// `±2^q`, for `|num| < 2^62` and `24 ≤ q ≤ 30` (`±2^q` also when `den` shifts to 0): `|num|` is
 /// shifted left up to bit 61 (at most `s` places, bit by bit: once per fit), `den` right by the
-/// rest of the `s`, then one 64-bit division. [`div_alpha`] and [`div_n`] share this copy (0.1 KB
-/// less AVR flash than two). `s` and `q` come in one `u16`: as a fourth argument `q` goes on the
-/// AVR stack, and LLVM's code storing it there (through Z and r26) clobbered the divisor `n` in
-/// `p0_for` (the bench's est-fixed fitted P0 −20 dB, α 4.84). Keep arguments within r8–r25.
+/// rest of the `s`, then one 64-bit division. `s` and `q` come in one `u16`: as a fourth
+/// argument `q` would go on the AVR stack, and LLVM's AVR backend has miscompiled the store of a
+/// stack-passed argument in this function (it clobbered the divisor); with three arguments all
+/// of them are passed in registers.
 #[inline(never)]
 fn div_scaled(num: i64, den: u64, sq: u16) -> i32 {
     let [s, q] = sq.to_le_bytes();
+    // Shifts by whole bytes first (byte moves on an 8-bit MCU), then by bits: the same `u` and
+    // `r` as shifting bit by bit.
     let mut u = num.unsigned_abs();
     let mut r = s;
+    while r >= 8 && u >> 53 == 0 {
+        u <<= 8;
+        r -= 8;
+    }
     while r >= 1 && u >> 61 == 0 {
         u <<= 1;
         r -= 1;
     }
-    let d = den >> r;
+    let mut d = den;
+    while r >= 8 {
+        d >>= 8;
+        r -= 8;
+    }
+    while r >= 1 {
+        d >>= 1;
+        r -= 1;
+    }
     // u < 2^62 and d/2 < 2^63: no overflow.
     let u = u + d / 2;
     // The saturation as a bound on the quotient: `u >> q ≥ d` iff `u/d ≥ 2^q` (a variable shift
-    // is a loop of 1-bit shifts on AVR: ≈ 0.5 k cycles for `u >> q`, 0.2 k for `1u32 << q`; the
-    // byte shift by 24 is a move).
+    // is a loop of 1-bit shifts on AVR; the byte shift by 24 is a move).
     let sat = ((1u8 << (q - 24)) as u32) << 24;
     let v = u.checked_div(d).map_or(sat, |v| v.min(sat as u64) as u32) as i32;
     if num < 0 {
@@ -414,178 +415,7 @@ pub fn fit_least_squares(
     prior: PathLoss,
     bounds: &Bounds,
 ) -> Result<ParamFit, LocError> {
-    fit_least_squares_with::<PortableFit>(stats, mode, prior, bounds)
-}
-
-/// [`fit_least_squares`] with the solve done by `K` (the sink uses its AVR assembly one).
-/// Inlined: out of line the sink's stack peak is 21 B lower, but its flash 0.2 KB higher.
-#[inline(always)]
-pub fn fit_least_squares_with<K: FitKernel>(
-    stats: &CalStats,
-    mode: ParamMode,
-    prior: PathLoss,
-    bounds: &Bounds,
-) -> Result<ParamFit, LocError> {
-    let mut job = FitJob::new(stats, mode, prior, bounds).ok_or(LocError::NoCalibrationData)?;
-    K::fit(&mut job);
-    Ok(ParamFit {
-        model: PathLoss {
-            p0: job.p0,
-            alpha: job.alpha,
-        },
-        sse: job.sse,
-        n: stats.n,
-        fitted: job.fitted,
-    })
-}
-
-/// The least-squares solve of [`fit_least_squares`] for one [`FitJob`] (and the AR(1) step):
-/// [`PortableFit`] here, `uno_board::AvrFit` on the sink (one routine in AVR assembly: 1.6 KB
-/// where LLVM's 64-bit code took 3.8 KB). Both leave exactly the same results.
-pub trait FitKernel {
-    /// Reads the job's inputs, writes `p0`, `alpha`, `sse` and `fitted` (see [`FitJob`]).
-    fn fit(job: &mut FitJob);
-
-    /// Adds the samples `bytes` (0: not heard) at `x` (`|x| ≤ 2^23`, as from [`distance_x`]) to
-    /// `stats`; returns how many were added ([`portable_push`]).
-    fn push(stats: &mut CalStats, x: i32, bytes: &PairBytes) -> u8 {
-        portable_push(stats, x, bytes)
-    }
-
-    /// [`distance_x`] (what the sink links of the log2: its only caller there).
-    fn distance_x(a: PointCm, b: PointCm) -> Option<i32> {
-        distance_x(a, b)
-    }
-
-    /// [`Ar1::update`]: feeds `x` to `s`, returns the new output ([`portable_ar1_update`]).
-    fn ar1_update(s: &mut Ar1, x: i32) -> i32 {
-        portable_ar1_update(s, x)
-    }
-
-    /// [`OnlineParams::step_with`]'s round on `s` ([`portable_step`]).
-    fn step(job: &mut FitJob, s: &mut Smoothers) {
-        portable_step::<Self>(job, s)
-    }
-}
-
-/// One anchor pair's RSSI bytes as a report carries them: both directions, [`MAX_CHANNELS`]
-/// channels each, 0 = not heard.
-pub type PairBytes = [u8; 2 * MAX_CHANNELS];
-
-/// [`PortableFit`]'s [`FitKernel::push`]: [`CalStats::push_at`] of the heard bytes (its clamp
-/// at ±2^23 changes no `x` this takes).
-pub fn portable_push(stats: &mut CalStats, x: i32, bytes: &PairBytes) -> u8 {
-    stats.push_at(x, &bytes.map(|b| (b != 0).then_some(b))) as u8
-}
-
-/// The Rust [`FitKernel`] (the definition the assembly one is checked against).
-#[derive(Clone, Copy, Debug, Default)]
-pub struct PortableFit;
-
-impl FitKernel for PortableFit {
-    fn fit(job: &mut FitJob) {
-        portable_fit(job)
-    }
-}
-
-/// What a [`FitKernel`] solves: `repr(C)`, read by the AVR kernel at fixed offsets (on AVR:
-/// `stats` 0, `a_lo` 2, `a_hi` 6, `p_lo` 10, `p_hi` 14, `p0` 18, `alpha` 22, `sse` 26,
-/// `fitted` 34). The sink keeps it in its frame through the position search: no scratch here.
-#[derive(Clone, Copy, Debug)]
-#[repr(C)]
-pub struct FitJob<'a> {
-    /// The samples (non-empty unless `fitted` is 0).
-    pub stats: &'a CalStats,
-    /// α bounds (sorted, within the limits), Q.24.
-    pub a_lo: i32,
-    /// Largest α, Q.24.
-    pub a_hi: i32,
-    /// P0 bounds (sorted, within the limits), Q.16.
-    pub p_lo: i32,
-    /// Largest P0, Q.16.
-    pub p_hi: i32,
-    /// In: the prior's P0 (used as is when `fitted` is 0). Out: the fitted P0.
-    pub p0: i32,
-    /// In: the α to use when α is not fitted (mode 1: the sane prior's; mode 2: the prior's,
-    /// which the kernel then clamps to the bounds). Out: the fitted α.
-    pub alpha: i32,
-    /// Out: the residual sum at (`p0`, `alpha`), Q.16 dB².
-    pub sse: u64,
-    /// In: 0 fixed, 1 P0 only, 2 P0 and α. Out: parameters fitted (0, 1 or 2).
-    pub fitted: u8,
-}
-
-impl<'a> FitJob<'a> {
-    /// The job for [`OnlineParams::step_with`] in `mode` within `bounds` (sorted and clamped;
-    /// `p0` and `alpha` 0: the step sets them).
-    pub fn for_step(stats: &'a CalStats, mode: ParamMode, bounds: &Bounds) -> FitJob<'a> {
-        let (a, p) = (bounds.alpha(), bounds.p0());
-        FitJob {
-            stats,
-            a_lo: a.0,
-            a_hi: a.1,
-            p_lo: p.0,
-            p_hi: p.1,
-            p0: 0,
-            alpha: 0,
-            sse: 0,
-            fitted: mode as u8,
-        }
-    }
-
-    /// The job for [`fit_least_squares`]' arguments (prior made sane, bounds sorted and
-    /// clamped); `None` when there is something to fit but no samples.
-    pub fn new(
-        stats: &'a CalStats,
-        mode: ParamMode,
-        prior: PathLoss,
-        bounds: &Bounds,
-    ) -> Option<FitJob<'a>> {
-        let (a, p) = (bounds.alpha(), bounds.p0());
-        // α is the user's fixed value in P0Only mode: not subject to the bounds. With both
-        // fitted the kernel clamps the prior's α to the bounds (within the limits: the same as
-        // making it sane first) only if it needs it, so the sink does not make the prior sane.
-        let (fitted, prior) = match mode {
-            ParamMode::Fixed => (0, prior.sane()),
-            ParamMode::P0Only => (1, prior.sane()),
-            ParamMode::P0AndAlpha => (2, prior),
-        };
-        if fitted != 0 && stats.is_empty() {
-            return None;
-        }
-        Some(FitJob {
-            stats,
-            a_lo: a.0,
-            a_hi: a.1,
-            p_lo: p.0,
-            p_hi: p.1,
-            p0: prior.p0,
-            alpha: prior.alpha,
-            sse: 0,
-            fitted,
-        })
-    }
-}
-
-/// [`PortableFit`]: nothing fitted (0), P0 alone (1, or 2 with α not identifiable), or both by
-/// [`box_least_squares`]; then the residual sum of the result.
-pub fn portable_fit(job: &mut FitJob) {
-    let s = job.stats;
-    let (a, p) = ((job.a_lo, job.a_hi), (job.p_lo, job.p_hi));
-    if job.fitted == 2 {
-        let dxx = s.dxx();
-        if s.alpha_identifiable(dxx) {
-            let m = box_least_squares(s, dxx, a, p);
-            (job.p0, job.alpha) = (m.p0, m.alpha);
-        } else {
-            job.fitted = 1;
-            job.alpha = clamp_i32(job.alpha, a.0, a.1);
-        }
-    }
-    if job.fitted == 1 {
-        job.p0 = clamp_i32(s.p0_for(job.alpha), p.0, p.1);
-    }
-    job.sse = s.sse_at(job.p0, job.alpha);
+    fit_with(stats, mode, prior, bounds, None)
 }
 
 /// [`fit`] with [`FitMethod::Grid`]: the thesis' grid (α step 0.1, P0 step 0.5 dB), the
@@ -741,9 +571,7 @@ fn box_least_squares(
 
 /// First-order autoregressive smoother `y[n] = a·y[n−1] + b·x[n]`, `y[0] = x[0]`, with Q.16
 /// coefficients, on any fixed-point value (P0 Q.16 or α Q.24).
-/// `repr(C)`, the state as a flag and a value: a [`FitKernel`] in assembly updates it in place.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-#[repr(C)]
 pub struct Ar1 {
     /// Weight of the previous output, Q.16.
     pub a: i32,
@@ -754,15 +582,6 @@ pub struct Ar1 {
     /// Whether there has been an input.
     started: bool,
 }
-
-// The layout a [`FitKernel`] in assembly reads and writes.
-const _: () = {
-    use core::mem::offset_of;
-    assert!(offset_of!(Ar1, a) == 0);
-    assert!(offset_of!(Ar1, b) == 4);
-    assert!(offset_of!(Ar1, y) == 8);
-    assert!(offset_of!(Ar1, started) == 12);
-};
 
 impl Default for Ar1 {
     /// The thesis' `a = 0.8, b = 0.2`.
@@ -800,16 +619,18 @@ impl Ar1 {
         }
     }
 
-    /// Feeds `x`, returns the new output (rounded; saturating at the `i32` range).
-    pub fn update(&mut self, x: i32) -> i32 {
-        self.update_with::<PortableFit>(x)
-    }
-
-    /// [`Ar1::update`] by `K` ([`FitKernel::ar1_update`]). Out of line: P0's and α's smoothers
-    /// share one copy.
+    /// Feeds `x`, returns the new output: `x` first, then `(a·y + b·x)/2^16` rounded,
+    /// saturated to `i32`.
     #[inline(never)]
-    pub fn update_with<K: FitKernel>(&mut self, x: i32) -> i32 {
-        K::ar1_update(self, x)
+    pub fn update(&mut self, x: i32) -> i32 {
+        let y = if self.started {
+            let v = (self.a as i64 * self.y as i64 + self.b as i64 * x as i64 + (1 << 15)) >> 16;
+            clamp_i64(v, i32::MIN as i64, i32::MAX as i64) as i32
+        } else {
+            x
+        };
+        (self.y, self.started) = (y, true);
+        y
     }
 
     /// Current output, `None` before the first input.
@@ -823,25 +644,6 @@ impl Ar1 {
     }
 }
 
-/// [`PortableFit`]'s [`FitKernel::ar1_update`]: `x` first, then [`portable_weigh`] of the last
-/// output and `x`.
-pub fn portable_ar1_update(s: &mut Ar1, x: i32) -> i32 {
-    let y = if s.started {
-        portable_weigh(s.a, s.y, s.b, x)
-    } else {
-        x
-    };
-    (s.y, s.started) = (y, true);
-    y
-}
-
-/// `(a·p + b·x)/2^16` rounded, saturated to `i32`. In 64 bits only (twice per report: a
-/// 32-bit fast path for weights below 2^16 cost 0.4 KB of AVR flash).
-pub fn portable_weigh(a: i32, p: i32, b: i32, x: i32) -> i32 {
-    let v = (a as i64 * p as i64 + b as i64 * x as i64 + (1 << 15)) >> 16;
-    clamp_i64(v, i32::MIN as i64, i32::MAX as i64) as i32
-}
-
 /// `v` clamped to `[−limit, limit]` ([`Smoothers::current`]'s two clamps share it).
 #[inline(never)]
 fn within(v: i32, limit: i32) -> i32 {
@@ -849,15 +651,13 @@ fn within(v: i32, limit: i32) -> i32 {
 }
 
 /// What [`OnlineParams`] keeps between fits: the prior, P0's and α's smoothers and the σ of the
-/// last fit that had one. `repr(C)`: a [`FitKernel`] in assembly runs a whole
-/// [`FitKernel::step`] on it in place (offsets on AVR asserted below).
+/// last fit that had one.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-#[repr(C)]
-pub struct Smoothers {
+struct Smoothers {
     /// The (sane) prior's P0, Q.16.
     prior_p0: i32,
     p0: Ar1,
-    /// The (sane) prior's α, Q.24 (as far from α's smoother as P0's from P0's).
+    /// The (sane) prior's α, Q.24.
     prior_alpha: i32,
     alpha: Ar1,
     /// σ of the last fit with `n > fitted`, Q.8 dB (computed when fed: the sink asks each time).
@@ -866,25 +666,10 @@ pub struct Smoothers {
     spread: bool,
 }
 
-// The layout a [`FitKernel`] in assembly reads and writes (AVR: no padding).
-#[cfg(target_arch = "avr")]
-const _: () = {
-    use core::mem::offset_of;
-    assert!(offset_of!(Smoothers, prior_p0) == 0);
-    assert!(offset_of!(Smoothers, p0) == 4);
-    assert!(offset_of!(Smoothers, prior_alpha) == 17);
-    assert!(offset_of!(Smoothers, alpha) == 21);
-    assert!(offset_of!(Smoothers, sigma) == 34);
-    assert!(offset_of!(Smoothers, spread) == 36);
-    assert!(core::mem::size_of::<Smoothers>() == 37);
-};
-
 impl Smoothers {
-    /// The smoothed model (the prior for parameters not yet estimated), made sane. Out of line:
-    /// asked for before and after each fit.
+    /// The smoothed model (the prior for parameters not yet estimated), made sane.
     #[inline(never)]
-    pub fn current(&self) -> PathLoss {
-        // [`PathLoss::sane`], with one out-of-line clamp for both (0.15 KB less AVR flash).
+    fn current(&self) -> PathLoss {
         PathLoss {
             p0: within(self.p0.value().unwrap_or(self.prior_p0), P0_LIMIT),
             alpha: within(self.alpha.value().unwrap_or(self.prior_alpha), ALPHA_LIMIT),
@@ -892,7 +677,7 @@ impl Smoothers {
     }
 
     /// σ of the last fit that had one, Q.8 dB.
-    pub fn sigma(&self) -> Option<u16> {
+    fn sigma(&self) -> Option<u16> {
         self.spread.then_some(self.sigma)
     }
 
@@ -902,28 +687,6 @@ impl Smoothers {
             (self.sigma, self.spread) = (sigma, true);
         }
     }
-}
-
-/// [`FitKernel::step`] by `K`'s [`FitKernel::fit`] and [`FitKernel::ar1_update`]: the job's
-/// prior from [`Smoothers::current`]; unless there is something to fit and no samples (then
-/// nothing changes), the solve, P0's smoother fed (modes 1 and 2), α's (mode 2), σ of the result
-/// (when `n > fitted`); then the job's `p0` and `alpha` the new [`Smoothers::current`].
-pub fn portable_step<K: FitKernel + ?Sized>(job: &mut FitJob, s: &mut Smoothers) {
-    let mode = job.fitted;
-    let m = s.current();
-    (job.p0, job.alpha) = (m.p0, m.alpha);
-    if mode == 0 || !job.stats.is_empty() {
-        K::fit(job);
-        if mode != 0 {
-            K::ar1_update(&mut s.p0, job.p0);
-        }
-        if mode == 2 {
-            K::ar1_update(&mut s.alpha, job.alpha);
-        }
-        s.spread(job.sse, job.stats.n.saturating_sub(job.fitted as u16));
-    }
-    let m = s.current();
-    (job.p0, job.alpha) = (m.p0, m.alpha);
 }
 
 /// Online parameter estimation: a fit per round, smoothed per parameter by [`Ar1`] (as
@@ -989,44 +752,27 @@ impl OnlineParams {
         Ok(f)
     }
 
-    /// One least-squares round in place by `K` ([`FitKernel::step`]: the sink's is one AVR
-    /// routine): `job` ([`FitJob::for_step`] of this mode and these bounds) solved from
-    /// [`OnlineParams::current`] and fed to the smoothers, as [`fit_least_squares`] then
-    /// [`OnlineParams::feed`] (`tests`); then the job's `p0` and `alpha` are the new current
-    /// model. Returns whether there was a fit (not: something to fit and no samples).
-    pub fn step_with<K: FitKernel>(&mut self, job: &mut FitJob) -> bool {
-        let fitted = job.fitted == 0 || !job.stats.is_empty();
-        K::step(job, &mut self.s);
-        fitted
-    }
-
     /// Feeds the smoothers with a fit made elsewhere (e.g. [`fit_least_squares`] with
     /// [`OnlineParams::current`] as the prior, so that only that method is linked).
     pub fn feed(&mut self, f: &ParamFit) {
-        self.feed_with::<PortableFit>(f)
-    }
-
-    /// [`OnlineParams::feed`] with `K`'s [`FitKernel::ar1_update`] in the smoothers.
-    pub fn feed_with<K: FitKernel>(&mut self, f: &ParamFit) {
-        // One call site per smoother (the mode is not known at compile time on the sink).
         if self.mode != ParamMode::Fixed {
-            self.s.p0.update_with::<K>(f.model.p0);
+            self.s.p0.update(f.model.p0);
         }
         if self.mode == ParamMode::P0AndAlpha {
-            self.s.alpha.update_with::<K>(f.model.alpha);
+            self.s.alpha.update(f.model.alpha);
         }
         self.s.spread(f.sse, f.n.saturating_sub(f.fitted as u16));
     }
 }
 
 #[cfg(test)]
-#[path = "params_old.rs"]
-mod old;
+#[path = "fit_reference.rs"]
+mod plain;
 
 #[cfg(test)]
 mod tests {
-    //! The fast path against [`old`], the implementation it replaced: every public result must be
-    //! bit-identical, on random and extreme inputs.
+    //! The fit against [`plain`], the same fit with plain 64-bit sums and divisions: every public
+    //! result must be bit-identical, on random and extreme inputs.
     use super::*;
     use crate::fixed::{ALPHA, DB};
     use std::{vec, vec::Vec};
@@ -1118,8 +864,8 @@ mod tests {
     }
 
     /// Random statistics, built in both implementations side by side (each push compared).
-    fn stats_pair(r: &mut Rng) -> (CalStats, old::CalStats) {
-        let (mut s, mut o) = (CalStats::new(), old::CalStats::default());
+    fn stats_pair(r: &mut Rng) -> (CalStats, plain::CalStats) {
+        let (mut s, mut o) = (CalStats::new(), plain::CalStats::default());
         let mut pool = Vec::new();
         let pushes = match r.below(6) {
             0 => r.range(0, 3),
@@ -1209,7 +955,7 @@ mod tests {
         }
     }
 
-    fn same_fit(new: &Result<ParamFit, LocError>, old: &Result<old::ParamFit, LocError>) -> bool {
+    fn same_fit(new: &Result<ParamFit, LocError>, old: &Result<plain::ParamFit, LocError>) -> bool {
         match (new, old) {
             (Ok(f), Ok(o)) => {
                 (f.model, f.sse, f.n, f.fitted, f.sigma())
@@ -1229,12 +975,12 @@ mod tests {
         for dx in -40i16..=40 {
             for dy in -40i16..=40 {
                 let (a, b) = (PointCm::new(0, 0), PointCm::new(dx, dy));
-                assert_eq!(distance_x(a, b), old::distance_x(a, b), "{dx} {dy}");
+                assert_eq!(distance_x(a, b), plain::distance_x(a, b), "{dx} {dy}");
             }
         }
         for _ in 0..200_000 {
             let (a, b) = (point(&mut r), point(&mut r));
-            assert_eq!(distance_x(a, b), old::distance_x(a, b), "{a:?} {b:?}");
+            assert_eq!(distance_x(a, b), plain::distance_x(a, b), "{a:?} {b:?}");
         }
         // push_pair skips the ±32 dB clamp: the extremes are 1 cm (+20 dB) and the diagonal of
         // the i16 square (−29.7 dB).
@@ -1251,7 +997,7 @@ mod tests {
 
     #[test]
     fn raw_pair_pushes_are_push_pair() {
-        // The sink's path (bytes 0 = not heard, `FitKernel::push`) against `push_pair`.
+        // The sink's path (bytes 0 = not heard) against `push_pair`.
         let mut r = Rng(0x0DDB_1A5E_5BAD_5EED);
         for _ in 0..20_000 {
             let (mut s, _) = stats_pair(&mut r);
@@ -1270,7 +1016,7 @@ mod tests {
                 *b = r.pick(&[0, 0, 1, 255, any]);
             }
             let opt = raw.map(|b| (b != 0).then_some(b));
-            let k = t.push_pair_with::<PortableFit>(a, c, &raw);
+            let k = t.push_pair_bytes(a, c, &raw);
             assert_eq!(k, s.push_pair(a, c, &opt));
             assert_eq!(t, s);
         }
@@ -1289,7 +1035,7 @@ mod tests {
                 for method in METHODS {
                     let (prior, b) = (model(&mut r), bounds(&mut r));
                     let new = fit(&s, mode, method, prior, &b);
-                    let old = old::fit(&o, mode, method, prior, &b);
+                    let old = plain::fit(&o, mode, method, prior, &b);
                     assert!(
                         same_fit(&new, &old),
                         "case {case}: {mode:?} {method:?} {prior:?} {b:?} of {o:?}:\n{new:?}\n{old:?}"
@@ -1320,7 +1066,7 @@ mod tests {
         ] {
             for b in [0, 1, 254, 255] {
                 for split in [1usize, 2, 128, 255, 256, 300] {
-                    let (mut s, mut o) = (CalStats::new(), old::CalStats::default());
+                    let (mut s, mut o) = (CalStats::new(), plain::CalStats::default());
                     let mut left = 300;
                     let mut i = 0;
                     while left > 0 {
@@ -1337,7 +1083,7 @@ mod tests {
                             for _ in 0..3 {
                                 let (prior, bounds) = (model(&mut r), bounds(&mut r));
                                 let new = fit(&s, mode, method, prior, &bounds);
-                                let old = old::fit(&o, mode, method, prior, &bounds);
+                                let old = plain::fit(&o, mode, method, prior, &bounds);
                                 assert!(
                                     same_fit(&new, &old),
                                     "{xs:?} {b} {split}: {new:?} {old:?}"
@@ -1365,7 +1111,7 @@ mod tests {
             (1, 255),
         ] {
             for delta in 0..400 {
-                let (mut s, mut o) = (CalStats::new(), old::CalStats::default());
+                let (mut s, mut o) = (CalStats::new(), plain::CalStats::default());
                 let x = -(7 << 18) + 12_345;
                 for (k, x) in [(k1, x), (k2, x + delta)] {
                     let bytes = vec![Some(70); k];
@@ -1379,7 +1125,7 @@ mod tests {
                 for method in METHODS {
                     let prior = PathLoss::THESIS;
                     let new = fit(&s, ParamMode::P0AndAlpha, method, prior, &Bounds::THESIS);
-                    let old = old::fit(&o, ParamMode::P0AndAlpha, method, prior, &Bounds::THESIS);
+                    let old = plain::fit(&o, ParamMode::P0AndAlpha, method, prior, &Bounds::THESIS);
                     assert!(same_fit(&new, &old), "{k1} {k2} {delta}");
                 }
             }
@@ -1400,7 +1146,7 @@ mod tests {
             let mut y = None;
             for _ in 0..r.range(1, 6) {
                 let x = r.i32_around((-(90 << 16), 6 << 24), 1 << 30);
-                let want = old::ar1_update(s.a, s.b, y, x);
+                let want = plain::ar1_update(s.a, s.b, y, x);
                 y = Some(want);
                 assert_eq!(s.update(x), want, "{s:?} {x}");
                 assert_eq!(s.value(), y);
@@ -1424,7 +1170,7 @@ mod tests {
                 Ar1::new(pa, pb),
                 Ar1::new(aa, ab),
             );
-            let mut o = old::OnlineParams::new(mode, method, b, prior, (pa, pb), (aa, ab));
+            let mut o = plain::OnlineParams::new(mode, method, b, prior, (pa, pb), (aa, ab));
             for _ in 0..r.range(1, 5) {
                 let (s, so) = stats_pair(&mut r);
                 assert!(same_fit(&on.update(&s), &o.update(&so)));
@@ -1432,51 +1178,5 @@ mod tests {
                 assert_eq!(on.sigma(), o.sigma);
             }
         }
-    }
-
-    /// A [`OnlineParams::step_with`] round is [`fit_least_squares`] from the current model, then
-    /// [`OnlineParams::feed`] on success: the same state, result flag and (new current) model,
-    /// in every mode, with and without samples.
-    #[test]
-    fn steps_are_fits_then_feeds() {
-        let mut r = Rng(0x5EED_0F57_E95E_ED00);
-        let (mut empty, mut spread) = (0, 0);
-        for _ in 0..400 {
-            let mode = r.pick(&MODES);
-            let (b, prior) = (bounds(&mut r), model(&mut r));
-            let w = |r: &mut Rng| r.range(-(5 << 16), 5 << 16) as i32;
-            let (p, a) = (
-                Ar1::new(w(&mut r), w(&mut r)),
-                Ar1::new(w(&mut r), w(&mut r)),
-            );
-            let mut want =
-                OnlineParams::with_smoothers(mode, FitMethod::LeastSquares, b, prior, p, a);
-            let mut got = want;
-            for _ in 0..r.range(1, 5) {
-                let s = if r.below(6) == 0 {
-                    CalStats::new()
-                } else {
-                    stats_pair(&mut r).0
-                };
-                empty += s.is_empty() as u32;
-                let fitted = match fit_least_squares(&s, mode, want.current(), &b) {
-                    Ok(f) => {
-                        want.feed(&f);
-                        true
-                    }
-                    Err(_) => false,
-                };
-                let mut job = FitJob::for_step(&s, mode, &b);
-                assert_eq!(got.step_with::<PortableFit>(&mut job), fitted);
-                assert_eq!(got, want);
-                let m = PathLoss {
-                    p0: job.p0,
-                    alpha: job.alpha,
-                };
-                assert_eq!(m, want.current());
-                spread += want.sigma().is_some() as u32;
-            }
-        }
-        assert!(empty >= 50 && spread >= 300, "{empty} {spread}");
     }
 }

@@ -1,17 +1,13 @@
 //! Channel refinements on RSSI bytes ([`crate::refine`] in fixed point).
 
 use super::math::{log2_u32, log2_u33, log2_u64, m8, mul_shr};
-#[cfg(doc)]
-use super::params::FitKernel;
-use super::params::{CalStats, PortableFit};
 use super::tables::{decade, decibel};
-use super::{AreaCm, ChannelBytes, Measurements, PointCm, DB};
+use super::{ChannelBytes, Measurements, PointCm, DB};
 use crate::refine::Refinement;
 use crate::{MAX_ANCHORS, MAX_CHANNELS};
 
-/// One observation of the position cost. `repr(C)`: a [`ReportKernel`] in assembly writes it.
+/// One observation of the position cost.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-#[repr(C)]
 pub struct Obs {
     /// Anchor position.
     pub pos: PointCm,
@@ -21,12 +17,10 @@ pub struct Obs {
     pub weight: u8,
 }
 
-/// Up to [`MAX_ANCHORS`] observations. `repr(C)`: a [`ReportKernel`] in assembly writes it.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-#[repr(C)]
+/// Up to [`MAX_ANCHORS`] observations.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Observations {
-    obs: [Obs; MAX_ANCHORS],
-    len: usize,
+    obs: heapless::Vec<Obs, MAX_ANCHORS>,
     /// Position-independent part of the cost dropped by folding channels into their dB mean
     /// (`Σ_anchors Σ_c (z_c − z̄)²` for [`Refinement::Extended`], else 0), Q.8 dB², saturating.
     pub const_cost: u32,
@@ -36,12 +30,7 @@ impl Observations {
     /// No observations.
     pub const fn new() -> Observations {
         Observations {
-            obs: [Obs {
-                pos: PointCm::new(0, 0),
-                z: 0,
-                weight: 0,
-            }; MAX_ANCHORS],
-            len: 0,
+            obs: heapless::Vec::new(),
             const_cost: 0,
         }
     }
@@ -58,19 +47,12 @@ impl Observations {
     /// Appends `ob`; returns `false` (and drops it) when full. Weights above 4 count as 4.
     pub fn push(&mut self, mut ob: Obs) -> bool {
         ob.weight = ob.weight.min(MAX_CHANNELS as u8);
-        match self.obs.get_mut(self.len) {
-            Some(slot) => {
-                *slot = ob;
-                self.len += 1;
-                true
-            }
-            None => false,
-        }
+        self.obs.push(ob).is_ok()
     }
 
     /// The observations.
     pub fn as_slice(&self) -> &[Obs] {
-        &self.obs[..self.len.min(MAX_ANCHORS)]
+        &self.obs
     }
 
     /// Number of observations (= usable anchors).
@@ -229,119 +211,6 @@ fn div_round(num: u32, d: u32) -> u32 {
     (num + d / 2) / d
 }
 
-/// A report's measurement bytes as the radio message carries them (loc-proto's report: from its
-/// first anchor position, at `start`, on): `anchors` positions (x, y: little-endian `i16`, cm), the agent's
-/// RSSI bytes channel by channel (`anchors` each), then, with `relay`, per channel and anchor
-/// `i` the bytes anchor `i` relayed of the other anchors `j ≠ i` (`anchors − 1` each). 0 bytes:
-/// not heard.
-#[derive(Clone, Copy, Debug)]
-pub struct ReportBytes<'a> {
-    /// The bytes (before `start` and after the layout not read).
-    pub bytes: &'a [u8],
-    /// Where the first position is.
-    pub start: u8,
-    /// Anchors in use, at most [`MAX_ANCHORS`].
-    pub anchors: u8,
-    /// Channels in use, at most [`MAX_CHANNELS`].
-    pub channels: u8,
-    /// Whether the relay bytes are there.
-    pub relay: bool,
-}
-
-impl ReportBytes<'_> {
-    /// The bytes the layout takes, `start` included; `None` beyond [`MAX_ANCHORS`] or [`MAX_CHANNELS`] or when
-    /// `bytes` is shorter (then a [`ReportKernel`] adds nothing).
-    pub fn size(&self) -> Option<usize> {
-        let (n, c) = (self.anchors as usize, self.channels as usize);
-        let rows = if self.relay { n } else { 1 };
-        let len = self.start as usize + 4 * n + c * n * rows;
-        (n <= MAX_ANCHORS && c <= MAX_CHANNELS && self.bytes.len() >= len).then_some(len)
-    }
-}
-
-/// A report's calibration sums, observations and anchors' extent straight from its bytes: what
-/// the sink does per report, [`portable_report_inputs`] here, one AVR assembly routine on the sink
-/// (`uno_board::AvrFit`); both leave exactly the same results (`report-check`).
-pub trait ReportKernel {
-    /// Adds `r`'s samples (every anchor pair `i < j`, both directions' relayed bytes, by
-    /// [`CalStats::push_pair_with`]) to `stats` and its anchors' Extended observations (by
-    /// [`extended`], the spreads to `const_cost`) to `obs`, and widens `area` to each anchor's
-    /// position (x and y below 0 as 0: the sink's anchors' box); nothing when `r` does not hold
-    /// its layout ([`ReportBytes::size`]).
-    fn report_inputs(
-        r: &ReportBytes,
-        stats: &mut CalStats,
-        obs: &mut Observations,
-        area: &mut AreaCm,
-    );
-}
-
-impl ReportKernel for PortableFit {
-    fn report_inputs(
-        r: &ReportBytes,
-        stats: &mut CalStats,
-        obs: &mut Observations,
-        area: &mut AreaCm,
-    ) {
-        portable_report_inputs(r, stats, obs, area)
-    }
-}
-
-/// [`ReportKernel::report_inputs`]: every pair by [`CalStats::push_pair`] (what
-/// [`CalStats::push_pair_with`] adds, whatever the [`FitKernel`]), every anchor by [`extended`]
-/// (the definition the assembly one is checked against).
-pub fn portable_report_inputs(
-    r: &ReportBytes,
-    stats: &mut CalStats,
-    obs: &mut Observations,
-    area: &mut AreaCm,
-) {
-    if r.size().is_none() {
-        return;
-    }
-    let (n, c) = (r.anchors as usize, r.channels as usize);
-    let at = |k: usize| r.bytes.get(r.start as usize + k).copied().unwrap_or(0);
-    let pos = |i: usize| {
-        let k = 4 * i;
-        PointCm::new(
-            i16::from_le_bytes([at(k), at(k + 1)]),
-            i16::from_le_bytes([at(k + 2), at(k + 3)]),
-        )
-    };
-    let (rssi, relay) = (4 * n, 4 * n + c * n);
-    if r.relay {
-        for i in 0..n {
-            for j in i + 1..n {
-                // Anchor i's bytes of j, then j's of i (0: not heard); row (ch, p) holds the
-                // anchors q ≠ p in order.
-                let mut bytes = [None; 2 * MAX_CHANNELS];
-                for (k, b) in bytes.iter_mut().enumerate() {
-                    let ch = k % MAX_CHANNELS;
-                    let (p, q) = if k < MAX_CHANNELS { (i, j) } else { (j, i) };
-                    if ch < c {
-                        let v = at(relay + (ch * n + p) * (n - 1) + q - usize::from(q > p));
-                        *b = (v != 0).then_some(v);
-                    }
-                }
-                stats.push_pair(pos(i), pos(j), &bytes);
-            }
-        }
-    }
-    for i in 0..n {
-        let p = pos(i);
-        area.width = area.width.max(p.x.max(0) as u16);
-        area.height = area.height.max(p.y.max(0) as u16);
-        let mut bytes = [0u8; MAX_CHANNELS];
-        for (ch, v) in bytes[..c].iter_mut().enumerate() {
-            *v = at(rssi + ch * n + i);
-        }
-        if let Some((z, weight, spread)) = extended(&bytes[..c]) {
-            obs.const_cost = obs.const_cost.saturating_add(spread);
-            obs.push(Obs { pos: p, z, weight });
-        }
-    }
-}
-
 /// Observations of anchors at `anchors` with the agent's bytes `rssi` (same order; the shorter
 /// decides), channels `0..n_channels`, under `refinement`: one per usable anchor, in anchor order.
 pub fn observations_of(
@@ -372,91 +241,6 @@ pub fn observations(m: &Measurements, refinement: Refinement) -> Observations {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A report's inputs are those of its anchors' bytes by `observations_of` and of its pairs
-    /// by `CalStats::push_pair`, wherever it starts; a slice one byte short (or 9 anchors, or 5
-    /// channels) changes nothing.
-    #[test]
-    fn report_inputs_are_the_pairs_and_the_anchors_bytes() {
-        let (n, c) = (4usize, 3usize);
-        let mut x = 0x1234_5678u32;
-        let mut next = move || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            x
-        };
-        for t in 0..200 {
-            let start = t % 11;
-            let relay = t % 3 != 0;
-            let len = start + 4 * n + c * n * if relay { n } else { 1 };
-            let mut buf = [0u8; 11 + 4 * 4 + 3 * 4 * 4];
-            for b in buf.iter_mut() {
-                *b = match next() % 4 {
-                    0 => 0,
-                    _ => next() as u8,
-                };
-            }
-            let body = &buf[start..];
-            let pos: [PointCm; 4] = core::array::from_fn(|i| {
-                let b = &body[4 * i..];
-                PointCm::new(
-                    i16::from_le_bytes([b[0], b[1]]),
-                    i16::from_le_bytes([b[2], b[3]]),
-                )
-            });
-            let heard = |v: u8| (v != 0).then_some(v);
-            let rssi: [ChannelBytes; 4] = core::array::from_fn(|i| {
-                core::array::from_fn(|ch| {
-                    (ch < c).then(|| heard(body[4 * n + ch * n + i])).flatten()
-                })
-            });
-            let mut want_s = CalStats::new();
-            if relay {
-                let rel = |ch: usize, i: usize, j: usize| {
-                    heard(body[4 * n + c * n + (ch * n + i) * (n - 1) + j - usize::from(j > i)])
-                };
-                for i in 0..n {
-                    for j in i + 1..n {
-                        let mut b = [None; 8];
-                        for ch in 0..c {
-                            (b[ch], b[4 + ch]) = (rel(ch, i, j), rel(ch, j, i));
-                        }
-                        want_s.push_pair(pos[i], pos[j], &b);
-                    }
-                }
-            }
-            let want_o = observations_of(&pos, &rssi, c, Refinement::Extended);
-            let mut want_a = AreaCm::new(0, 0);
-            for p in pos {
-                want_a.width = want_a.width.max(p.x.max(0) as u16);
-                want_a.height = want_a.height.max(p.y.max(0) as u16);
-            }
-            let r = ReportBytes {
-                bytes: &buf[..len],
-                start: start as u8,
-                anchors: n as u8,
-                channels: c as u8,
-                relay,
-            };
-            let (mut s, mut o, mut a) = (CalStats::new(), Observations::new(), AreaCm::new(0, 0));
-            portable_report_inputs(&r, &mut s, &mut o, &mut a);
-            assert_eq!((s, o, a), (want_s, want_o, want_a), "{t}");
-            for short in [
-                ReportBytes {
-                    bytes: &buf[..len - 1],
-                    ..r
-                },
-                ReportBytes { anchors: 9, ..r },
-                ReportBytes { channels: 5, ..r },
-            ] {
-                let (mut s, mut o, mut a) =
-                    (CalStats::new(), Observations::new(), AreaCm::new(0, 0));
-                portable_report_inputs(&short, &mut s, &mut o, &mut a);
-                assert_eq!((s, o, a), Default::default());
-            }
-        }
-    }
 
     #[test]
     fn extended_of_raw_bytes_is_db_mean_and_spread() {

@@ -15,8 +15,10 @@
 
 /// Segments of [`log2_seg`].
 pub(crate) const LOG2_SEGMENTS: usize = 64;
+/// Bytes per segment of [`log2_seg`]: `c0` (3), `c1` (2), `c2` (1).
+pub(crate) const LOG2_SEG_BYTES: usize = 6;
 
-const LOG2_SEG_DATA: [[u8; 6]; LOG2_SEGMENTS] = [
+const LOG2_SEG_DATA: [[u8; LOG2_SEG_BYTES]; LOG2_SEGMENTS] = [
     [0, 0, 0, 84, 92, 182],
     [159, 91, 0, 232, 90, 176],
     [215, 181, 0, 136, 89, 171],
@@ -127,9 +129,21 @@ const DECADE_DATA: [u32; 10] = [
     2147483648, 214748365, 21474836, 2147484, 214748, 21475, 2147, 215, 21, 2,
 ];
 
+/// The log2 table in flash, where the AVR column kernel (`column/avr.rs`) reads it by its
+/// symbol; Rust reads it through [`LOG2_SEG`].
+#[cfg(target_arch = "avr")]
+#[allow(unsafe_code)]
+#[link_section = ".progmem.data"]
+pub(crate) static LOG2_SEG_FLASH: [[u8; LOG2_SEG_BYTES]; LOG2_SEGMENTS] = LOG2_SEG_DATA;
+
+#[cfg(target_arch = "avr")]
+// SAFETY: `LOG2_SEG_FLASH` is in the progmem section (its `link_section`), as `ProgMem` needs.
+#[allow(unsafe_code)]
+static LOG2_SEG: avr_progmem::wrapper::ProgMem<[[u8; LOG2_SEG_BYTES]; LOG2_SEGMENTS]> =
+    unsafe { avr_progmem::wrapper::ProgMem::new(core::ptr::addr_of!(LOG2_SEG_FLASH)) };
+
 #[cfg(target_arch = "avr")]
 avr_progmem::progmem! {
-    static progmem LOG2_SEG: [[u8; 6]; LOG2_SEGMENTS] = LOG2_SEG_DATA;
     static progmem EXP2_SEG: [[u16; 2]; 32] = EXP2_SEG_DATA;
     static progmem DECIBEL: [u32; 10] = DECIBEL_DATA;
     static progmem DECADE: [u32; 10] = DECADE_DATA;
@@ -137,7 +151,8 @@ avr_progmem::progmem! {
 
 #[cfg(not(target_arch = "avr"))]
 mod plain {
-    pub(super) static LOG2_SEG: [[u8; 6]; super::LOG2_SEGMENTS] = super::LOG2_SEG_DATA;
+    pub(super) static LOG2_SEG: [[u8; super::LOG2_SEG_BYTES]; super::LOG2_SEGMENTS] =
+        super::LOG2_SEG_DATA;
     pub(super) static EXP2_SEG: [[u16; 2]; 32] = super::EXP2_SEG_DATA;
     pub(super) static DECIBEL: [u32; 10] = super::DECIBEL_DATA;
     pub(super) static DECADE: [u32; 10] = super::DECADE_DATA;
@@ -145,7 +160,7 @@ mod plain {
 
 /// Segment `k` (`< 64`) of the log2 table: `c0` (3 bytes), `c1` (2 bytes), `c2`, little endian.
 #[inline(always)]
-pub(crate) fn log2_seg(k: usize) -> [u8; 6] {
+pub(crate) fn log2_seg(k: usize) -> [u8; LOG2_SEG_BYTES] {
     #[cfg(target_arch = "avr")]
     {
         LOG2_SEG.load_at(k)
@@ -153,18 +168,6 @@ pub(crate) fn log2_seg(k: usize) -> [u8; 6] {
     #[cfg(not(target_arch = "avr"))]
     {
         plain::LOG2_SEG[k]
-    }
-}
-
-/// Where the log2 table starts (a flash address on AVR).
-pub(crate) fn log2_seg_table() -> *const [u8; 6] {
-    #[cfg(target_arch = "avr")]
-    {
-        LOG2_SEG.as_ptr().cast()
-    }
-    #[cfg(not(target_arch = "avr"))]
-    {
-        plain::LOG2_SEG.as_ptr()
     }
 }
 
@@ -178,18 +181,6 @@ pub(crate) fn exp2_seg(k: usize) -> [u16; 2] {
     #[cfg(not(target_arch = "avr"))]
     {
         plain::EXP2_SEG[k]
-    }
-}
-
-/// Where the exp2 table starts (a flash address on AVR), for the assembly posterior.
-pub(crate) fn exp2_seg_table() -> *const [u16; 2] {
-    #[cfg(target_arch = "avr")]
-    {
-        EXP2_SEG.as_ptr().cast()
-    }
-    #[cfg(not(target_arch = "avr"))]
-    {
-        plain::EXP2_SEG.as_ptr()
     }
 }
 

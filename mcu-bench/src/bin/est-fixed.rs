@@ -11,5 +11,5 @@ uno_board::link_avr_libc!();
 #[cfg(target_arch = "avr")]
 #[uno_board::entry]
 fn main() -> ! {
-    mcu_bench::fw::main(mcu_bench::fixed::Fixed::new())
+    mcu_bench::fw::main(mcu_bench::fixed::Fixed::<loc_core::fixed::Native>::new())
 }

@@ -1,27 +1,20 @@
 //! The AVR half of the crate: peripherals, interrupt handlers, the node boot, panic handler.
 
-#[macro_use]
-mod asm_common;
 mod boot;
 mod config;
-mod cost_term;
 mod eeprom;
-mod fit;
 mod led;
 pub mod libm;
 pub mod node;
 mod power;
 mod radio;
-mod report;
 mod serial;
 mod time;
 mod watchdog;
 
 pub use boot::{boot, Node};
 pub use config::{load_config, radio_config};
-pub use cost_term::AvrTerm;
 pub use eeprom::Eeprom;
-pub use fit::AvrFit;
 pub use led::{blink_code, Led};
 pub use power::sleep_unless;
 pub use radio::{bring_up_radio, uart_out, write_line, NodeRadio};

@@ -1,6 +1,6 @@
-//! Test reference: the fixed-point fit as it was before the AVR speed-up (plain `i64` sums, `u64`
-//! divisions), kept verbatim so that `params::tests` can assert that every public result of the
-//! fast path is bit-identical to it.
+//! Test reference: the fixed-point fit written plainly (`i64` sums, `u64` divisions), so that
+//! `params::tests` can assert that every public result of the MCU-shaped fit in `params.rs` is
+//! bit-identical to it.
 
 use crate::fixed::{Bounds, PathLoss, PointCm, ALPHA_LIMIT, P0_LIMIT};
 use crate::params::{FitMethod, ParamMode};
