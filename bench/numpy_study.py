@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The SPEC §6 simulation study, written plainly in vectorised numpy, as the yardstick that
+"""hoploc's simulation study (docs/design.md, section 9), written plainly in vectorised numpy, as the yardstick that
 `hoploc simulate` is benchmarked against (bench target: Rust ≥ 20× faster, same tables within
 Monte Carlo noise).
 
@@ -10,9 +10,11 @@ Same study and algorithms as loc-core's f64 reference:
   log-normal model P0 = −40 dBm, α = 3 (known).
 * Refinements: Ch1, Ch2, Max (largest z), Linear avg (mean in mW), Ext-MCH (every channel its own
   term in the MLE cost).
-* MLE: coarse grid, step 10 % of each side (11 × 11 with the edges), then fine step 2 % within
-  ± one coarse step of the coarse winner, inside the area; first minimum in x-major order wins.
-* MMSE: posterior mean over the full fine grid (51 × 51), weights exp(−cost / 2σ²).
+* MLE: coarse grid, step 1/COARSE of each side, then fine step 1/FINE within ± one coarse step
+  of the coarse winner, inside the area; first minimum in x-major order wins. The divisions
+  come from the command line (`--coarse-divs`, `--fine-divs`: the Rust bench passes
+  loc-core's; 10 and 50 by default: 10 % and 2 % steps).
+* MMSE: posterior mean over the full fine grid, weights exp(−cost / 2σ²).
 * TRLT-3: linear system of the 3 circle equations; QUAD-4: mean of the four 3-anchor
   trilaterations; MDS: classical MDS of the (n+1)² distance matrix (anchor–anchor distances
   exact), top-2 eigenpairs, Procrustes fit (scale, rotation, reflection, translation) onto the
@@ -20,7 +22,8 @@ Same study and algorithms as loc-core's f64 reference:
 * Metrics: per-point RMSE over runs averaged over the points; bias = std over points of the
   per-point mean error, in x and in y.
 
-Usage: python3 bench/numpy_study.py --runs 100 --sigma 2 4 --seed 1 [--json out.json]
+Usage: python3 bench/numpy_study.py --runs 100 --sigma 2 4 --seed 1 [--coarse-divs 10]
+       [--fine-divs 50] [--json out.json]
 """
 
 import argparse
@@ -59,14 +62,17 @@ def refine(z, col):
     return z.mean(axis=-1), float(z.shape[-1])
 
 
-N_FINE = 51  # lattice points per side at the fine step (2 % of the side)
+# Lattice divisions per side (set from the command line in main).
+FINE_DIVS = 50
+COARSE_DIVS = 10
 
 
 def lattice(anchors):
-    """Mean RSSI from every anchor at every point of the fine lattice: (51·51, A). The coarse
-    grid (every 5th point) and every fine window lie on this lattice, so the model is evaluated
-    once per anchor layout, as the Rust reference does."""
-    f = np.arange(N_FINE) * 0.02 * W
+    """Mean RSSI from every anchor at every point of the fine lattice: (N·N, A), N = FINE_DIVS + 1.
+    The coarse grid and every fine window lie on this lattice, so the model is evaluated once
+    per anchor layout, as the Rust reference does."""
+    n_fine = FINE_DIVS + 1
+    f = np.arange(n_fine) / FINE_DIVS * W
     fx, fy = np.meshgrid(f, f, indexing="ij")
     grid = np.stack([fx.ravel(), fy.ravel()], axis=1)
     return grid, rssi(np.linalg.norm(grid[:, None, :] - anchors[None], axis=-1))
@@ -81,17 +87,18 @@ def costs_at(obs, w, table):
 
 def mle(obs, w, lat):
     grid, P = lat
-    c = np.arange(0, N_FINE, 5)
+    n_fine, ratio = FINE_DIVS + 1, FINE_DIVS // COARSE_DIVS
+    c = np.arange(0, n_fine, ratio)
     ci, cj = np.meshgrid(c, c, indexing="ij")
-    coarse = (ci * N_FINE + cj).ravel()  # (121,) lattice indices
+    coarse = (ci * n_fine + cj).ravel()  # the coarse points' lattice indices
     best = coarse[np.argmin(costs_at(obs, w, P[coarse]), axis=1)]  # (T,)
-    bi, bj = best // N_FINE, best % N_FINE
-    off = np.arange(-5, 6)
+    bi, bj = best // n_fine, best % n_fine
+    off = np.arange(-ratio, ratio + 1)
     oi, oj = np.meshgrid(off, off, indexing="ij")
     fi = bi[:, None] + oi.ravel()[None]
     fj = bj[:, None] + oj.ravel()[None]
-    inside = (fi >= 0) & (fi < N_FINE) & (fj >= 0) & (fj < N_FINE)
-    idx = np.clip(fi, 0, N_FINE - 1) * N_FINE + np.clip(fj, 0, N_FINE - 1)  # (T, 121)
+    inside = (fi >= 0) & (fi < n_fine) & (fj >= 0) & (fj < n_fine)
+    idx = np.clip(fi, 0, n_fine - 1) * n_fine + np.clip(fj, 0, n_fine - 1)  # (T, window points)
     costs = costs_at(obs, w, P[idx])
     costs[~inside] = np.inf
     return grid[idx[np.arange(len(idx)), np.argmin(costs, axis=1)]]
@@ -188,8 +195,14 @@ def main():
     ap.add_argument("--runs", type=int, default=100)
     ap.add_argument("--sigma", type=float, nargs="+", default=[2.0, 4.0])
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--coarse-divs", type=int, default=10, help="coarse grid divisions per side")
+    ap.add_argument("--fine-divs", type=int, default=50, help="fine lattice divisions per side")
     ap.add_argument("--json", help="write the tables and the time here")
     args = ap.parse_args()
+    if args.coarse_divs < 1 or args.fine_divs % args.coarse_divs != 0:
+        ap.error("--fine-divs must be a multiple of --coarse-divs")
+    global FINE_DIVS, COARSE_DIVS
+    FINE_DIVS, COARSE_DIVS = args.fine_divs, args.coarse_divs
     t0 = time.perf_counter()
     out = {}
     for s in args.sigma:

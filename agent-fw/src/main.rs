@@ -97,7 +97,7 @@ fn run(mut agent: agent_fw::Agent, node: &mut uno_board::Node) -> ! {
                             rssi: rssi.max(1),
                             at_us,
                             pos: [b.position.x, b.position.y],
-                            relay: b.relayed(),
+                            relay: &b.relay,
                         });
                     }
                 }

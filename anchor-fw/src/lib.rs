@@ -25,7 +25,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-use loc_proto::msg::{Beacon, ChannelList, Position};
+use loc_proto::msg::{Beacon, ChannelList, Position, Relay};
 pub use loc_proto::schedule::SILENT_SUPERFRAMES;
 use loc_proto::schedule::{Schedule, Timeline};
 
@@ -146,8 +146,7 @@ impl Anchor {
         channels: &ChannelList,
         position: Position,
     ) -> Beacon {
-        let relay = self.relay(channel);
-        let mut b = Beacon {
+        Beacon {
             anchor: self.id,
             seq,
             channel: channels
@@ -156,11 +155,9 @@ impl Anchor {
                 .copied()
                 .unwrap_or(0),
             position,
-            relay_count: relay.len() as u8,
-            relay: [0; MAX_ANCHORS],
-        };
-        b.relay[..relay.len()].copy_from_slice(relay);
-        b
+            // (`relay` is at most MAX_ANCHORS bytes: it always fits.)
+            relay: Relay::from_slice(self.relay(channel)).unwrap_or_default(),
+        }
     }
 
     /// Time of event `k` of the superframe, µs from its start.

@@ -268,7 +268,7 @@ fn the_relay_carries_last_superframes_rssi_per_channel() {
     let pos = Position { x: 1000, y: 1000 };
     let b = net.nodes[2].a.beacon(9, 1, &channels, pos);
     assert_eq!((b.anchor, b.seq, b.channel, b.position), (3, 9, 12, pos));
-    assert_eq!(b.relayed(), &[41, 42, 0, 44]);
+    assert_eq!(b.relay, [41, 42, 0, 44]);
     let mut buf = [0; Beacon::MAX_LEN];
     let n = b.encode(&mut buf).unwrap();
     assert_eq!(n, 17);

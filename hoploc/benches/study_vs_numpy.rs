@@ -59,6 +59,13 @@ fn run_numpy(root: &std::path::Path, cfg: &Config) -> Result<(f64, f64, Vec<Nump
         ])
         .arg("--sigma")
         .args(cfg.sigmas.iter().map(|s| s.to_string()))
+        // The same lattice as loc-core's.
+        .args([
+            "--coarse-divs",
+            &loc_core::grid::COARSE_DIVS.to_string(),
+            "--fine-divs",
+            &loc_core::grid::FINE_DIVS.to_string(),
+        ])
         .arg("--json")
         .arg(&out);
     let t0 = Instant::now();

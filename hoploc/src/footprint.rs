@@ -86,7 +86,7 @@ fn stack_of(avr: &Avr) -> Result<usize, String> {
 /// paths); anchors and agents get anchor 2's beacons on the default config's first channel.
 pub fn traffic(role: Role, i: usize) -> (u16, Vec<u8>) {
     use loc_proto::config::Config;
-    use loc_proto::msg::{Beacon, ChannelList, Position, Report, MAX_PAYLOAD};
+    use loc_proto::msg::{Beacon, ChannelList, Position, Relay, Report, MAX_PAYLOAD};
     let corners = [(0, 0), (1000, 0), (1000, 1000), (0, 1000)];
     let mut buf = [0u8; MAX_PAYLOAD];
     let level = |k: usize| 55 + ((i * 7 + k * 5) % 25) as u8;
@@ -114,8 +114,7 @@ pub fn traffic(role: Role, i: usize) -> (u16, Vec<u8>) {
                 seq: i as u16,
                 channel: Config::DEFAULT.channels.as_slice()[0],
                 position: Position { x: 1000, y: 0 },
-                relay_count: 4,
-                relay: [level(0), 0, level(1), level(2), 0, 0, 0, 0],
+                relay: Relay::from_slice(&[level(0), 0, level(1), level(2)]).expect("4 fit"),
             };
             let n = b.encode(&mut buf).expect("a beacon fits");
             (Role::Anchor.address(2), buf[..n].to_vec())

@@ -336,9 +336,9 @@ mod tests {
     use super::*;
 
     fn text(l: SinkLine) -> String {
-        let mut v = Vec::new();
-        l.write(|b| v.push(b));
-        String::from_utf8(v).unwrap()
+        let mut s = String::new();
+        let Ok(()) = l.write(&mut s);
+        s
     }
 
     fn fix(seq: u16, estimator: Estimator, x: i16, y: i16) -> String {

@@ -380,15 +380,15 @@ mod tests {
     fn report_line(r: &Report) -> String {
         let mut buf = [0; loc_proto::msg::MAX_PAYLOAD];
         let n = r.encode(&mut buf).unwrap();
-        let mut v = Vec::new();
-        RawReport::write(&buf[..n], |b| v.push(b));
-        String::from_utf8(v).unwrap()
+        let mut s = String::new();
+        let Ok(()) = RawReport::write(&buf[..n], &mut s);
+        s
     }
 
     fn line(l: SinkLine) -> String {
-        let mut v = Vec::new();
-        l.write(|b| v.push(b));
-        String::from_utf8(v).unwrap()
+        let mut s = String::new();
+        let Ok(()) = l.write(&mut s);
+        s
     }
 
     #[test]

@@ -567,13 +567,13 @@ impl Testbed {
                         continue;
                     }
                 };
-                RawReport::write(data, |b| self.log.push(b as char));
+                let Ok(()) = RawReport::write(data, &mut self.log);
                 let written = match h.sink.on_report(&r) {
                     Ok(fix) => fix.lines().to_vec(),
                     Err(e) => vec![sink_fw::no_fix_line(r.agent, r.seq, e)],
                 };
                 for l in written {
-                    l.write(|b| self.log.push(b as char));
+                    let Ok(()) = l.write(&mut self.log);
                     lines.push((ms, l, None));
                 }
                 self.refs.add(ms, r, &mut lines);
@@ -868,8 +868,7 @@ mod tests {
             seq,
             channel,
             position: Position { x: 0, y: 0 },
-            relay_count: 4,
-            relay: [0; 8],
+            relay: loc_proto::msg::Relay::from_slice(&[0; 4]).unwrap(),
         };
         let mut buf = [0; 64];
         let n = b.encode(&mut buf).unwrap();

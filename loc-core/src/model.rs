@@ -1,8 +1,9 @@
 //! The path-loss model and the data the estimators work on.
 
-/// Most anchors a measurement set holds (the testbed allows 3…8).
+/// Most anchors a measurement set holds: the testbed's limit (its reports carry 3 to this many;
+/// `loc-proto` takes it from here).
 pub const MAX_ANCHORS: usize = 8;
-/// Most channels per anchor (the testbed hops 1…4 channels).
+/// Most channels per anchor: the testbed's limit (it hops 1 to this many).
 pub const MAX_CHANNELS: usize = 4;
 
 /// A point in metres.

@@ -45,6 +45,7 @@ use core::fmt;
 use crate::error::{crc16, Error, Field};
 use crate::msg::{bad, ChannelList, Position, Writer, MAX_ANCHORS, MAX_CHANNEL};
 use crate::{Role, DEFAULT_CHANNELS, DEFAULT_PAN_ID, DEFAULT_SINK_CHANNEL};
+use ufmt::uWrite;
 
 /// The first byte of a stored config.
 pub const MAGIC: u8 = 0xC5;
@@ -244,40 +245,29 @@ pub fn read_into(buf: &[u8], role: Role, out: Option<&mut Config>) -> u8 {
     0
 }
 
-/// The node's config line, byte for byte [`BootLine::Config`] (`code` 0: `hoploc <role> config
+/// The node's config line: [`BootLine::Config`] (`code` 0: `hoploc <role> config
 /// eeprom|built-in id <id>`) or [`BootLine::ConfigError`] (`hoploc <role> config error
-/// <code>`), written with one start and one end: [`BootLine::write`] of a line that is one of
-/// the two writes both in full (on AVR, two copies of the start and end). Always inlined, as
-/// [`BootLine::write`]: the caller's writer type is the one every line goes through.
+/// <code>`), written with [`BootLine::write`] (whose line start and end are shared by the two).
+/// Always inlined, as [`BootLine::write`].
 ///
 /// [`BootLine::Config`]: crate::line::BootLine::Config
 /// [`BootLine::ConfigError`]: crate::line::BootLine::ConfigError
 /// [`BootLine::write`]: crate::line::BootLine::write
 #[inline(always)]
-pub fn write_config_line(
-    out: impl FnMut(u8),
+pub fn write_config_line<W: uWrite + ?Sized>(
+    out: &mut W,
     role: Role,
     code: u8,
     source: crate::line::ConfigSource,
     id: u8,
-) {
-    // The words of `line::WORDS` these lines use (checked against `BootLine::write` by the
-    // tests, on every role, source, id and code).
-    const CONFIG: u8 = 10;
-    const EEPROM: u8 = 11;
-    const ERROR: u8 = 8;
-    const ID: u8 = 13;
-    let mut o = crate::line::Out::new(out);
-    o.head(1 + role as u8, CONFIG);
-    if code == 0 {
-        o.word(EEPROM + (source == crate::line::ConfigSource::BuiltIn) as u8);
-        o.word(ID);
-        o.num16(id.into());
+) -> Result<(), W::Error> {
+    use crate::line::BootLine;
+    let line = if code == 0 {
+        BootLine::Config { role, source, id }
     } else {
-        o.word(ERROR);
-        o.num16(code.into());
-    }
-    o.end(false);
+        BootLine::ConfigError { role, code }
+    };
+    line.write(out)
 }
 
 /// The code of every bad field ([`Error::BadValue`]).
@@ -791,17 +781,20 @@ mod tests {
     #[test]
     fn the_config_line_is_the_boot_lines() {
         use crate::line::{BootLine, ConfigSource};
-        let text = |w: &dyn Fn(&mut std::vec::Vec<u8>)| {
-            let mut v = std::vec::Vec::new();
-            w(&mut v);
-            v
+        let text = |w: &dyn Fn(&mut std::string::String)| {
+            let mut s = std::string::String::new();
+            w(&mut s);
+            s.into_bytes()
         };
         for role in Role::ALL {
             for source in [ConfigSource::Eeprom, ConfigSource::BuiltIn] {
                 for id in 0..=255u8 {
-                    let got = text(&|v| write_config_line(|b| v.push(b), role, 0, source, id));
-                    let want =
-                        text(&|v| BootLine::Config { role, source, id }.write(|b| v.push(b)));
+                    let got = text(&|s| {
+                        let Ok(()) = write_config_line(s, role, 0, source, id);
+                    });
+                    let want = text(&|s| {
+                        let Ok(()) = BootLine::Config { role, source, id }.write(s);
+                    });
                     assert_eq!(got, want);
                     assert_eq!(
                         BootLine::parse(core::str::from_utf8(&got).unwrap()),
@@ -810,10 +803,12 @@ mod tests {
                 }
             }
             for code in 1..=255u8 {
-                let got = text(&|v| {
-                    write_config_line(|b| v.push(b), role, code, ConfigSource::Eeprom, 7)
+                let got = text(&|s| {
+                    let Ok(()) = write_config_line(s, role, code, ConfigSource::Eeprom, 7);
                 });
-                let want = text(&|v| BootLine::ConfigError { role, code }.write(|b| v.push(b)));
+                let want = text(&|s| {
+                    let Ok(()) = BootLine::ConfigError { role, code }.write(s);
+                });
                 assert_eq!(got, want);
             }
         }

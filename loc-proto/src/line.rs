@@ -19,17 +19,21 @@
 //! only garbage), the same number the node blinks on its LED. The config error code is
 //! `loc_proto::Error::code` of the stored block (2 bad magic, 3 another layout version, 7 bad
 //! CRC, …) or 10 ([`crate::config::WRONG_ROLE`]: a valid config of another role); the node
-//! blinks it too. The firmware writes lines with
-//! [`BootLine::write`] (no `core::fmt`, words read from flash); the host tools read them with
-//! [`BootLine::parse`], which never panics and says what was wrong.
+//! blinks it too.
+//!
+//! The format is [`BootLine`]'s `ufmt::uDisplay`: the firmware writes lines with
+//! [`BootLine::write`] onto any `ufmt::uWrite` (the UART; no `core::fmt`, the words read from a
+//! table in flash), the host tools read them with [`BootLine::parse`], which never panics and
+//! says what was wrong, and `Display` shows them.
 
 use core::fmt;
 
+use ufmt::{uDisplay, uWrite, uwrite, Formatter};
+
 use crate::Role;
 
-/// Every word of the boot lines and the sink's lines ([`crate::sink_line`]), space separated;
-/// [`Word`] and `sink_line`'s word numbers index it. One table, one writer ([`Out`]) for every
-/// line a node writes.
+/// Every word of the boot lines and the sink's lines ([`crate::sink_line`]), space separated,
+/// indexed by [`Word`]: one table for every line a node writes.
 const WORD_LIST: &[u8] =
     b"hoploc anchor agent sink boot radio ok api error try config eeprom built-in id provisioned fix nofix status mle mmse report";
 
@@ -66,185 +70,259 @@ avr_progmem::progmem! {
 }
 
 /// Byte `i` of [`WORDS`]. Out of line: on AVR a flash read goes through a stack slot, whose
-/// frame then stays out of [`Out::word`]'s loop.
+/// frame then stays out of [`Word`]'s loop.
 #[inline(never)]
 fn word_byte(i: u8) -> u8 {
     WORDS.load_at(i as usize)
 }
 
-/// Indices into [`WORDS`].
-#[derive(Clone, Copy)]
-#[repr(u8)]
-enum Word {
-    Hoploc = 0,
+// `ConfigSource`'s `uDisplay` takes `built-in` as the word after `eeprom`.
+const _: () = assert!(Word::BUILT_IN.0 == Word::EEPROM.0 + 1);
+
+/// A word of [`WORDS`] by its index, written with ufmt ([`uDisplay`]) from the table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Word(pub(crate) u8);
+
+impl Word {
+    pub(crate) const HOPLOC: Word = Word(0);
     // Roles: 1 + Role as u8.
-    Boot = 4,
-    Radio = 5,
-    Ok = 6,
-    Api = 7,
-    Error = 8,
-    Try = 9,
-    Config = 10,
-    Eeprom = 11,
-    BuiltIn = 12,
-    Id = 13,
-    Provisioned = 14,
+    const BOOT: Word = Word(4);
+    const RADIO: Word = Word(5);
+    const OK: Word = Word(6);
+    const API: Word = Word(7);
+    pub(crate) const ERROR: Word = Word(8);
+    const TRY: Word = Word(9);
+    pub(crate) const CONFIG: Word = Word(10);
+    pub(crate) const EEPROM: Word = Word(11);
+    pub(crate) const BUILT_IN: Word = Word(12);
+    pub(crate) const ID: Word = Word(13);
+    pub(crate) const PROVISIONED: Word = Word(14);
+    /// `fix`, the first of the sink lines' own words (`fix nofix status mle mmse report`, in
+    /// that order).
+    pub(crate) const FIX: Word = Word(15);
+    pub(crate) const NOFIX: Word = Word(16);
+    pub(crate) const STATUS: Word = Word(17);
+    pub(crate) const MLE: Word = Word(18);
+    pub(crate) const MMSE: Word = Word(19);
+    pub(crate) const REPORT: Word = Word(20);
 }
 
-/// [`WORDS`] index of `sink` (1 + [`Role::Sink`]), the sink lines' second word.
-pub(crate) const WORD_SINK: u8 = 1 + Role::Sink as u8;
-/// [`WORDS`] index of `fix`, the first of the sink lines' own words (`fix nofix status mle mmse
-/// report`, in that order).
-pub(crate) const WORD_FIX: u8 = 15;
+/// The word's bytes, read from flash one at a time, each written as a one-byte `str` (the
+/// table is ASCII: bit 7 only marks a word's last byte). The words stay in flash because a
+/// string literal in a format string would be copied into the MCU's SRAM at boot.
+impl uDisplay for Word {
+    #[inline(always)]
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+        word(self.0, f)
+    }
+}
 
-// `BootLine::write` takes `built-in` as the word after `eeprom`.
-const _: () = assert!(Word::BuiltIn as u8 == Word::Eeprom as u8 + 1);
-const _: () = assert!(Word::Provisioned as u8 + 1 == WORD_FIX);
+/// Writes word `k` of [`WORDS`]. Out of line and by value (a `uDisplay` takes its value by
+/// reference, through memory on AVR): one copy per writer type, called with a register.
+#[inline(never)]
+fn word<W: uWrite + ?Sized>(k: u8, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+    // Skip `k` words, then write one. A `u8` position and word count: few registers live
+    // across the writes. (An index past the last word panics in `word_byte`'s index check:
+    // nothing past the table is read.)
+    let mut i = 0u8;
+    let mut left = k;
+    while left != 0 {
+        if word_byte(i) & 0x80 != 0 {
+            left -= 1;
+        }
+        i += 1;
+    }
+    loop {
+        let b = word_byte(i);
+        i += 1;
+        ascii(b & 0x7F, f)?;
+        if b & 0x80 != 0 {
+            return Ok(());
+        }
+    }
+}
 
-/// A line on its way out: each byte goes to `out` and into the running CRC-8 that sink lines
-/// end with ([`crate::sink_line::crc8`]). Every line a node writes, boot or sink, goes through
-/// these few out-of-line methods: on AVR one copy of each per writer type (a firmware writes
-/// every line with one, so one copy), called with a value or two. Generic, not `dyn`: the
-/// writer's call folds in, and no vtable sits in SRAM.
-pub(crate) struct Out<W> {
-    out: W,
+/// Writes the ASCII byte `b` (below 0x80) as a one-byte `str` from a register: the lines'
+/// punctuation and hex digits are written this way, not as string literals, which would be
+/// copied into the MCU's SRAM at boot. Out of line: one copy per writer type.
+#[inline(never)]
+pub(crate) fn ascii<W: uWrite + ?Sized>(b: u8, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+    f.write_str(char::from(b).encode_utf8(&mut [0; 4]))
+}
+
+/// A byte as two upper-case hex digits: the sink lines' checksum and a `report` line's
+/// message. (ufmt's `{:02X}` links its general hex routine, with padding and `0x` prefixes, for
+/// these two digits.)
+#[derive(Clone, Copy)]
+pub(crate) struct Hex(pub(crate) u8);
+
+impl uDisplay for Hex {
+    #[inline(always)]
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+        hex(self.0, f)
+    }
+}
+
+/// [`Hex`]'s digits. Out of line and by value (see [`word`]).
+#[inline(never)]
+fn hex<W: uWrite + ?Sized>(b: u8, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+    let digit = |n: u8| if n < 10 { b'0' + n } else { b'A' + n - 10 };
+    ascii(digit(b >> 4), f)?;
+    ascii(digit(b & 15), f)
+}
+
+/// How every line starts: `hoploc`, the role of the node that writes it, and the line's kind
+/// word.
+#[derive(Clone, Copy)]
+pub(crate) struct Head(pub(crate) Role, pub(crate) Word);
+
+impl uDisplay for Head {
+    #[inline(always)]
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+        head(self.0, self.1 .0, f)
+    }
+}
+
+/// [`Head`]'s words. Out of line and by value (see [`word`]).
+#[inline(never)]
+fn head<W: uWrite + ?Sized>(
+    role: Role,
+    kind: u8,
+    f: &mut Formatter<'_, W>,
+) -> Result<(), W::Error> {
+    uwrite!(f, "{} {} {}", Word::HOPLOC, role, Word(kind))
+}
+
+/// A number field of a line, in decimal: ufmt's `u32` decimal, out of line. ufmt's integer
+/// formatting is generic over the writer, large on AVR, and inlined where it is used: every
+/// number field of every line goes through this one copy instead ([`SignedDec`] too).
+#[derive(Clone, Copy)]
+pub(crate) struct Dec(pub(crate) u32);
+
+impl uDisplay for Dec {
+    #[inline(always)]
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+        dec(self.0, false, f)
+    }
+}
+
+/// A signed number field in decimal, `-` first if negative: the sign, then its magnitude through
+/// [`Dec`]'s copy of ufmt's decimal (ufmt's own `i16` is a second routine as large).
+#[derive(Clone, Copy)]
+pub(crate) struct SignedDec(pub(crate) i16);
+
+impl uDisplay for SignedDec {
+    #[inline(always)]
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+        dec(self.0.unsigned_abs().into(), self.0 < 0, f)
+    }
+}
+
+/// `-` if `negative`, then `n` in ufmt's decimal. Out of line and by value (see [`word`]).
+#[inline(never)]
+fn dec<W: uWrite + ?Sized>(
+    n: u32,
+    negative: bool,
+    f: &mut Formatter<'_, W>,
+) -> Result<(), W::Error> {
+    if negative {
+        ascii(b'-', f)?;
+    }
+    n.fmt(f)
+}
+
+/// The role's word (`anchor`, `agent`, `sink`): the second word of every line.
+impl uDisplay for Role {
+    #[inline(always)]
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+        Word(1 + *self as u8).fmt(f)
+    }
+}
+
+/// The CRC-8 of [`crate::sink_line::crc8`] after `crc` and `bytes`. (crc8 from state `crc` over
+/// `b` is crc8 of `crc ^ b` from 0.) A `u8` bit count: an untyped `0..8` is an `i32` loop on
+/// AVR.
+#[inline(never)]
+pub(crate) fn crc8_update(mut crc: u8, bytes: &[u8]) -> u8 {
+    for &b in bytes {
+        crc ^= b;
+        for _ in 0..8u8 {
+            crc = (crc << 1) ^ if crc & 0x80 != 0 { 0x07 } else { 0 };
+        }
+    }
+    crc
+}
+
+/// A [`uWrite`] that passes everything on to the writer it wraps and keeps the CRC-8
+/// ([`crate::sink_line::crc8`]) of what went through: the sink lines' checksum is computed as
+/// the line is written, with no line in memory.
+pub struct Crc8Writer<'w, W: ?Sized> {
+    out: &'w mut W,
     crc: u8,
 }
 
-impl<W: FnMut(u8)> Out<W> {
-    /// A line to `out`, nothing written yet.
-    pub(crate) fn new(out: W) -> Out<W> {
-        Out { out, crc: 0 }
+impl<'w, W: uWrite + ?Sized> Crc8Writer<'w, W> {
+    /// A writer to `out`, nothing written yet (CRC 0).
+    pub fn new(out: &'w mut W) -> Crc8Writer<'w, W> {
+        Crc8Writer { out, crc: 0 }
     }
 
-    /// Writes `b`. (crc8 from state `crc` over `b` is crc8 of `crc ^ b` from 0.) A `u8` bit
-    /// count: an untyped `0..8` is an `i32` loop on AVR.
+    /// The CRC-8 of everything written so far.
+    pub fn crc(&self) -> u8 {
+        self.crc
+    }
+}
+
+impl<W: uWrite + ?Sized> uWrite for Crc8Writer<'_, W> {
+    type Error = W::Error;
+
+    /// Out of line: every piece of every line is a call here.
     #[inline(never)]
-    pub(crate) fn byte(&mut self, b: u8) {
-        let mut c = self.crc ^ b;
-        for _ in 0..8u8 {
-            c = (c << 1) ^ if c & 0x80 != 0 { 0x07 } else { 0 };
-        }
-        self.crc = c;
-        (self.out)(b);
+    fn write_str(&mut self, s: &str) -> Result<(), W::Error> {
+        self.crc = crc8_update(self.crc, s.as_bytes());
+        self.out.write_str(s)
     }
+}
 
-    /// `hoploc`, word `second` (the role, or `sink`) and word `kind`: how every line starts.
-    #[inline(never)]
-    pub(crate) fn head(&mut self, second: u8, kind: u8) {
-        self.word(Word::Hoploc as u8);
-        self.word(second);
-        self.word(kind);
+/// Writes one line onto `out`: `text`, then ` *XX` (the CRC-8 of `text`, two upper-case hex
+/// digits) if `checked`, then `\r\n`. Every line a node writes, boot or sink, goes through here
+/// and through a [`Crc8Writer`] around `out` (a boot line's CRC is not written): one writer type,
+/// so a firmware has one copy of ufmt's writers. Always inlined: a caller that writes a line
+/// whose kind it knows keeps only that kind's writes.
+#[inline(always)]
+pub(crate) fn write_line<W: uWrite + ?Sized>(
+    out: &mut W,
+    checked: bool,
+    text: &impl uDisplay,
+) -> Result<(), W::Error> {
+    let mut w = Crc8Writer::new(out);
+    text.fmt(&mut Formatter::new(&mut w))?;
+    let crc = w.crc();
+    let f = &mut Formatter::new(&mut w);
+    if checked {
+        ascii(b' ', f)?;
+        ascii(b'*', f)?;
+        Hex(crc).fmt(f)?;
     }
+    ascii(b'\r', f)?;
+    ascii(b'\n', f)
+}
 
-    /// A space (none before word 0, `hoploc`, which starts every line) and word `k` of
-    /// [`WORDS`]. One `u8` position and one `u8` word count: few registers live across `byte`.
-    #[inline(never)]
-    pub(crate) fn word(&mut self, k: u8) {
-        if k != 0 {
-            self.byte(b' ');
-        }
-        // Skip k words, then write one (a k past the last word panics in word_byte's index
-        // check: nothing past the table is read).
-        let mut i = 0u8;
-        let mut left = k;
-        while left != 0 {
-            if word_byte(i) & 0x80 != 0 {
-                left -= 1;
-            }
-            i += 1;
-        }
-        loop {
-            let b = word_byte(i);
-            i += 1;
-            self.byte(b & 0x7F);
-            if b & 0x80 != 0 {
-                return;
-            }
-        }
-    }
+/// A `core::fmt` formatter as a [`uWrite`]: [`fmt::Display`] of a line is its [`uDisplay`].
+struct FmtWriter<'a, 'b>(&'a mut fmt::Formatter<'b>);
 
-    /// A space and `n` in decimal.
-    #[inline(never)]
-    pub(crate) fn num(&mut self, n: u32) {
-        self.field(n, false);
-    }
+impl uWrite for FmtWriter<'_, '_> {
+    type Error = fmt::Error;
 
-    /// A space and `n` in decimal: [`Out::num`] for the fields of 16 bits or fewer (most of
-    /// them), whose callers then pass two bytes, not four.
-    #[inline(never)]
-    pub(crate) fn num16(&mut self, n: u16) {
-        self.field(n.into(), false);
+    fn write_str(&mut self, s: &str) -> fmt::Result {
+        self.0.write_str(s)
     }
+}
 
-    /// A space and `n` in decimal, `-` first if negative.
-    #[inline(never)]
-    pub(crate) fn signed(&mut self, n: i16) {
-        self.field(n.unsigned_abs().into(), n < 0);
-    }
-
-    /// A space, `-` if `neg`, and `n` in decimal: every number field of every line. The digits
-    /// before the last by recursion (at most ten levels deep), the deepest level writing the
-    /// space and sign first, then the last (so nothing else is kept across the calls). One
-    /// 32-bit division per digit: the remainder `n − 10·q` is below 10, so its low 8 bits (one
-    /// hardware multiply on AVR) are all of it.
-    #[inline(never)]
-    fn field(&mut self, n: u32, neg: bool) {
-        let q = n / 10;
-        if q != 0 {
-            self.field(q, neg);
-        } else {
-            self.byte(b' ');
-            if neg {
-                self.byte(b'-');
-            }
-        }
-        self.byte(b'0' + (n as u8).wrapping_sub((q as u8).wrapping_mul(10)));
-    }
-
-    /// The 4-bit `n` as an upper-case hex digit. Out of line: four callers.
-    #[inline(never)]
-    fn hex_digit(&mut self, n: u8) {
-        self.byte(if n < 10 { b'0' + n } else { b'A' + n - 10 });
-    }
-
-    /// A space and `bytes` as one word of upper-case hex digits.
-    pub(crate) fn hex(&mut self, bytes: &[u8]) {
-        self.byte(b' ');
-        for &b in bytes {
-            self.hex_digit(b >> 4);
-            self.hex_digit(b & 15);
-        }
-    }
-
-    /// The line's end: ` *XX` (the CRC-8 of every byte so far, in hex) if `checked`, then
-    /// `\r\n`.
-    #[inline(always)]
-    pub(crate) fn end(&mut self, checked: bool) {
-        if checked {
-            self.end_checked();
-        } else {
-            self.end_plain();
-        }
-    }
-
-    /// ` *XX` (the CRC-8 of every byte so far, in hex), then `\r\n`: the sink lines' end.
-    #[inline(never)]
-    fn end_checked(&mut self) {
-        let c = self.crc;
-        self.byte(b' ');
-        self.byte(b'*');
-        self.hex_digit(c >> 4);
-        self.hex_digit(c & 15);
-        self.end_plain();
-    }
-
-    /// `\r\n`: the boot lines' end.
-    #[inline(never)]
-    fn end_plain(&mut self) {
-        self.byte(b'\r');
-        self.byte(b'\n');
-    }
+/// `value`'s [`uDisplay`] through `f`: the [`fmt::Display`] of every line type.
+pub(crate) fn display(value: &impl uDisplay, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    let mut w = FmtWriter(f);
+    uwrite!(w, "{}", value)
 }
 
 /// How the radio was found at boot.
@@ -355,50 +433,12 @@ impl BootLine {
         }
     }
 
-    /// Writes the line, `\r\n` included, one byte at a time (at most [`MAX_BOOT_LINE`] bytes).
-    ///
-    /// Word by word through the one line writer (`Out`). Always inlined: a firmware writes
-    /// each line where it builds it, so only that kind's few calls remain (no line in memory).
+    /// Writes the line, `\r\n` included (at most [`MAX_BOOT_LINE`] bytes): its [`uDisplay`],
+    /// then `\r\n`. Always inlined, as the `uDisplay`: a firmware writes each line where it
+    /// builds it, so only that kind's few calls remain (no line in memory).
     #[inline(always)]
-    pub fn write(&self, out: impl FnMut(u8)) {
-        use Word::*;
-        let mut o = Out::new(out);
-        // The kind word first, from the variant: a caller that writes one of two lines of a kind
-        // (the radio's) gets one copy of the line's start.
-        let kind = match *self {
-            BootLine::Boot { .. } => Boot,
-            BootLine::RadioUp { .. } | BootLine::RadioError { .. } => Radio,
-            BootLine::Provisioned { .. } => Provisioned,
-            BootLine::Config { .. } | BootLine::ConfigError { .. } => Config,
-        };
-        o.head(1 + self.role() as u8, kind as u8);
-        match *self {
-            BootLine::Boot { .. } | BootLine::Provisioned { .. } => {}
-            BootLine::RadioUp { found, .. } => {
-                o.word(Ok as u8);
-                match found {
-                    RadioFound::Api => o.word(Api as u8),
-                    RadioFound::Configured { baud } => o.num(baud),
-                }
-            }
-            BootLine::RadioError { code, attempt, .. } => {
-                o.word(Error as u8);
-                o.num16(code.into());
-                o.word(Try as u8);
-                o.num16(attempt);
-            }
-            BootLine::Config { source, id, .. } => {
-                // `built-in` follows `eeprom` in WORDS.
-                o.word(Eeprom as u8 + (source == ConfigSource::BuiltIn) as u8);
-                o.word(Id as u8);
-                o.num16(id.into());
-            }
-            BootLine::ConfigError { code, .. } => {
-                o.word(Error as u8);
-                o.num16(code.into());
-            }
-        }
-        o.end(false);
+    pub fn write<W: uWrite + ?Sized>(&self, out: &mut W) -> Result<(), W::Error> {
+        write_line(out, false, self)
     }
 
     /// Reads a line (with or without its `\r\n`). Never panics; any other text is
@@ -467,19 +507,66 @@ fn number<T: TryFrom<u32>>(s: &str) -> Result<T, LineError> {
     T::try_from(n).map_err(|_| LineError::Malformed)
 }
 
+/// The line without its `\r\n`: the format of every boot line, word by word. Always inlined:
+/// a firmware writes a line whose variant is known where it writes it, so only that variant's
+/// writes remain.
+impl uDisplay for BootLine {
+    #[inline(always)]
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+        // The kind word from the variant: a caller that writes one of two lines of a kind (the
+        // radio's) gets one copy of the line's start.
+        let kind = match *self {
+            BootLine::Boot { .. } => Word::BOOT,
+            BootLine::RadioUp { .. } | BootLine::RadioError { .. } => Word::RADIO,
+            BootLine::Provisioned { .. } => Word::PROVISIONED,
+            BootLine::Config { .. } | BootLine::ConfigError { .. } => Word::CONFIG,
+        };
+        Head(self.role(), kind).fmt(f)?;
+        match *self {
+            BootLine::Boot { .. } | BootLine::Provisioned { .. } => Ok(()),
+            BootLine::RadioUp { found, .. } => uwrite!(f, " {} {}", Word::OK, found),
+            BootLine::RadioError { code, attempt, .. } => uwrite!(
+                f,
+                " {} {} {} {}",
+                Word::ERROR,
+                Dec(code.into()),
+                Word::TRY,
+                Dec(attempt.into())
+            ),
+            BootLine::Config { source, id, .. } => {
+                uwrite!(f, " {} {} {}", source, Word::ID, Dec(id.into()))
+            }
+            BootLine::ConfigError { code, .. } => {
+                uwrite!(f, " {} {}", Word::ERROR, Dec(code.into()))
+            }
+        }
+    }
+}
+
+/// `api`, or the baud rate in decimal.
+impl uDisplay for RadioFound {
+    #[inline(always)]
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+        match *self {
+            RadioFound::Api => Word::API.fmt(f),
+            RadioFound::Configured { baud } => Dec(baud).fmt(f),
+        }
+    }
+}
+
+/// `eeprom` or `built-in`.
+impl uDisplay for ConfigSource {
+    #[inline(always)]
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+        // `built-in` follows `eeprom` in WORDS.
+        Word(Word::EEPROM.0 + (*self == ConfigSource::BuiltIn) as u8).fmt(f)
+    }
+}
+
 /// The line without its `\r\n`.
 impl fmt::Display for BootLine {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let mut buf = [0u8; MAX_BOOT_LINE];
-        let mut n = 0;
-        self.write(|b| {
-            if let Some(slot) = buf.get_mut(n) {
-                *slot = b;
-                n += 1;
-            }
-        });
-        let text = buf.get(..n.saturating_sub(2)).unwrap_or(&[]);
-        f.write_str(core::str::from_utf8(text).map_err(|_| fmt::Error)?)
+        display(self, f)
     }
 }
 
@@ -490,9 +577,9 @@ mod tests {
     use std::vec::Vec;
 
     fn written(l: &BootLine) -> String {
-        let mut v = Vec::new();
-        l.write(|b| v.push(b));
-        String::from_utf8(v).unwrap()
+        let mut s = String::new();
+        let Ok(()) = l.write(&mut s);
+        s
     }
 
     #[test]
@@ -560,8 +647,15 @@ mod tests {
         }
     }
 
+    /// The lines' numbers ([`Dec`], [`SignedDec`]: ufmt's decimal) and hex bytes ([`Hex`]) are
+    /// `core::fmt`'s, at every width's edges and for every byte.
     #[test]
-    fn decimals_match_core_fmt() {
+    fn numbers_match_core_fmt() {
+        fn text(n: impl uDisplay) -> String {
+            let mut s = String::new();
+            let Ok(()) = uwrite!(s, "{}", n);
+            s
+        }
         for n in [
             0,
             1,
@@ -578,19 +672,13 @@ mod tests {
         .into_iter()
         .chain([1_000_000_000, 4_000_000_001, u32::MAX - 1, u32::MAX])
         {
-            let mut v = Vec::new();
-            Out::new(|b| v.push(b)).num(n);
-            assert_eq!(String::from_utf8(v).unwrap(), std::format!(" {n}"));
-            for n in [n as u16, u16::MAX] {
-                let mut v = Vec::new();
-                Out::new(|b| v.push(b)).num16(n);
-                assert_eq!(String::from_utf8(v).unwrap(), std::format!(" {n}"));
-            }
+            assert_eq!(text(Dec(n)), std::format!("{n}"));
             for n in [n as i16, (n as i16).wrapping_neg(), i16::MIN, i16::MAX, -1] {
-                let mut v = Vec::new();
-                Out::new(|b| v.push(b)).signed(n);
-                assert_eq!(String::from_utf8(v).unwrap(), std::format!(" {n}"));
+                assert_eq!(text(SignedDec(n)), std::format!("{n}"));
             }
+        }
+        for b in 0..=u8::MAX {
+            assert_eq!(text(Hex(b)), std::format!("{b:02X}"));
         }
     }
 
@@ -599,19 +687,36 @@ mod tests {
         let words: Vec<&[u8]> = WORD_LIST.split(|&b| b == b' ').collect();
         assert_eq!(PACKED_LEN + words.len() - 1, WORD_LIST.len());
         for (k, w) in words.iter().enumerate() {
-            let mut v = Vec::new();
-            Out::new(|b| v.push(b)).word(k as u8);
-            let want = [if k == 0 { &b""[..] } else { b" " }, w].concat();
-            assert_eq!(v, want, "word {k}");
+            let mut s = String::new();
+            let Ok(()) = uwrite!(s, "{}", Word(k as u8));
+            assert_eq!(s.as_bytes(), *w, "word {k}");
         }
-        assert_eq!(
-            WORD_FIX as usize,
-            words.iter().position(|w| w == b"fix").unwrap()
-        );
-        assert_eq!(
-            WORD_SINK as usize,
-            words.iter().position(|w| w == b"sink").unwrap()
-        );
+        let index = |name: &[u8]| Word(words.iter().position(|w| *w == name).unwrap() as u8);
+        for (word, name) in [
+            (Word::HOPLOC, &b"hoploc"[..]),
+            (Word::BOOT, b"boot"),
+            (Word::RADIO, b"radio"),
+            (Word::OK, b"ok"),
+            (Word::API, b"api"),
+            (Word::ERROR, b"error"),
+            (Word::TRY, b"try"),
+            (Word::CONFIG, b"config"),
+            (Word::EEPROM, b"eeprom"),
+            (Word::BUILT_IN, b"built-in"),
+            (Word::ID, b"id"),
+            (Word::PROVISIONED, b"provisioned"),
+            (Word::FIX, b"fix"),
+            (Word::NOFIX, b"nofix"),
+            (Word::STATUS, b"status"),
+            (Word::MLE, b"mle"),
+            (Word::MMSE, b"mmse"),
+            (Word::REPORT, b"report"),
+        ] {
+            assert_eq!(word, index(name), "{}", String::from_utf8_lossy(name));
+        }
+        for role in Role::ALL {
+            assert_eq!(Word(1 + role as u8), index(role.name().as_bytes()));
+        }
     }
 
     #[test]

@@ -54,10 +54,9 @@ pub const VERSION: u8 = 1;
 pub const HEADER_LEN: usize = 4;
 /// The largest RF payload of an XBee 802.15.4 TX frame.
 pub const MAX_PAYLOAD: usize = 100;
-/// The most anchors a network has.
-pub const MAX_ANCHORS: usize = 8;
-/// The most channels in a channel list.
-pub const MAX_CHANNELS: usize = 4;
+/// The most anchors a network has, and the most channels in a channel list: what the estimator
+/// (loc-core) takes, so that every report it can be sent, it can locate.
+pub use loc_core::{MAX_ANCHORS, MAX_CHANNELS};
 /// The highest testbed channel number.
 pub const MAX_CHANNEL: u8 = 16;
 
@@ -167,6 +166,13 @@ impl<'a> Reader<'a> {
             y: self.i16()?,
         })
     }
+    /// The next `n` bytes.
+    pub(crate) fn bytes(&mut self, n: u8) -> Result<&'a [u8], Error> {
+        let end = self.at + n as usize;
+        let b = self.buf.get(self.at..end).ok_or(Error::BadLength)?;
+        self.at = end;
+        Ok(b)
+    }
     /// Fails with [`Error::BadLength`] unless every byte was read.
     pub(crate) fn end(&self) -> Result<(), Error> {
         if self.at == self.buf.len() {
@@ -255,8 +261,11 @@ fn check_channel(c: u8) -> Result<(), Error> {
     }
 }
 
+/// A beacon's relayed RSSI bytes: at most [`MAX_ANCHORS`], its length the beacon's R.
+pub type Relay = heapless::Vec<u8, MAX_ANCHORS, u8>;
+
 /// An anchor's beacon. See the [module docs](self) for the layout.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct Beacon {
     /// The sending anchor (1…8).
     pub anchor: u8,
@@ -266,12 +275,10 @@ pub struct Beacon {
     pub channel: u8,
     /// The anchor's position.
     pub position: Position,
-    /// How many entries of `relay` are sent (0…8).
-    pub relay_count: u8,
     /// `relay[j]`: the RSSI byte (−dBm, 0 = not heard) this anchor measured from anchor `j + 1`
-    /// on `channel` in the previous superframe. Entries from `relay_count` on are not sent (and
-    /// decode as 0); the anchor's own entry must be 0.
-    pub relay: [u8; MAX_ANCHORS],
+    /// on `channel` in the previous superframe, for the first R anchors (R = `relay.len()`,
+    /// 0…8); the anchor's own entry must be 0.
+    pub relay: Relay,
 }
 
 impl Beacon {
@@ -281,13 +288,8 @@ impl Beacon {
     pub const MAX_LEN: usize = Self::BASE_LEN + MAX_ANCHORS;
 
     /// The encoded size of this beacon.
-    pub const fn size(&self) -> usize {
-        Self::BASE_LEN + self.relay_count as usize
-    }
-
-    /// The relay entries that are sent.
-    pub fn relayed(&self) -> &[u8] {
-        &self.relay[..(self.relay_count as usize).min(MAX_ANCHORS)]
+    pub fn size(&self) -> usize {
+        Self::BASE_LEN + self.relay.len()
     }
 
     fn validate(&self) -> Result<(), Error> {
@@ -295,11 +297,8 @@ impl Beacon {
             return Err(bad(Field::AnchorId));
         }
         check_channel(self.channel)?;
-        if self.relay_count as usize > MAX_ANCHORS {
-            return Err(bad(Field::RelayCount));
-        }
         if self
-            .relayed()
+            .relay
             .get(self.anchor as usize - 1)
             .is_some_and(|&r| r != 0)
         {
@@ -316,8 +315,8 @@ impl Beacon {
         w.u16(self.seq);
         w.u8(self.channel);
         w.position(self.position);
-        w.u8(self.relay_count);
-        for &r in self.relayed() {
+        w.u8(self.relay.len() as u8);
+        for &r in &self.relay {
             w.u8(r);
         }
         Ok(w.at)
@@ -332,20 +331,23 @@ impl Beacon {
     }
 
     fn body(mut r: Reader<'_>) -> Result<Beacon, Error> {
-        let mut b = Beacon {
-            anchor: r.u8()?,
-            seq: r.u16()?,
-            channel: r.u8()?,
-            position: r.position()?,
-            relay_count: r.u8()?,
-            relay: [0; MAX_ANCHORS],
-        };
-        if b.relay_count as usize > MAX_ANCHORS {
+        let anchor = r.u8()?;
+        let seq = r.u16()?;
+        let channel = r.u8()?;
+        let position = r.position()?;
+        let count = r.u8()?;
+        if count as usize > MAX_ANCHORS {
             return Err(bad(Field::RelayCount));
         }
-        for j in 0..b.relay_count as usize {
-            b.relay[j] = r.u8()?;
-        }
+        // (Fits: at most MAX_ANCHORS bytes.)
+        let relay = Relay::from_slice(r.bytes(count)?).map_err(|_| bad(Field::RelayCount))?;
+        let b = Beacon {
+            anchor,
+            seq,
+            channel,
+            position,
+            relay,
+        };
         r.end()?;
         b.validate()?;
         Ok(b)
@@ -747,7 +749,7 @@ impl<'a> ReportView<'a> {
 }
 
 /// Any hoploc radio message, told apart by its kind byte.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 #[allow(clippy::large_enum_variant)] // no_std, no alloc: nothing to box into
 pub enum Message {
     /// An anchor's beacon.
@@ -790,8 +792,7 @@ mod tests {
             seq: 0x0102,
             channel: 12,
             position: Position { x: 300, y: -5 },
-            relay_count: 4,
-            relay: [61, 0, 70, 0, 0, 0, 0, 0],
+            relay: Relay::from_slice(&[61, 0, 70, 0]).unwrap(),
         }
     }
 

@@ -32,6 +32,7 @@ pub use crate::config::WRONG_ROLE;
 use crate::config::{read_into, Config, MAX_LEN, MIN_LEN};
 use crate::error::{crc16, Error, Field};
 use crate::Role;
+use ufmt::uWrite;
 
 /// The code of [`Error::BadValue`].
 const BAD_VALUE: u8 = Error::BadValue { field: Field::Role }.code();
@@ -116,30 +117,31 @@ impl Reply {
 /// The node's answer on its UART: the 4 bytes of [`Reply::of_code`]`(code)` (`code` as
 /// [`ProvisionParser::node_reply`] gives it, 0 for the ACK) and `\r\n` (its text lines after it then
 /// start on a line of their own in a terminal), then after an ACK the line
-/// `hoploc <role> provisioned` ([`BootLine::Provisioned`]), all through one line writer.
-/// Always inlined, as [`BootLine::write`]: the caller's writer type is the one every line goes
-/// through.
+/// `hoploc <role> provisioned` ([`BootLine::Provisioned`]), all through the writer of the
+/// node's lines. The reply is ASCII (`HL`, `A` or `N`, and [`VERSION`] or a code of at most
+/// [`WRITE_FAILED`], the codes `node_reply` gives), so each of its bytes is a one-byte `str`;
+/// a code from 0x80 on, which no node sends, would lose its bit 7. Always inlined, as
+/// [`BootLine::write`].
 ///
 /// [`BootLine::Provisioned`]: crate::line::BootLine::Provisioned
 /// [`BootLine::write`]: crate::line::BootLine::write
 #[inline(always)]
-pub fn write_answer(out: impl FnMut(u8), code: u8, role: Role) {
-    // The word `provisioned` of `line::WORDS` (checked against `BootLine::write` by the tests).
-    const PROVISIONED: u8 = 14;
-    let mut o = crate::line::Out::new(out);
-    o.byte(b'H');
-    o.byte(b'L');
+pub fn write_answer<W: uWrite + ?Sized>(out: &mut W, code: u8, role: Role) -> Result<(), W::Error> {
+    crate::line::write_line(out, false, &Reply::of_code(code))?;
     if code == 0 {
-        o.byte(b'A');
-        o.byte(VERSION);
-    } else {
-        o.byte(b'N');
-        o.byte(code);
+        crate::line::BootLine::Provisioned { role }.write(out)?;
     }
-    o.end(false);
-    if code == 0 {
-        o.head(1 + role as u8, PROVISIONED);
-        o.end(false);
+    Ok(())
+}
+
+/// The reply's 4 bytes, each as a one-byte `str` (see [`write_answer`]).
+impl ufmt::uDisplay for Reply {
+    #[inline(always)]
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut ufmt::Formatter<'_, W>) -> Result<(), W::Error> {
+        for b in self.bytes() {
+            crate::line::ascii(b & 0x7F, f)?;
+        }
+        Ok(())
     }
 }
 
@@ -404,25 +406,21 @@ mod tests {
     #[test]
     fn the_answer_is_the_reply_then_the_boot_line() {
         use crate::line::BootLine;
+        // Every code a node answers with: 0 (ACK), `Error::code`'s 1…9, WRONG_ROLE,
+        // WRITE_FAILED; and every other ASCII one.
         for role in Role::ALL {
-            for reply in [
-                Reply::Ack,
-                Reply::Nak(1),
-                Reply::Nak(WRONG_ROLE),
-                Reply::Nak(255),
-            ] {
-                let mut got = Vec::new();
-                let code = match reply {
-                    Reply::Ack => 0,
-                    Reply::Nak(c) => c,
-                };
-                write_answer(|b| got.push(b), code, role);
+            for code in 0..0x80 {
+                let reply = Reply::of_code(code);
+                let mut got = std::string::String::new();
+                let Ok(()) = write_answer(&mut got, code, role);
                 let mut want = reply.bytes().to_vec();
                 want.extend_from_slice(b"\r\n");
                 if reply == Reply::Ack {
-                    BootLine::Provisioned { role }.write(|b| want.push(b));
+                    let mut line = std::string::String::new();
+                    let Ok(()) = BootLine::Provisioned { role }.write(&mut line);
+                    want.extend_from_slice(line.as_bytes());
                 }
-                assert_eq!(got, want, "{reply:?} {role:?}");
+                assert_eq!(got.as_bytes(), want, "{reply:?} {role:?}");
             }
         }
     }

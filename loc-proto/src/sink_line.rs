@@ -8,6 +8,11 @@
 //! space that precedes `*`, so a line damaged on the way is detected, not believed. Unlike an
 //! NMEA-style XOR it also catches two swapped digits.
 //!
+//! The format is [`SinkLine`]'s `ufmt::uDisplay` (the text before the checksum); its `write`
+//! and [`RawReport::write`] write a line onto any `ufmt::uWrite` through a [`Crc8Writer`], which
+//! computes the checksum as the text goes by, and [`SinkLine::parse`] and [`SinkOutput::parse`]
+//! read it back.
+//!
 //! | line | fields |
 //! |---|---|
 //! | `hoploc sink fix 2 417 mle 281 600 282 -4126 4 1 *66` | agent, sequence, estimator (`mle`: thesis MLE, `mmse`: windowed MMSE), x and y (cm), α × 100, P0 × 100 (dBm), anchors used, flags |
@@ -29,17 +34,12 @@
 
 use core::fmt;
 
-use crate::line::{Out, WORD_FIX, WORD_SINK};
-use crate::msg::MAX_PAYLOAD;
+use ufmt::{uDisplay, uWrite, uwrite, Formatter};
 
-/// The sink lines' kind and estimator words, numbered as in the one word table of every line
-/// (`crate::line`): `fix nofix status mle mmse report` from [`WORD_FIX`] on.
-const FIX: u8 = WORD_FIX;
-const NOFIX: u8 = WORD_FIX + 1;
-const STATUS: u8 = WORD_FIX + 2;
-const MLE: u8 = WORD_FIX + 3;
-const MMSE: u8 = WORD_FIX + 4;
-const REPORT: u8 = WORD_FIX + 5;
+pub use crate::line::Crc8Writer;
+use crate::line::{write_line, Dec, Head, Hex, SignedDec, Word};
+use crate::msg::MAX_PAYLOAD;
+use crate::Role;
 
 /// Flag: P0 and α were fitted from this report.
 pub const FLAG_FITTED: u8 = 1;
@@ -152,44 +152,53 @@ impl fmt::Display for SinkLineError {
 impl core::error::Error for SinkLineError {}
 
 /// CRC-8 (polynomial 0x07, initial 0, no reflection, no final XOR; `crc8(b"123456789")` is
-/// 0xF4), bit by bit: no table in flash.
+/// 0xF4), bit by bit: no table in flash. The same CRC as [`Crc8Writer`]'s.
 pub fn crc8(bytes: impl IntoIterator<Item = u8>) -> u8 {
-    let mut c = 0u8;
-    for b in bytes {
-        c ^= b;
-        for _ in 0..8 {
-            c = if c & 0x80 != 0 {
-                (c << 1) ^ 0x07
-            } else {
-                c << 1
-            };
-        }
-    }
-    c
+    bytes
+        .into_iter()
+        .fold(0, |c, b| crate::line::crc8_update(c, &[b]))
 }
 
 /// Writes the `status` line of `fields` (those of [`SinkLine::Status`] in its order: the
 /// uptime, then the counters): for a writer that keeps them in an array (the sink firmware: one
 /// loop, each read as it is written, no line in memory). The same bytes as
 /// [`SinkLine::write`] of that line.
-pub fn write_status(fields: &[u32; 7], out: impl FnMut(u8)) {
-    let mut o = Out::new(out);
-    o.head(WORD_SINK, STATUS);
-    for &n in fields {
-        o.num(n);
-    }
-    o.end(true);
+pub fn write_status<W: uWrite + ?Sized>(fields: &[u32; 7], out: &mut W) -> Result<(), W::Error> {
+    write_line(out, true, &StatusFields(fields))
 }
 
-impl SinkLine {
-    /// Writes the line, checksum and `\r\n` included, one byte at a time (at most
-    /// [`MAX_SINK_LINE`] bytes).
-    ///
-    /// Field by field through the one line writer. Always inlined: a caller that builds the
-    /// line it writes (the sink firmware) keeps only that kind's calls, and no line in memory.
+/// The `status` line of [`write_status`]'s fields, without its checksum.
+struct StatusFields<'a>(&'a [u32; 7]);
+
+impl uDisplay for StatusFields<'_> {
     #[inline(always)]
-    pub fn write(&self, out: impl FnMut(u8)) {
-        let mut o = Out::new(out);
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+        Head(Role::Sink, Word::STATUS).fmt(f)?;
+        for n in self.0 {
+            uwrite!(f, " {}", Dec(*n))?;
+        }
+        Ok(())
+    }
+}
+
+/// `mle` or `mmse`.
+impl uDisplay for Estimator {
+    #[inline(always)]
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+        match self {
+            Estimator::Mle => Word::MLE.fmt(f),
+            Estimator::Mmse => Word::MMSE.fmt(f),
+        }
+    }
+}
+
+/// The line without its checksum and `\r\n`: the format of the `fix`, `nofix` and `status`
+/// lines, field by field. Always inlined: a caller that builds the line it writes (the sink
+/// firmware) keeps only that kind's writes.
+impl uDisplay for SinkLine {
+    #[inline(always)]
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+        let head = |kind| Head(Role::Sink, kind);
         match *self {
             SinkLine::Fix {
                 agent,
@@ -201,26 +210,23 @@ impl SinkLine {
                 p0_x100,
                 anchors,
                 flags,
-            } => {
-                o.head(WORD_SINK, FIX);
-                o.num16(agent.into());
-                o.num16(seq);
-                o.word(match estimator {
-                    Estimator::Mle => MLE,
-                    Estimator::Mmse => MMSE,
-                });
-                o.signed(x);
-                o.signed(y);
-                o.num16(alpha_x100);
-                o.signed(p0_x100);
-                o.num16(anchors.into());
-                o.num16(flags.into());
-            }
+            } => uwrite!(
+                f,
+                "{} {} {} {} {} {} {} {} {} {}",
+                head(Word::FIX),
+                Dec(agent.into()),
+                Dec(seq.into()),
+                estimator,
+                SignedDec(x),
+                SignedDec(y),
+                Dec(alpha_x100.into()),
+                SignedDec(p0_x100),
+                Dec(anchors.into()),
+                Dec(flags.into())
+            ),
             SinkLine::NoFix { agent, seq, usable } => {
-                o.head(WORD_SINK, NOFIX);
-                o.num16(agent.into());
-                o.num16(seq);
-                o.num16(usable.into());
+                let (agent, seq, usable) = (Dec(agent.into()), Dec(seq.into()), Dec(usable.into()));
+                uwrite!(f, "{} {} {} {}", head(Word::NOFIX), agent, seq, usable)
             }
             SinkLine::Status {
                 uptime_s,
@@ -230,19 +236,29 @@ impl SinkLine {
                 checksum_errors,
                 foreign,
                 fixes,
-            } => {
-                // One call each (a loop over an array of them copies it twice on AVR).
-                o.head(WORD_SINK, STATUS);
-                o.num(uptime_s);
-                o.num(frames);
-                o.num(reports);
-                o.num(drops);
-                o.num(checksum_errors);
-                o.num(foreign);
-                o.num(fixes);
-            }
+            } => uwrite!(
+                f,
+                "{} {} {} {} {} {} {} {}",
+                head(Word::STATUS),
+                Dec(uptime_s),
+                Dec(frames),
+                Dec(reports),
+                Dec(drops),
+                Dec(checksum_errors),
+                Dec(foreign),
+                Dec(fixes)
+            ),
         }
-        o.end(true);
+    }
+}
+
+impl SinkLine {
+    /// Writes the line, checksum and `\r\n` included (at most [`MAX_SINK_LINE`] bytes): its
+    /// [`uDisplay`] through a [`Crc8Writer`], then ` *XX\r\n`. Always inlined, as the
+    /// `uDisplay`.
+    #[inline(always)]
+    pub fn write<W: uWrite + ?Sized>(&self, out: &mut W) -> Result<(), W::Error> {
+        write_line(out, true, self)
     }
 
     /// Reads a line (with or without its `\r\n`). Never panics; any line not starting with
@@ -322,29 +338,21 @@ pub const MAX_REPORT_LINE: usize = 19 + 2 * MAX_PAYLOAD + 6;
 
 /// A `report` line's message: the bytes of a [`crate::msg::Report`] as the sink received them
 /// (decode with [`RawReport::report`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct RawReport {
-    len: u8,
-    bytes: [u8; MAX_PAYLOAD],
-}
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct RawReport(heapless::Vec<u8, MAX_PAYLOAD, u8>);
 
 impl RawReport {
     /// The message `msg`, if the radio can carry it (at most [`MAX_PAYLOAD`] bytes, not empty).
     pub fn new(msg: &[u8]) -> Option<RawReport> {
-        if msg.is_empty() || msg.len() > MAX_PAYLOAD {
+        if msg.is_empty() {
             return None;
         }
-        let mut bytes = [0; MAX_PAYLOAD];
-        bytes[..msg.len()].copy_from_slice(msg);
-        Some(RawReport {
-            len: msg.len() as u8,
-            bytes,
-        })
+        heapless::Vec::from_slice(msg).ok().map(RawReport)
     }
 
     /// The message bytes.
     pub fn bytes(&self) -> &[u8] {
-        &self.bytes[..self.len as usize]
+        &self.0
     }
 
     /// The report the bytes encode.
@@ -353,13 +361,10 @@ impl RawReport {
     }
 
     /// Writes the `report` line of message `msg` (the sink does not build a [`RawReport`]: it
-    /// writes the bytes it received). At most [`MAX_REPORT_LINE`] bytes for a message the radio
-    /// carries.
-    pub fn write(msg: &[u8], out: impl FnMut(u8)) {
-        let mut o = Out::new(out);
-        o.head(WORD_SINK, REPORT);
-        o.hex(msg);
-        o.end(true);
+    /// writes the bytes it received): each byte as two upper-case hex digits. At most
+    /// [`MAX_REPORT_LINE`] bytes for a message the radio carries.
+    pub fn write<W: uWrite + ?Sized>(msg: &[u8], out: &mut W) -> Result<(), W::Error> {
+        write_line(out, true, &ReportText(msg))
     }
 
     /// Reads a `report` line (with or without its `\r\n`); never panics.
@@ -371,8 +376,23 @@ impl RawReport {
     }
 }
 
+/// The `report` line of a message, without its checksum: the message as one word of upper-case
+/// hex, two digits a byte.
+struct ReportText<'a>(&'a [u8]);
+
+impl uDisplay for ReportText<'_> {
+    #[inline(always)]
+    fn fmt<W: uWrite + ?Sized>(&self, f: &mut Formatter<'_, W>) -> Result<(), W::Error> {
+        uwrite!(f, "{} ", Head(Role::Sink, Word::REPORT))?;
+        for b in self.0 {
+            Hex(*b).fmt(f)?;
+        }
+        Ok(())
+    }
+}
+
 /// Any line the sink writes: a [`SinkLine`] or a `report` line.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum SinkOutput {
     /// A `fix`, `nofix` or `status` line.
     Line(SinkLine),
@@ -390,23 +410,22 @@ impl SinkOutput {
         }
         let bad = SinkLineError::BadField { index: 0 };
         let word = words.next().ok_or(bad)?.as_bytes();
-        if word.len() % 2 != 0 || word.is_empty() || word.len() > 2 * MAX_PAYLOAD {
+        if word.len() % 2 != 0 || word.is_empty() {
             return Err(bad);
         }
-        let mut bytes = [0; MAX_PAYLOAD];
-        for (b, pair) in bytes.iter_mut().zip(word.chunks(2)) {
-            *b = match (unhex(pair[0]), unhex(pair[1])) {
+        let mut bytes = heapless::Vec::new();
+        for pair in word.chunks_exact(2) {
+            let b = match (unhex(pair[0]), unhex(pair[1])) {
                 (Some(h), Some(l)) => h << 4 | l,
                 _ => return Err(bad),
             };
+            // More than MAX_PAYLOAD bytes do not fit.
+            bytes.push(b).map_err(|_| bad)?;
         }
         if words.next().is_some() {
             return Err(SinkLineError::TooManyFields);
         }
-        Ok(SinkOutput::Report(RawReport {
-            len: (word.len() / 2) as u8,
-            bytes,
-        }))
+        Ok(SinkOutput::Report(RawReport(bytes)))
     }
 }
 

@@ -5,7 +5,7 @@
 use loc_proto::config::{self, Config};
 use loc_proto::error::crc16;
 use loc_proto::msg::{
-    decode_any, Beacon, ChannelList, Message, Position, Report, ReportView, MAX_ANCHORS,
+    decode_any, Beacon, ChannelList, Message, Position, Relay, Report, ReportView, MAX_ANCHORS,
     MAX_CHANNELS, MAX_PAYLOAD,
 };
 use loc_proto::provision::{self, ProvisionParser, MAX_FRAME};
@@ -43,8 +43,7 @@ fn beacon() -> impl Strategy<Value = Beacon> {
                 seq,
                 channel,
                 position,
-                relay_count,
-                relay,
+                relay: Relay::from_slice(&relay[..relay_count as usize]).unwrap(),
             }
         })
 }
@@ -211,7 +210,7 @@ proptest! {
         let n = b.encode(&mut buf).unwrap();
         prop_assert_eq!(n, b.size());
         prop_assert_eq!(buf[3] as usize, n);
-        prop_assert_eq!(Beacon::decode(&buf[..n]), Ok(b));
+        prop_assert_eq!(Beacon::decode(&buf[..n]), Ok(b.clone()));
         prop_assert_eq!(decode_any(&buf[..n]), Ok(Message::Beacon(b)));
     }
 

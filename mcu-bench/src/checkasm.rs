@@ -16,6 +16,7 @@
 use crate::rng::Rng;
 use loc_core::fixed::column::{AnchorTerm, I24};
 use loc_core::fixed::{ColumnJob, LOG2_CLAMP, WINDOW_ROWS};
+use loc_core::grid::FINE_DIVS;
 use loc_core::MAX_ANCHORS;
 
 /// Rows the harness's sum buffers hold (the largest job it draws).
@@ -183,7 +184,7 @@ fn search_like(r: &mut Rng, job: &mut ColumnJob) -> usize {
     };
     job.n = n;
     let x = r.bits();
-    job.col = (x % 51) as u8;
+    job.col = (x % (FINE_DIVS as u32 + 1)) as u8;
     job.xstep = (x >> 8) as u16 % (6_000 << (x % 4));
     let dx_col = job.col as i32 * job.xstep as i32;
     // One row step for every anchor: within what the tightest (shift 0) can take.

@@ -331,10 +331,10 @@ pub fn no_fix_line(agent: u8, seq: u16, e: LocError) -> SinkLine {
 }
 
 impl Counters {
-    /// Writes [`Counters::line`], the fields in a loop.
-    pub fn write_line(&self, out: impl FnMut(u8)) {
+    /// Writes [`Counters::line`] onto `out`, the fields in a loop.
+    pub fn write_line<W: ufmt::uWrite + ?Sized>(&self, out: &mut W) -> Result<(), W::Error> {
         let shown: &[u32; SHOWN] = self.0.first_chunk().unwrap_or(&[0; SHOWN]);
-        write_status(shown, out);
+        write_status(shown, out)
     }
 
     /// The `status` line.

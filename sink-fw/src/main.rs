@@ -4,10 +4,10 @@
 //! config: provisioning window, then EEPROM or the build-time config of `HOPLOC_*` variables;
 //! radio bring-up on the sink channel; watchdog), then the loop — each report the radio hands
 //! over goes to the sink, and out on the UART (the USB serial) go its `report` line and its fix
-//! lines (or why there is none), as loc-proto's sink lines; a `status` line every
-//! [`STATUS_PERIOD_MS`]. Build: `cargo fw` (all firmwares); build and flash: `cargo run` in this
-//! directory, or `cargo fw-run -p sink-fw` from the workspace root. Flash and SRAM:
-//! `hoploc footprint`.
+//! lines (or why there is none), as loc-proto's sink lines (written with ufmt onto the UART); a
+//! `status` line every [`STATUS_PERIOD_MS`]. Build: `cargo fw` (all firmwares); build and
+//! flash: `cargo run` in this directory, or `cargo fw-run -p sink-fw` from the workspace root.
+//! Its flash and SRAM: `hoploc footprint`.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]
@@ -90,8 +90,8 @@ fn run(node: &mut uno_board::Node) -> ! {
 
 // Where the report's code goes: the linker lays out this crate's functions in the order of
 // their symbol names, so `glue::on_report` and then `lines::*` come after `run` and `locate`,
-// and the line writers' many calls from `lines` land within `rcall` range (±4 KB) of the line
-// writer (`uno_board`'s copy), which `--relax` then shortens.
+// and the many calls from `lines` into loc-proto's line writing (its ufmt writers, one copy for
+// the UART) land within `rcall` range (±4 KB), which `--relax` then shortens.
 #[cfg(target_arch = "avr")]
 use glue::on_report;
 #[cfg(target_arch = "avr")]
@@ -110,13 +110,16 @@ mod glue {
         radio: &mut uno_board::NodeRadio,
     ) {
         use loc_proto::sink_line::Estimator;
-        loc_proto::sink_line::RawReport::write(report.bytes(), uart(radio));
+        let Ok(()) = loc_proto::sink_line::RawReport::write(report.bytes(), uart(radio));
         sink.on_report_with(report, |result| match result {
             Ok(fix) => {
                 line(radio, Line::Fix(fix, Estimator::Mle));
                 line(radio, Line::Fix(fix, Estimator::Mmse));
             }
-            Err(e) => sink_fw::no_fix_line(report.agent(), report.seq(), e).write(uart(radio)),
+            Err(e) => {
+                let Ok(()) =
+                    sink_fw::no_fix_line(report.agent(), report.seq(), e).write(uart(radio));
+            }
         })
     }
 }
@@ -136,15 +139,15 @@ mod lines {
     /// epilogue: the two apart were 0.1 KB more flash).
     #[inline(never)]
     pub fn line(radio: &mut uno_board::NodeRadio, what: Line<'_>) {
-        match what {
+        let Ok(()) = match what {
             Line::Fix(fix, estimator) => fix.line(estimator).write(uart(radio)),
             Line::Status(counters) => counters.write_line(uart(radio)),
-        }
+        };
     }
 
-    /// The UART as a byte sink: the boot lines' one ([`uno_board::uart_out`]), so one copy of
-    /// the line writer.
-    pub fn uart(radio: &mut uno_board::NodeRadio) -> impl FnMut(u8) + '_ {
-        uno_board::uart_out(radio.serial_mut())
+    /// The UART, the `ufmt::uWrite` every line goes out through (the boot lines' too, so one
+    /// copy of each of ufmt's writers).
+    pub fn uart(radio: &mut uno_board::NodeRadio) -> &mut uno_board::Serial {
+        radio.serial_mut()
     }
 }

@@ -57,7 +57,7 @@ pub fn beacons_sent(radio: &simavr::xbee::XBee) -> Vec<(f64, loc_proto::msg::Bea
 
 /// A beacon's payload.
 pub fn beacon_packet(anchor: u8, seq: u16, channel: u8, pos: [i16; 2], relay: &[u8]) -> Vec<u8> {
-    let mut b = loc_proto::msg::Beacon {
+    let b = loc_proto::msg::Beacon {
         anchor,
         seq,
         channel,
@@ -65,10 +65,8 @@ pub fn beacon_packet(anchor: u8, seq: u16, channel: u8, pos: [i16; 2], relay: &[
             x: pos[0],
             y: pos[1],
         },
-        relay_count: relay.len() as u8,
-        relay: [0; 8],
+        relay: loc_proto::msg::Relay::from_slice(relay).unwrap(),
     };
-    b.relay[..relay.len()].copy_from_slice(relay);
     let mut buf = [0; 32];
     let n = b.encode(&mut buf).unwrap();
     buf[..n].to_vec()
@@ -451,7 +449,7 @@ pub mod random {
 pub mod air {
     use crate::random::{self, anchor_layout, dist_cm, edge_byte, garbage, PathLoss, Rng};
     use loc_proto::config::Config;
-    use loc_proto::msg::{Beacon, Position, MAX_ANCHORS};
+    use loc_proto::msg::{Beacon, Position, Relay, MAX_ANCHORS};
     use loc_proto::schedule::Schedule;
 
     /// A packet on the air for the node.
@@ -620,7 +618,7 @@ pub mod air {
         }
 
         /// A relay row of anchor `a` (`n` bytes, its own 0).
-        fn relay(&self, rng: &mut Rng, a: u8, n: usize) -> [u8; MAX_ANCHORS] {
+        fn relay(&self, rng: &mut Rng, a: u8, n: usize) -> Relay {
             let mut r = [0; MAX_ANCHORS];
             let me = self.layout[usize::from(a) - 1];
             for (j, b) in r.iter_mut().enumerate().take(n) {
@@ -634,7 +632,7 @@ pub mod air {
                     self.model.byte(rng, dist_cm(me, [p.x.into(), p.y.into()]))
                 };
             }
-            r
+            Relay::from_slice(&r[..n.min(MAX_ANCHORS)]).unwrap_or_default()
         }
 
         /// The level the node hears anchor `a` at, dBm: from the model, sometimes at or past
@@ -681,7 +679,6 @@ pub mod air {
                                 },
                                 channel,
                                 position: self.layout[usize::from(a) - 1],
-                                relay_count: n,
                                 relay: self.relay(rng, a, n.into()),
                             };
                             if rng.chance(0.02) {
@@ -741,7 +738,6 @@ pub mod air {
                 seq,
                 channel: list.as_slice()[usize::from(c)],
                 position: self.layout[usize::from(from) - 1],
-                relay_count: n,
                 relay: self.relay(rng, from, n.into()),
             };
             let kinds: &[u8] = if master_heard {
@@ -762,7 +758,7 @@ pub mod air {
                         _ if n < 8 => rng.range(i64::from(n) + 1, 8) as u8,
                         _ => return (encode_unchecked_anchor(&b), "beacon of anchor 9"),
                     };
-                    b.relay = [0; MAX_ANCHORS];
+                    b.relay.iter_mut().for_each(|v| *v = 0);
                     (
                         encode(&b),
                         "beacon of another testbed's anchor or the node's own id",
@@ -786,9 +782,9 @@ pub mod air {
                     (encode(&b), "beacon claiming another channel of the list")
                 }
                 _ => {
-                    b.relay_count = rng.range(0, 8) as u8;
-                    b.relay = [0; MAX_ANCHORS];
-                    for j in 0..usize::from(b.relay_count) {
+                    let count = rng.range(0, 8) as usize;
+                    b.relay = Relay::from_slice(&[0; MAX_ANCHORS][..count]).unwrap_or_default();
+                    for j in 0..count {
                         if j + 1 != usize::from(from) {
                             b.relay[j] = if rng.chance(0.3) {
                                 0

@@ -150,7 +150,7 @@ impl HostAgent {
                 rssi: a.rssi_byte().max(1),
                 at_us: at as u32,
                 pos: [b.position.x, b.position.y],
-                relay: b.relayed(),
+                relay: &b.relay,
             });
         }
     }

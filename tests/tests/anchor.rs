@@ -70,7 +70,7 @@ fn anchor_1_alone_listens_then_beacons_in_its_slots_on_both_channels() {
         assert_eq!(b.anchor, 1);
         assert_eq!((b.seq, b.channel), (seq, channel));
         assert_eq!(b.position, Config::DEFAULT.position);
-        assert_eq!(b.relayed(), &[0, 0, 0, 0], "nobody heard");
+        assert_eq!(b.relay, [0, 0, 0, 0], "nobody heard");
         // …on that channel (the radio's CH when it went on air, and the packet's)…
         assert_eq!(*ch, xbee_channel(channel).unwrap());
         assert_eq!(on_air[k].channel, *ch);
@@ -137,9 +137,9 @@ fn anchor_1_takes_the_timeline_it_hears_and_relays_the_rssi() {
         );
         // The relay: anchor 2 at 55 on channel 1 from the superframe after it was heard.
         if b.channel == 1 && b.seq > seq0 {
-            assert_eq!(b.relayed(), &[0, 55, 0, 0], "seq {}", b.seq);
+            assert_eq!(b.relay, [0, 55, 0, 0], "seq {}", b.seq);
         } else if b.channel == 12 {
-            assert_eq!(b.relayed(), &[0, 0, 0, 0]);
+            assert_eq!(b.relay, [0, 0, 0, 0]);
         }
     }
 }

@@ -273,7 +273,7 @@ fn the_anchor_firmware_beacons_what_the_host_anchor_makes_of_random_beacons() {
     let (mut beacons, mut relayed) = (0, 0);
     for (_, r) in &runs {
         let (b, heard) = r.beacons().fold((0, 0), |(b, h), x| {
-            (b + 1, h + x.relayed().iter().filter(|&&v| v != 0).count())
+            (b + 1, h + x.relay.iter().filter(|&&v| v != 0).count())
         });
         beacons += b;
         relayed += heard;

@@ -66,7 +66,7 @@ fn the_sink_writes_a_fix_per_report_and_counts_what_it_could_not_use() {
     let raws: Vec<RawReport> = outputs
         .iter()
         .filter_map(|(_, o)| match o {
-            SinkOutput::Report(r) => Some(*r),
+            SinkOutput::Report(r) => Some(r.clone()),
             _ => None,
         })
         .collect();

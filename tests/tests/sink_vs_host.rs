@@ -82,16 +82,16 @@ impl HostSink {
         };
         let r = Report::decode(payload)
             .unwrap_or_else(|e| panic!("accepted but not decoded ({e:?}): {payload:02x?}"));
-        let mut lines = vec![line(|v| RawReport::write(view.bytes(), |b| v.push(b)))];
+        let mut lines = vec![line(|v| RawReport::write(view.bytes(), v))];
         match self.0.on_report(&r) {
             Ok(fix) => {
                 for l in fix.lines() {
-                    lines.push(line(|v| l.write(|b| v.push(b))));
+                    lines.push(line(|v| l.write(v)));
                 }
             }
             Err(e) => {
                 let l = sink_fw::no_fix_line(r.agent, r.seq, e);
-                lines.push(line(|v| l.write(|b| v.push(b))));
+                lines.push(line(|v| l.write(v)));
             }
         }
         lines
@@ -101,7 +101,7 @@ impl HostSink {
     fn status(&mut self, secs: u8) -> Vec<u8> {
         self.0.add_uptime(secs);
         let l = self.0.counters().line();
-        line(|v| l.write(|b| v.push(b)))
+        line(|v| l.write(v))
     }
 
     /// The counters so far.
@@ -110,10 +110,10 @@ impl HostSink {
     }
 }
 
-fn line(write: impl FnOnce(&mut Vec<u8>)) -> Vec<u8> {
-    let mut v = Vec::new();
-    write(&mut v);
-    v
+fn line(write: impl FnOnce(&mut String) -> Result<(), std::convert::Infallible>) -> Vec<u8> {
+    let mut v = String::new();
+    let Ok(()) = write(&mut v);
+    v.into_bytes()
 }
 
 /// Anchors × channels × relay matrix.

@@ -308,23 +308,19 @@ impl core::error::Error for Error {}
 
 /// The value of an AT response, copied out of the decoder's buffer (so the decoder can go on
 /// reading while the caller looks at it). Numeric registers are big endian.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct AtValue {
-    len: u8,
-    buf: [u8; AT_VALUE_MAX],
-}
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct AtValue(heapless::Vec<u8, AT_VALUE_MAX, u8>);
 
 impl AtValue {
     /// Copies `data`, keeping at most [`AT_VALUE_MAX`] bytes.
     pub fn new(data: &[u8]) -> AtValue {
-        let n = data.len().min(AT_VALUE_MAX);
-        let mut buf = [0; AT_VALUE_MAX];
-        buf[..n].copy_from_slice(&data[..n]);
-        AtValue { len: n as u8, buf }
+        let kept = &data[..data.len().min(AT_VALUE_MAX)];
+        // (Fits: at most AT_VALUE_MAX bytes.)
+        AtValue(heapless::Vec::from_slice(kept).unwrap_or_default())
     }
     /// The value bytes (empty after a set command).
     pub fn as_bytes(&self) -> &[u8] {
-        self.buf.get(..self.len as usize).unwrap_or(&[])
+        &self.0
     }
     /// The value as a big-endian number of 1 to 4 bytes.
     pub fn as_u32(&self) -> Option<u32> {
@@ -1191,7 +1187,7 @@ where
 
 #[cfg(test)]
 mod tests {
-    use super::{baud_of_bd, be_u16, be_u32};
+    use super::{baud_of_bd, be_u16, be_u32, AtValue, AT_VALUE_MAX};
 
     /// `BD` 0…7 are the XBee 802.15.4's rates (its manual's table).
     #[test]
@@ -1200,6 +1196,18 @@ mod tests {
         for (bd, &baud) in (0u8..).zip(table.iter()) {
             assert_eq!(baud_of_bd(bd), baud);
         }
+    }
+
+    /// An AT value keeps the first [`AT_VALUE_MAX`] bytes of a response, all of a shorter one.
+    #[test]
+    fn at_values_keep_up_to_their_capacity() {
+        let data: [u8; AT_VALUE_MAX + 3] = core::array::from_fn(|i| i as u8 + 1);
+        for n in 0..=data.len() {
+            let v = AtValue::new(&data[..n]);
+            assert_eq!(v.as_bytes(), &data[..n.min(AT_VALUE_MAX)], "{n}");
+        }
+        assert_eq!(AtValue::new(&[0x12, 0x34]).as_u32(), Some(0x1234));
+        assert_eq!(AtValue::new(&[]).as_u32(), None);
     }
 
     /// `be_u16` is `be_u32` where that fits in 16 bits, and `None` elsewhere: every length 0…5

@@ -10,15 +10,15 @@ fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else {
         return;
     };
-    let mut out = Vec::new();
+    let mut out = String::new();
     match SinkOutput::parse(text) {
         Ok(SinkOutput::Line(l)) => {
-            l.write(|b| out.push(b));
-            assert_eq!(out.strip_suffix(b"\r\n").unwrap(), text.trim_end_matches(['\r', '\n']).as_bytes());
+            let Ok(()) = l.write(&mut out);
+            assert_eq!(out.strip_suffix("\r\n").unwrap(), text.trim_end_matches(['\r', '\n']));
         }
         Ok(SinkOutput::Report(r)) => {
-            RawReport::write(r.bytes(), |b| out.push(b));
-            assert_eq!(out.strip_suffix(b"\r\n").unwrap(), text.trim_end_matches(['\r', '\n']).as_bytes());
+            let Ok(()) = RawReport::write(r.bytes(), &mut out);
+            assert_eq!(out.strip_suffix("\r\n").unwrap(), text.trim_end_matches(['\r', '\n']));
         }
         Err(_) => {}
     }

@@ -1,14 +1,13 @@
 use super::*;
 use proptest::prelude::*;
-use std::string::String;
-use std::vec::Vec;
+use std::string::{String, ToString};
 
 fn text(l: &SinkLine) -> String {
-    let mut v = Vec::new();
-    l.write(|b| v.push(b));
-    assert!(v.len() <= MAX_SINK_LINE, "{}", v.len());
-    assert!(!v.contains(&0x7E));
-    String::from_utf8(v).unwrap()
+    let mut s = String::new();
+    let Ok(()) = l.write(&mut s);
+    assert!(s.len() <= MAX_SINK_LINE, "{}", s.len());
+    assert!(!s.contains('\u{7e}'));
+    s
 }
 
 const FIX: SinkLine = SinkLine::Fix {
@@ -258,11 +257,11 @@ fn sample_report() -> crate::msg::Report {
 }
 
 fn report_text(msg: &[u8]) -> String {
-    let mut v = Vec::new();
-    RawReport::write(msg, |b| v.push(b));
-    assert!(v.len() <= MAX_REPORT_LINE, "{}", v.len());
-    assert!(!v.contains(&0x7E));
-    String::from_utf8(v).unwrap()
+    let mut s = String::new();
+    let Ok(()) = RawReport::write(msg, &mut s);
+    assert!(s.len() <= MAX_REPORT_LINE, "{}", s.len());
+    assert!(!s.contains('\u{7e}'));
+    s
 }
 
 #[test]
@@ -281,7 +280,10 @@ fn report_lines_carry_the_message_both_ways() {
     let raw = RawReport::parse(&line).unwrap();
     assert_eq!(raw.bytes(), &buf[..n]);
     assert_eq!(raw.report(), Ok(r));
-    assert_eq!(SinkOutput::parse(&line), Ok(SinkOutput::Report(raw)));
+    assert_eq!(
+        SinkOutput::parse(&line),
+        Ok(SinkOutput::Report(raw.clone()))
+    );
     assert_eq!(RawReport::new(&buf[..n]), Some(raw));
     // SinkLine::parse reads the three small kinds only; SinkOutput::parse reads them too.
     assert_eq!(SinkLine::parse(&line), Err(SinkLineError::UnknownKind));
@@ -354,5 +356,98 @@ fn golden_report_line() {
         report_text(&buf[..n]),
         "hoploc sink report B501023B02A2010482010C00000000E8030000E803E8030000E8033C3D3E3F3D3E3F\
          404748494A4C4D4E4F515253544748494A4C4D4E4F51525354 *FE\r\n"
+    );
+}
+
+/// A field as a line might carry it: mostly numbers that fit any field, sometimes a number of
+/// another width, a word, or a non-canonical or out-of-range number.
+fn field_text() -> impl Strategy<Value = String> {
+    prop_oneof![
+        30 => (0u32..256).prop_map(|n| n.to_string()),
+        3 => (-33_000i32..70_000).prop_map(|n| n.to_string()),
+        2 => any::<u32>().prop_map(|n| n.to_string()),
+        1 => "(mle|mmse|ml|MLE)",
+        1 => "(0[0-9]{1,3}|-0|\\+[0-9]|-|[0-9]{11}|1e3|0x1)",
+    ]
+}
+
+/// The text before the checksum of a sink line as it might arrive: a kind and, mostly, as many
+/// fields as it has (a `fix` line's estimator word mostly in its place).
+fn line_body() -> impl Strategy<Value = String> {
+    let fields = |n| proptest::collection::vec(field_text(), n);
+    prop_oneof![
+        (fields(9), "(mle|mmse)", 0..8).prop_map(|(mut f, e, keep)| {
+            if keep != 0 {
+                f[2] = e;
+            }
+            std::format!("fix {}", f.join(" "))
+        }),
+        fields(3).prop_map(|f| std::format!("nofix {}", f.join(" "))),
+        fields(7).prop_map(|f| std::format!("status {}", f.join(" "))),
+        (
+            "(fix|nofix|status)",
+            proptest::collection::vec(field_text(), 0..11)
+        )
+            .prop_map(|(k, f)| std::format!("{k} {}", f.join(" "))),
+    ]
+    .prop_map(|body| std::format!("hoploc sink {body}"))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(3000))]
+
+    /// Whatever a sink line parses to is written back as exactly its text: the parser accepts
+    /// only what the writer writes (canonical numbers, the kind's fields in order, in range).
+    #[test]
+    fn parse_then_write_is_the_identity(body in line_body()) {
+        let line = std::format!("{}\r\n", signed(&body));
+        if let Ok(l) = SinkLine::parse(&line) {
+            prop_assert_eq!(text(&l), line);
+        }
+    }
+
+    /// The same for `report` lines: a hex word that parses is written back as itself.
+    #[test]
+    fn report_parse_then_write_is_the_identity(word in "[0-9A-Fa-f]{0,12}|[0-9A-F]{2,200}") {
+        let line = std::format!("{}\r\n", signed(&std::format!("hoploc sink report {word}")));
+        if let Ok(SinkOutput::Report(r)) = SinkOutput::parse(&line) {
+            prop_assert_eq!(report_text(r.bytes()), line);
+        }
+    }
+
+    /// The CRC-8 writer passes every piece through unchanged and its CRC is [`crc8`] of them.
+    #[test]
+    fn the_crc_writer_is_transparent(pieces in proptest::collection::vec(".{0,8}", 0..8)) {
+        let mut out = String::new();
+        let mut w = Crc8Writer::new(&mut out);
+        for p in &pieces {
+            let Ok(()) = ufmt::uWrite::write_str(&mut w, p);
+        }
+        let crc = w.crc();
+        prop_assert_eq!(&out, &pieces.concat());
+        prop_assert_eq!(crc, crc8(out.bytes()));
+    }
+}
+
+/// [`parse_then_write_is_the_identity`]'s inputs hold lines that parse, of every kind, often
+/// enough to test the writer, and lines that do not.
+#[test]
+fn the_line_strategy_gives_lines_that_parse_and_lines_that_do_not() {
+    use proptest::strategy::ValueTree;
+    use proptest::test_runner::TestRunner;
+    let mut runner = TestRunner::deterministic();
+    let (mut kinds, mut bad) = ([0; 3], 0);
+    for _ in 0..3000 {
+        let body = line_body().new_tree(&mut runner).unwrap().current();
+        match SinkLine::parse(&signed(&body)) {
+            Ok(SinkLine::Fix { .. }) => kinds[0] += 1,
+            Ok(SinkLine::NoFix { .. }) => kinds[1] += 1,
+            Ok(SinkLine::Status { .. }) => kinds[2] += 1,
+            Err(_) => bad += 1,
+        }
+    }
+    assert!(
+        kinds.iter().all(|&n| n > 100) && bad > 300,
+        "{kinds:?} parse, {bad} do not"
     );
 }

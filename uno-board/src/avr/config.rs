@@ -7,7 +7,7 @@ use loc_proto::provision::{write_answer, ProvisionParser, PROVISION_WINDOW_MS, W
 use loc_proto::{xbee_channel, Role};
 use xbee_api::driver::BringUpConfig;
 
-use super::{now_ms, rx_pending, sleep_unless, uart_out, Eeprom, Led, Serial};
+use super::{now_ms, rx_pending, sleep_unless, Eeprom, Led, Serial};
 use embedded_hal::digital::{OutputPin, StatefulOutputPin};
 
 /// The radio settings of `config`: `MY` = the role's address of the node id, `ID` = the PAN,
@@ -75,7 +75,7 @@ pub fn load_config(
             if code == 0 && !eeprom.write_verified(0, parser.config_bytes()) {
                 code = WRITE_FAILED;
             }
-            write_answer(uart_out(serial), code, role);
+            let Ok(()) = write_answer(serial, code, role);
             stored |= code == 0;
         }
         if !stored && (now_ms() as u16).wrapping_sub(start) < ms {
@@ -100,7 +100,7 @@ pub fn load_config(
                 (code & (erased as u8).wrapping_sub(1), source)
             };
             // One line either way (one round of the code per error line), written in one place.
-            write_config_line(uart_out(serial), role, code, source, config.id);
+            let Ok(()) = write_config_line(serial, role, code, source, config.id);
             let Ok(()) = led.set_low();
             if code == 0 {
                 return;

@@ -17,7 +17,7 @@ pub use config::{load_config, radio_config};
 pub use eeprom::Eeprom;
 pub use led::{blink_code, Led};
 pub use power::sleep_unless;
-pub use radio::{bring_up_radio, uart_out, write_line, NodeRadio};
+pub use radio::{bring_up_radio, write_line, NodeRadio};
 pub use serial::{rx_frame_start_us, rx_pending, Serial};
 pub use time::{now_ms, now_us, Delay, SysClock};
 pub use watchdog::{reset, Watchdog};

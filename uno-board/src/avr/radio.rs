@@ -1,6 +1,8 @@
 //! The radio at boot: bring it up through the xbee-api driver, say how it went on the UART
 //! (`loc_proto::line::BootLine`) and on the LED, and retry until it answers.
 
+use core::convert::Infallible;
+
 use loc_proto::line::{BootLine, RadioFound};
 use loc_proto::Role;
 use xbee_api::driver::{BringUp, BringUpConfig, Radio};
@@ -17,13 +19,19 @@ pub type NodeRadio = Radio<Serial, SysClock, Ap2<false>>;
 /// it, a line never holds 0x7E). Always inlined, as [`BootLine::write`]: each caller keeps its line's few calls.
 #[inline(always)]
 pub fn write_line(serial: &mut Serial, line: &BootLine) {
-    line.write(uart_out(serial));
+    let Ok(()) = line.write(serial);
 }
 
-/// `serial` as a byte sink for loc-proto's line writers. Every line a firmware writes goes
-/// through this one closure type, so the writers are monomorphised once.
-pub fn uart_out(serial: &mut Serial) -> impl FnMut(u8) + '_ {
-    move |b| serial.write_byte(b)
+/// The UART as the writer of loc-proto's text lines (`ufmt::uwrite!`): each `str` goes out byte
+/// by byte, blocking. Every line a firmware writes goes through this one writer type (the sink's
+/// lines through loc-proto's CRC-8 adapter around it), so ufmt's code is monomorphised once.
+impl ufmt::uWrite for Serial {
+    type Error = Infallible;
+
+    fn write_str(&mut self, s: &str) -> Result<(), Infallible> {
+        self.write_bytes(s.as_bytes());
+        Ok(())
+    }
 }
 
 /// Brings `radio` up (API mode 2 at 57600, `MY`/`ID`/`CH` from `config`), trying until it
