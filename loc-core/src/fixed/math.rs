@@ -177,19 +177,6 @@ pub fn mul_hi(a: u32, b: u32) -> u32 {
     ah * bh + ((ah * bl) >> 16) + ((al * bh) >> 16)
 }
 
-/// `a·b` exactly, as its high and low 32-bit words, from four 16 × 16 → 32-bit products (a
-/// 64-bit multiply is a library call of a few hundred cycles on an 8-bit MCU, and there a
-/// 16 × 16-bit product of `u16`s is a short one; a `u64` result would come back through memory).
-#[inline(always)]
-pub fn mul_wide(a: u32, b: u32) -> (u32, u32) {
-    let m = |x: u32, y: u32| (x as u16 as u32) * (y as u16 as u32);
-    let (ah, al, bh, bl) = (a >> 16, a & 0xFFFF, b >> 16, b & 0xFFFF);
-    let (mid, c1) = m(ah, bl).overflowing_add(m(al, bh));
-    let (lo, c2) = m(al, bl).overflowing_add(mid << 16);
-    let hi = m(ah, bh) + (mid >> 16) + ((c1 as u32) << 16) + c2 as u32;
-    (hi, lo)
-}
-
 /// `⌊a·2^e / b⌋` for `1 ≤ b < 2^31`, saturating at `u32::MAX` (one 32-bit division, then a bit
 /// per step).
 #[inline(never)]
@@ -434,12 +421,6 @@ mod tests {
             r ^= r >> 7;
             r ^= r << 17;
             let (a, b) = (r as u32, (r >> 32) as u32);
-            let (hi, lo) = mul_wide(a, b);
-            assert_eq!(
-                (hi as u64) << 32 | lo as u64,
-                a as u64 * b as u64,
-                "{a} {b}"
-            );
             let exact = ((a as u64 * b as u64) >> 32) as u32;
             let got = mul_hi(a, b);
             assert!(got <= exact && exact - got <= 2, "{a} {b}");

@@ -17,7 +17,7 @@
 //! rounding) and once in 32 (P0). `tests` holds every result to the same fit written with plain
 //! `i64` sums and `u64` divisions (`fit_reference.rs`).
 
-use super::math::{clamp_i32, clamp_i64, isqrt_u32, log2_q20, log2_u33, m8, mul_wide, sq_u16};
+use super::math::{clamp_i32, clamp_i64, isqrt_u32, log2_q20, log2_u33, m8, sq_u16};
 use super::{Measurements, PathLoss, PointCm, ALPHA, ALPHA_LIMIT, DB, P0_LIMIT};
 use crate::params::{FitMethod, ParamMode};
 use crate::{LocError, MAX_CHANNELS};
@@ -38,15 +38,9 @@ pub fn distance_x(a: PointCm, b: PointCm) -> Option<i32> {
     if lo == 0 && !carry {
         return None;
     }
-    // −5·log10(d²/1 m²) = −5·log10(2)·(log2 d² − log2 1 m²): Q.30 × Q.20 → Q.18, rounded
-    // (|l| < 2^26: the product is 32 × 32 bits, by `mul_wide`).
-    let l = log2_u33(lo, carry) - LOG2_M2_IN_CM2;
-    let (hi, lo) = mul_wide(FIVE_LOG10_2_Q30, l.unsigned_abs());
-    // ⌊(±p + 2^31) / 2^32⌋ for the product p: for −p, −⌈(p − 2^31) / 2^32⌉ =
-    // −⌊(p + 2^31 − 1) / 2^32⌋.
-    let round = if l >= 0 { 1 << 31 } else { (1 << 31) - 1 };
-    let q = (hi + lo.overflowing_add(round).1 as u32) as i32;
-    Some(if l >= 0 { -q } else { q })
+    // −5·log10(d²/1 m²) = −5·log10(2)·(log2 d² − log2 1 m²): Q.30 × Q.20 → Q.18, rounded.
+    let l = log2_u33(lo, carry) as i64 - LOG2_M2_IN_CM2 as i64;
+    Some(-((FIVE_LOG10_2_Q30 as i64 * l + (1 << 31)) >> 32) as i32)
 }
 
 /// Allowed parameter range (inclusive), fixed point. Reversed bounds are used as if sorted; values
@@ -174,10 +168,8 @@ impl CalStats {
         // |x| ≤ 2^23: x² < 2^46. Plain 64-bit products (per anchor pair, not per sample), but
         // |x|·Σb from two 32-bit ones (a 64-bit product is a library call on an 8-bit MCU).
         let ax = x.unsigned_abs();
-        // k·x² < 2^8·2^46, from 32 × 32-bit products (`mul_wide`: no 64-bit multiply).
-        let (h, l) = mul_wide(ax, ax);
-        let (kh, kl) = mul_wide(k as u32, l);
-        self.sxx += ((kh + k as u32 * h) as u64) << 32 | kl as u64;
+        let x2 = ax as u64 * ax as u64;
+        self.sxx += k as u64 * x2;
         let side = (x < 0) as usize;
         self.sx[side] += k as u32 * ax;
         let (h, l) = (ax >> 16, ax & 0xFFFF);
@@ -312,27 +304,13 @@ fn div_n(num: i64, n: u16) -> i32 {
 #[inline(never)]
 fn div_scaled(num: i64, den: u64, sq: u16) -> i32 {
     let [s, q] = sq.to_le_bytes();
-    // Shifts by whole bytes first (byte moves on an 8-bit MCU), then by bits: the same `u` and
-    // `r` as shifting bit by bit.
     let mut u = num.unsigned_abs();
     let mut r = s;
-    while r >= 8 && u >> 53 == 0 {
-        u <<= 8;
-        r -= 8;
-    }
     while r >= 1 && u >> 61 == 0 {
         u <<= 1;
         r -= 1;
     }
-    let mut d = den;
-    while r >= 8 {
-        d >>= 8;
-        r -= 8;
-    }
-    while r >= 1 {
-        d >>= 1;
-        r -= 1;
-    }
+    let d = den >> r;
     // u < 2^62 and d/2 < 2^63: no overflow.
     let u = u + d / 2;
     // The saturation as a bound on the quotient: `u >> q ≥ d` iff `u/d ≥ 2^q` (a variable shift
