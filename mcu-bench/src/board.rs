@@ -67,13 +67,15 @@ pub enum DelayKind {
 }
 
 /// The delay phase's cases, in order: the method and its argument.
-pub const DELAYS: [(DelayKind, u32); 18] = [
+pub const DELAYS: [(DelayKind, u32); 20] = [
     (DelayKind::Ms, 0),
     (DelayKind::Ms, 1),
     (DelayKind::Ms, 2),
     (DelayKind::Ms, 10),
     (DelayKind::Ms, 250),
     (DelayKind::Ms, 1500),
+    (DelayKind::Ms, 65_534),
+    (DelayKind::Ms, 66_000),
     (DelayKind::Us, 0),
     (DelayKind::Us, 1),
     (DelayKind::Us, 10),

@@ -67,7 +67,8 @@ fn delays_wait_at_least_what_they_are_asked_and_little_more() {
     let d = 2 * LED_STEPS.len();
     // 'D', the pair without a delay, then a pair per case.
     let total = d + 3 + 2 * DELAYS.len();
-    run_until_output(&mut avr, total, 1_000, 5_000.0);
+    // The delays add up to ≈ 134 s.
+    run_until_output(&mut avr, total, 100_000, 140_000.0);
     let out = avr.uart_output();
     assert_eq!(out[d].byte, b'D', "{:?}", avr.uart_output_string());
     let pair = |k: usize| {
@@ -121,7 +122,7 @@ fn pattern(n: usize, seed: u8) -> Vec<u8> {
 /// Runs board-check to its 'R' and returns the index of it in the output.
 fn run_to_full_ring_phase(avr: &mut Avr) -> usize {
     let r = 2 * LED_STEPS.len() + 3 + 2 * DELAYS.len();
-    run_until_output(avr, r + 1, 1_000, 5_000.0);
+    run_until_output(avr, r + 1, 100_000, 140_000.0);
     assert_eq!(avr.uart_output()[r].byte, b'R');
     r
 }

@@ -130,15 +130,35 @@ impl DelayNs for Delay {
         spin_us(us);
     }
 
+    /// Inlined, so that a constant `ms` picks its wait at compile time.
+    #[inline]
     fn delay_ms(&mut self, ms: u32) {
-        // u32::MAX would wait forever: no difference of the clock exceeds it.
-        let ms = ms.min(u32::MAX - 1);
-        let start = now_ms();
-        // `now_ms` advances at the next tick, which may come at once: `ms + 1` ticks are at
-        // least `ms` whole milliseconds. Checked and slept on without a lost wake-up, so the
-        // wait ends at the tick that completes it.
-        while !super::power::sleep_unless(|| now_ms().wrapping_sub(start) > ms) {}
+        // Most waits fit the clock's low 16 bits, and 16-bit arithmetic is half the AVR code of
+        // 32-bit.
+        match u16::try_from(ms) {
+            Ok(ms) if ms < u16::MAX => wait_ms(ms),
+            _ => wait_ms_long(ms),
+        }
     }
+}
+
+/// Waits at least `ms` ms (`ms` < `u16::MAX`), sleeping (idle) between ticks.
+#[inline(never)]
+fn wait_ms(ms: u16) {
+    let start = now_ms() as u16;
+    // `now_ms` advances at the next tick, which may come at once: `ms + 1` ticks are at least
+    // `ms` whole milliseconds. Checked and slept on without a lost wake-up, so the wait ends at
+    // the tick that completes it.
+    while !super::power::sleep_unless(|| (now_ms() as u16).wrapping_sub(start) > ms) {}
+}
+
+/// [`wait_ms`] for any `ms`.
+#[inline(never)]
+fn wait_ms_long(ms: u32) {
+    // u32::MAX would wait forever: no difference of the clock exceeds it.
+    let ms = ms.min(u32::MAX - 1);
+    let start = now_ms();
+    while !super::power::sleep_unless(|| now_ms().wrapping_sub(start) > ms) {}
 }
 
 /// A handle on the millisecond clock (for code generic over a clock, e.g. the radio driver).
