@@ -5,6 +5,7 @@ use hoploc::firmware;
 use hoploc::fixes::{self, Algo};
 use hoploc::scenario::{self, Scenario};
 use hoploc::testbed::{self, RunConfig, SinkSource, Testbed, SERIAL_BASE};
+use loc_core::grid::FINE_DIVS;
 use loc_proto::config::Config;
 use loc_proto::line::BootLine;
 use loc_proto::schedule::Schedule;
@@ -86,11 +87,11 @@ fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step(
         "a nofix"
     );
     // Every settled fix (the sink's two and the host's two references) within one
-    // fine grid step (2 % of the 10 m side) of the truth in x and in y: the truth's lattice
+    // fine grid step (1/FINE_DIVS of the 10 m side) of the truth in x and in y: the truth's lattice
     // point or a neighbour of it. (Not closer: the sink fits α and P0 from the anchors'
     // integer-dBm RSSI at only two distances, 10 m and 14.1 m, so its model is off by a few
     // tenths of α even without noise.)
-    let step = 0.02 * s.area.width_m;
+    let step = s.area.width_m / FINE_DIVS as f64;
     let mut settled = 0;
     let mut references = 0;
     let mut worst = 0.0f64;
@@ -318,7 +319,8 @@ fn with_an_anchor_gone_the_fixes_go_on_from_three() {
         assert_eq!(anchors, 3, "{o:?}");
         let (ex, ey) = (x as f64 / 100.0 - o.truth[0], y as f64 / 100.0 - o.truth[1]);
         // Noise-free: still within one fine grid step in x and in y.
-        assert!(ex.abs() <= 0.2 + 1e-9 && ey.abs() <= 0.2 + 1e-9, "{o:?}");
+        let step = s.area.width_m / FINE_DIVS as f64;
+        assert!(ex.abs() <= step + 1e-9 && ey.abs() <= step + 1e-9, "{o:?}");
         worst = worst.max(ex.hypot(ey));
     }
     eprintln!(
@@ -445,7 +447,8 @@ fn with_anchor_1_gone_anchor_2_takes_over_and_the_fixes_go_on() {
         };
         assert_eq!(anchors, 3, "{o:?}");
         let (ex, ey) = (x as f64 / 100.0 - o.truth[0], y as f64 / 100.0 - o.truth[1]);
-        assert!(ex.abs() <= 0.2 + 1e-9 && ey.abs() <= 0.2 + 1e-9, "{o:?}");
+        let step = s.area.width_m / FINE_DIVS as f64;
+        assert!(ex.abs() <= step + 1e-9 && ey.abs() <= step + 1e-9, "{o:?}");
     }
     eprintln!(
         "anchor 1 off at {killed:.2} s: {} fixes after, first at {:.2} s",
@@ -576,7 +579,7 @@ fn two_agents_report_side_by_side_to_the_sink_firmware() {
     };
     let sf = tb.superframe_s();
     let obs = tb.run_to_end();
-    let step = 0.02 * s.area.width_m;
+    let step = s.area.width_m / FINE_DIVS as f64;
     let superframes = (s.duration_s() - s.timing.warmup_s - 2.0 * sf) / sf;
     for agent in [1u8, 2] {
         let fixes: Vec<(i16, i16)> = obs

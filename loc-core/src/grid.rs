@@ -613,11 +613,11 @@ mod tests {
             assert!(area.contains(lattice_point(area, k, k)));
         }
         assert_eq!(
-            lattice_point(area, 50, 50),
+            lattice_point(area, FINE_DIVS, FINE_DIVS),
             Point::new(area.width, area.height)
         );
         assert_eq!(
-            lattice_point(Area::new(-1.0, f64::NAN), 50, 7),
+            lattice_point(Area::new(-1.0, f64::NAN), FINE_DIVS, 7),
             Point::new(0.0, 0.0)
         );
     }
@@ -654,15 +654,31 @@ mod tests {
 
     #[test]
     fn budgets() {
+        let coarse = (COARSE_DIVS + 1) * (COARSE_DIVS + 1);
+        let window = (2 * RATIO + 1) * (2 * RATIO + 1);
         let flat = |_: usize, _: usize| 1.0;
-        // Flat: the first point wins, its window is clipped at the corner (6 × 6).
+        // Flat: the first point wins, its window is clipped at the corner.
         let m = search_lattice(Search::Thesis, flat);
-        assert_eq!((m.i, m.j, m.evaluations), (0, 0, 121 + 36));
-        let inner = |i: usize, j: usize| if (i, j) == (25, 25) { 0.0 } else { 1.0 };
-        assert_eq!(search_lattice(Search::Thesis, inner).evaluations, 242);
+        assert_eq!(
+            (m.i, m.j, m.evaluations),
+            (0, 0, coarse + (RATIO + 1) * (RATIO + 1))
+        );
+        // A coarse point inside: the whole window.
+        let c = RATIO * (COARSE_DIVS / 2);
+        let inner = |i: usize, j: usize| if (i, j) == (c, c) { 0.0 } else { 1.0 };
+        assert_eq!(
+            search_lattice(Search::Thesis, inner).evaluations,
+            coarse + window
+        );
         assert_eq!(
             search_lattice(Search::Exhaustive, flat).evaluations,
-            51 * 51
+            (FINE_DIVS + 1) * (FINE_DIVS + 1)
+        );
+        // The scenarios below are drawn on the thesis' lattice.
+        assert_eq!(
+            (FINE_DIVS, COARSE_DIVS),
+            (50, 10),
+            "scenarios for the thesis' lattice"
         );
         // Multi-start never exceeds the thesis' worst case, even on a cost that descends forever.
         let bowl = |i: usize, j: usize| {
@@ -689,6 +705,11 @@ mod tests {
 
     #[test]
     fn multi_start_finds_a_minimum_the_thesis_misses() {
+        assert_eq!(
+            (FINE_DIVS, COARSE_DIVS),
+            (50, 10),
+            "a scenario for the thesis' lattice"
+        );
         // Coarse winner (25, 25) sits in a shallow bowl; the global minimum is a basin around
         // (44, 44), four coarse cells from the winner, whose coarse point (45, 45) ranks second.
         let f = |i: usize, j: usize| {

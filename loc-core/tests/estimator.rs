@@ -3,7 +3,7 @@
 use loc_core::bounds::{crlb, fisher, mmse_floor};
 use loc_core::grid::{
     self, cost, lattice_point, locate, mle, mmse, mmse_window, posterior_mean_window,
-    search_lattice, Estimator, Search,
+    search_lattice, Estimator, Search, FINE_DIVS,
 };
 use loc_core::params::{estimate, fit, Ar1, Bounds, CalStats, FitMethod, OnlineParams, ParamMode};
 use loc_core::refine::{observations, Obs, Observations, Refinement};
@@ -220,7 +220,7 @@ fn multi_start_misses_the_lattice_minimum_far_less_often() {
                 }
                 let [t, ms, ex] = SEARCHES.map(|s| mle(&obs, model, area, s).unwrap());
                 assert!(t.evaluations <= 242 && ms.evaluations <= 242);
-                assert_eq!(ex.evaluations, 51 * 51);
+                assert_eq!(ex.evaluations, (FINE_DIVS + 1) * (FINE_DIVS + 1));
                 assert!(t.min_cost >= ex.min_cost && ms.min_cost >= ex.min_cost);
                 thesis += usize::from(t.min_cost > ex.min_cost);
                 multi += usize::from(ms.min_cost > ex.min_cost);
@@ -367,7 +367,7 @@ fn mmse_matches_a_direct_posterior_mean() {
     let e = mmse(&obs, model, ROOM, sigma).unwrap();
     assert!(close(e.pos, Point::new(sx / s, sy / s), 1e-9), "{e:?}");
     assert_eq!(e.estimator, Estimator::Mmse { sigma });
-    assert_eq!(e.evaluations, 51 * 51);
+    assert_eq!(e.evaluations, (FINE_DIVS + 1) * (FINE_DIVS + 1));
     // Its min cost is the exhaustive MLE's.
     let ex = mle(&obs, model, ROOM, Search::Exhaustive).unwrap();
     assert!((e.min_cost - ex.min_cost).abs() < 1e-12);
@@ -1378,7 +1378,7 @@ proptest! {
                     prop_assert!(e.pos.x.is_finite() && e.pos.y.is_finite(), "{e:?}");
                     prop_assert!(area.contains(e.pos), "{e:?}");
                     prop_assert!(e.min_cost.is_finite() && e.min_cost >= 0.0, "{e:?}");
-                    prop_assert!(e.evaluations <= 51 * 51);
+                    prop_assert!(e.evaluations <= (FINE_DIVS + 1) * (FINE_DIVS + 1));
                     if let Some(s) = e.sigma_hat() {
                         prop_assert!(s.is_finite());
                     }

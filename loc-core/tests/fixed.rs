@@ -6,7 +6,7 @@
 //! metres and dBm. Run with `--nocapture` to see the figures.
 
 use loc_core::fixed as fx;
-use loc_core::grid::{self, Estimator, Search};
+use loc_core::grid::{self, Estimator, Search, COARSE_DIVS, FINE_DIVS};
 use loc_core::params::{self, Bounds, FitMethod, ParamMode};
 use loc_core::refine::{self, Refinement};
 use loc_core::{Area, LocError, Measurements, PathLoss, Point, MAX_ANCHORS, MAX_CHANNELS};
@@ -744,9 +744,10 @@ proptest! {
                 Ok(e) => {
                     prop_assert!(obs.len() >= 3);
                     prop_assert!(e.pos.x <= 10 * w as u32 && e.pos.y <= 10 * h as u32, "{e:?}");
-                    prop_assert!(e.lattice.0 <= 50 && e.lattice.1 <= 50);
+                    prop_assert!(e.lattice.0 as usize <= FINE_DIVS && e.lattice.1 as usize <= FINE_DIVS);
                     prop_assert_eq!(e.anchors as usize, obs.len());
-                    prop_assert!(e.evaluations as usize <= 51 * 51 + 2 * 121);
+                    let (f, c) = (FINE_DIVS + 1, COARSE_DIVS + 1);
+                    prop_assert!(e.evaluations as usize <= f * f + 2 * c * c);
                 }
                 Err(e) => {
                     prop_assert!(obs.len() < 3);

@@ -33,6 +33,12 @@ use core::marker::PhantomData;
 const RATIO: usize = FINE_DIVS / COARSE_DIVS;
 /// Rows (and columns) of a search window: ± one coarse step of the thesis' lattice.
 pub const WINDOW_ROWS: usize = 2 * RATIO + 1;
+/// Rows a column of a search holds: a window's or the coarse grid's, whichever is more.
+const COLUMN_ROWS: usize = if WINDOW_ROWS > COARSE_DIVS + 1 {
+    WINDOW_ROWS
+} else {
+    COARSE_DIVS + 1
+};
 /// Coarse starting points of [`Search::MultiStart`].
 const STARTS: usize = 4;
 /// Most cost evaluations [`Search::MultiStart`] may spend: the thesis search's worst case.
@@ -53,7 +59,7 @@ const COST_MAX: u32 = u32::MAX - 1;
 const _: () = {
     assert!(FINE_DIVS.is_multiple_of(COARSE_DIVS) && RATIO >= 1);
     assert!(FINE_DIVS + RATIO <= 255);
-    assert!(WINDOW_ROWS <= 16 && COARSE_DIVS < 16);
+    assert!(COLUMN_ROWS <= 16);
     assert!(((WINDOW_ROWS * WINDOW_ROWS * WINDOW_ROWS) as u64) << 20 < 1 << 32);
 };
 
@@ -182,7 +188,7 @@ struct Grid<K> {
     s: Setup,
     job: ColumnJob,
     /// The last column's costs.
-    sums: [u32; WINDOW_ROWS],
+    sums: [u32; COLUMN_ROWS],
     kernel: PhantomData<K>,
 }
 
@@ -201,7 +207,7 @@ impl<K: ColumnKernel> Grid<K> {
             weight: 0,
         },
         job: ColumnJob::EMPTY,
-        sums: [0; WINDOW_ROWS],
+        sums: [0; COLUMN_ROWS],
         kernel: PhantomData,
     };
 
@@ -318,7 +324,7 @@ impl<K: ColumnKernel> Grid<K> {
 
     /// The window's sums in use.
     fn sums(&self) -> &[u32] {
-        &self.sums[..(self.rows as usize).min(WINDOW_ROWS)]
+        &self.sums[..(self.rows as usize).min(COLUMN_ROWS)]
     }
 
     /// The costs of column `i`'s rows into the sums (rows whose bit is set in `skip` are not
@@ -330,7 +336,7 @@ impl<K: ColumnKernel> Grid<K> {
         self.job.col = i.wrapping_sub(self.i0);
         self.job.bound = bound.min(COST_MAX);
         self.job.skip = skip;
-        let rows = (self.rows as usize).min(WINDOW_ROWS);
+        let rows = (self.rows as usize).min(COLUMN_ROWS);
         K::column(&mut self.sums[..rows], &mut self.job);
     }
 
