@@ -1,10 +1,11 @@
 //! agent-fw: the hoploc agent firmware for the Arduino Uno.
 //!
-//! Wiring only (the logic is `agent_fw::Agent`, host-tested): boot line, node config, radio
-//! bring-up, then the loop — feed the µs clock to the agent and do what it asks (tune to an
-//! anchor channel or the sink channel, send the report to the sink), feed it the beacons and
-//! TX statuses the radio hands over, idle until its next event. Build: `cargo fw` (all
-//! firmwares) or `cargo fw-run -p agent-fw` (build and flash).
+//! Wiring only (the logic is `agent_fw::Agent`, host-tested): `uno_board::boot` (boot line,
+//! node config, radio bring-up, watchdog), then the loop — feed the µs clock to the agent and
+//! do what it asks (tune to an anchor channel or the sink channel, send the report to the
+//! sink), feed it the beacons and TX statuses the radio hands over, idle until its next event.
+//! Build: `cargo fw` (all firmwares); build and flash: `cargo run` in this directory, or
+//! `cargo fw-run -p agent-fw` from the workspace root.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]
@@ -23,56 +24,38 @@ mod built_in {
 #[uno_board::entry]
 fn main() -> ! {
     use agent_fw::Agent;
-    use loc_proto::line::BootLine;
     use loc_proto::schedule::{beacon_latency_us, Schedule};
     use loc_proto::Role;
-    use uno_board::{
-        bring_up_radio, load_config, now_us, radio_config, reset, write_line, Board, SysClock,
-        WdtTimeout,
-    };
-    use xbee_api::driver::Radio;
+    use uno_board::{now_us, reset};
 
-    let Some(board) = Board::take() else { reset() };
-    let Board {
-        mut serial,
-        mut led,
-        mut eeprom,
-        mut watchdog,
-        ..
-    } = board;
-    write_line(&mut serial, &BootLine::Boot { role: Role::Agent });
-    let mut config = built_in::BUILT_IN;
-    load_config(&mut serial, &mut eeprom, &mut led, Role::Agent, &mut config);
-    let channels = config.channels;
-    let mut radio = Radio::new(serial, SysClock, xbee_api::Ap2);
-    bring_up_radio(&mut radio, &mut led, Role::Agent, &radio_config(&config));
-    let Ok(sched) = Schedule::for_config(&config) else {
-        reset()
-    };
-    let latency = beacon_latency_us(config.anchors);
-    let agent = Agent::new(config.id, sched, channels, latency, now_us());
-    watchdog.start(WdtTimeout::S1);
-    // The radio by reference (by value it is copied into a second stack slot).
-    run(agent, &mut radio, led, watchdog, &config)
+    uno_board::boot(Role::Agent, built_in::BUILT_IN, |node| {
+        let config = &node.config;
+        let Ok(sched) = Schedule::for_config(config) else {
+            reset()
+        };
+        let latency = beacon_latency_us(config.anchors);
+        let agent = Agent::new(config.id, sched, config.channels, latency, now_us());
+        run(agent, node)
+    })
 }
 
 /// The node's loop, out of line: on the AVR every access beyond 63 bytes into a stack frame
-/// costs 14 bytes of code, and `main`'s frame is big with the bring-up's state (measured: the
-/// agent 17 038 → 16 592 B).
+/// costs extra code, and `main`'s frame is big with the bring-up's state.
 #[cfg(target_arch = "avr")]
 #[inline(never)]
-fn run(
-    mut agent: agent_fw::Agent,
-    radio: &mut uno_board::NodeRadio,
-    mut led: uno_board::Led,
-    mut watchdog: uno_board::Watchdog,
-    config: &loc_proto::config::Config,
-) -> ! {
+fn run(mut agent: agent_fw::Agent, node: &mut uno_board::Node) -> ! {
     use agent_fw::{Action, Agent, Heard, Tune};
     use loc_proto::msg::{Beacon, MAX_PAYLOAD};
     use loc_proto::Role;
     use uno_board::node::{self, Event};
+    use uno_board::prelude::*;
     use uno_board::{now_us, NodeRadio};
+    let uno_board::Node {
+        radio,
+        led,
+        watchdog,
+        config,
+    } = node;
     let channels = config.channels;
     let sink = Role::Sink.address(1);
     let act = |radio: &mut NodeRadio, agent: &Agent, action: Action| match action {
@@ -96,7 +79,7 @@ fn run(
         while let Some(action) = agent.poll(now_us()) {
             act(radio, &agent, action);
             if let Action::SendReport { .. } = action {
-                led.toggle();
+                let Ok(()) = led.toggle();
             }
         }
         // What arrived: a beacon goes to the agent inside the poll (it borrows the frame); a TX

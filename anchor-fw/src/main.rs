@@ -1,9 +1,10 @@
 //! anchor-fw: the hoploc anchor firmware for the Arduino Uno.
 //!
-//! Wiring only (the logic is `anchor_fw::Anchor`, host-tested): boot line, node config, radio
-//! bring-up, then the loop — feed the µs clock to the anchor and do what it asks (tune, send a
-//! beacon), feed it the beacons the radio hears, idle until its next event. Build: `cargo fw`
-//! (all firmwares) or `cargo fw-run -p anchor-fw` (build and flash).
+//! Wiring only (the logic is `anchor_fw::Anchor`, host-tested): `uno_board::boot` (boot line,
+//! node config, radio bring-up, watchdog), then the loop — feed the µs clock to the anchor and
+//! do what it asks (tune, send a beacon), feed it the beacons the radio hears, idle until its
+//! next event. Build: `cargo fw` (all firmwares); build and flash: `cargo run` in this
+//! directory, or `cargo fw-run -p anchor-fw` from the workspace root.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]
@@ -22,63 +23,41 @@ mod built_in {
 #[uno_board::entry]
 fn main() -> ! {
     use anchor_fw::Anchor;
-    use loc_proto::line::BootLine;
     use loc_proto::schedule::{beacon_latency_us, Schedule};
     use loc_proto::Role;
-    use uno_board::{
-        bring_up_radio, load_config, now_us, radio_config, reset, write_line, Board, SysClock,
-        WdtTimeout,
-    };
-    use xbee_api::driver::Radio;
+    use uno_board::{now_us, reset};
 
-    let Some(board) = Board::take() else { reset() };
-    let Board {
-        mut serial,
-        mut led,
-        mut eeprom,
-        mut watchdog,
-        ..
-    } = board;
-    write_line(&mut serial, &BootLine::Boot { role: Role::Anchor });
-    let mut config = built_in::BUILT_IN;
-    load_config(
-        &mut serial,
-        &mut eeprom,
-        &mut led,
-        Role::Anchor,
-        &mut config,
-    );
-    let mut radio = Radio::new(serial, SysClock, xbee_api::Ap2);
-    bring_up_radio(&mut radio, &mut led, Role::Anchor, &radio_config(&config));
-    let Ok(sched) = Schedule::for_config(&config) else {
-        reset()
-    };
-    let anchor = Anchor::new(
-        config.id,
-        sched,
-        beacon_latency_us(config.anchors),
-        now_us(),
-    );
-    watchdog.start(WdtTimeout::S1);
-    // The radio by reference (by value it is copied into a second stack slot).
-    run(anchor, &mut radio, led, watchdog, &config)
+    uno_board::boot(Role::Anchor, built_in::BUILT_IN, |node| {
+        let config = &node.config;
+        let Ok(sched) = Schedule::for_config(config) else {
+            reset()
+        };
+        let anchor = Anchor::new(
+            config.id,
+            sched,
+            beacon_latency_us(config.anchors),
+            now_us(),
+        );
+        run(anchor, node)
+    })
 }
 
 /// The node's loop, out of line: `main`'s frame holds the bring-up's state, and on the AVR
-/// every access beyond 63 bytes into a frame costs 14 bytes of code (measured: the anchor 16 322 → 15 208 B).
+/// every access beyond 63 bytes into a frame costs extra code.
 #[cfg(target_arch = "avr")]
 #[inline(never)]
-fn run(
-    mut anchor: anchor_fw::Anchor,
-    radio: &mut uno_board::NodeRadio,
-    mut led: uno_board::Led,
-    mut watchdog: uno_board::Watchdog,
-    config: &loc_proto::config::Config,
-) -> ! {
+fn run(mut anchor: anchor_fw::Anchor, node: &mut uno_board::Node) -> ! {
     use anchor_fw::{Action, Heard};
     use loc_proto::msg::Beacon;
     use uno_board::node::{self, Event};
     use uno_board::now_us;
+    use uno_board::prelude::*;
+    let uno_board::Node {
+        radio,
+        led,
+        watchdog,
+        config,
+    } = node;
     let channels = config.channels;
     loop {
         watchdog.feed();
@@ -95,7 +74,7 @@ fn run(
                     if let Ok(n) = beacon.encode(&mut buf) {
                         let _ = node::send(radio, loc_proto::BROADCAST, &buf[..n]);
                     }
-                    led.toggle();
+                    let Ok(()) = led.toggle();
                 }
             }
         }

@@ -10,14 +10,16 @@ use simavr::{Avr, State};
 use crate::{float, run, Inputs, Report, MARKS, N_ANCHORS, N_CHANNELS, SIGMA_DB};
 
 /// The firmwares, baseline first.
-pub const BINS: [&str; 5] = [
+pub const BINS: [&str; 6] = [
     "est-none",
     "est-fixed",
     "est-f32",
     "est-portable",
     "checkasm",
+    "board-check",
 ];
-/// The benchmark variants among [`BINS`] (`checkasm` is the kernel's equality harness).
+/// The benchmark variants among [`BINS`] (`checkasm` is the kernel's equality harness,
+/// `board-check` uno-board's checks).
 pub const ESTIMATES: [&str; 4] = ["est-none", "est-fixed", "est-f32", "est-portable"];
 
 /// Simulated time after which a run that has not stopped counts as hung.

@@ -28,6 +28,7 @@
 
 use core::hint::black_box;
 
+pub mod board;
 pub mod checkasm;
 pub mod fixed;
 pub mod float;

@@ -1,12 +1,13 @@
 //! sink-fw: the hoploc sink firmware for the Arduino Uno.
 //!
-//! Wiring only (the logic is `sink_fw::Sink`, host-tested): boot line, node config (provisioning
-//! window, then EEPROM or the build-time config of `HOPLOC_*` variables), radio bring-up on the
-//! sink channel, then the loop — each report the radio hands over goes to the sink, and out on
-//! the UART (the USB serial) go its `report` line and its fix lines (or why there is none), as
-//! loc-proto's sink lines (written with ufmt onto the UART); a `status` line every
-//! [`STATUS_PERIOD_MS`]. Build: `cargo fw` (all firmwares) or `cargo fw-run -p sink-fw`; its
-//! flash and SRAM: `hoploc footprint`.
+//! Wiring only (the logic is `sink_fw::Sink`, host-tested): `uno_board::boot` (boot line, node
+//! config: provisioning window, then EEPROM or the build-time config of `HOPLOC_*` variables;
+//! radio bring-up on the sink channel; watchdog), then the loop — each report the radio hands
+//! over goes to the sink, and out on the UART (the USB serial) go its `report` line and its fix
+//! lines (or why there is none), as loc-proto's sink lines (written with ufmt onto the UART); a
+//! `status` line every [`STATUS_PERIOD_MS`]. Build: `cargo fw` (all firmwares); build and
+//! flash: `cargo run` in this directory, or `cargo fw-run -p sink-fw` from the workspace root.
+//! Its flash and SRAM: `hoploc footprint`.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]
@@ -28,44 +29,24 @@ mod built_in {
 #[cfg(target_arch = "avr")]
 #[uno_board::entry]
 fn main() -> ! {
-    use loc_proto::line::BootLine;
-    use loc_proto::Role;
-    use uno_board::{
-        bring_up_radio, load_config, radio_config, reset, write_line, Board, SysClock, WdtTimeout,
-    };
-    use xbee_api::driver::Radio;
-
-    let Some(board) = Board::take() else { reset() };
-    let Board {
-        mut serial,
-        mut led,
-        mut eeprom,
-        mut watchdog,
-        ..
-    } = board;
-    write_line(&mut serial, &BootLine::Boot { role: Role::Sink });
-    let mut config = built_in::BUILT_IN;
-    load_config(&mut serial, &mut eeprom, &mut led, Role::Sink, &mut config);
-    let mut radio = Radio::new(serial, SysClock, xbee_api::Ap2);
-    bring_up_radio(&mut radio, &mut led, Role::Sink, &radio_config(&config));
-    watchdog.start(WdtTimeout::S1);
-    // The radio by reference: passed by value, it was copied into a second 178-byte stack slot.
-    run(&mut radio, led, watchdog, &config)
+    uno_board::boot(loc_proto::Role::Sink, built_in::BUILT_IN, run)
 }
 
 /// The node's loop, out of line (on the AVR, far accesses into `main`'s big frame cost code).
 #[cfg(target_arch = "avr")]
 #[inline(never)]
-fn run(
-    radio: &mut uno_board::NodeRadio,
-    mut led: uno_board::Led,
-    mut watchdog: uno_board::Watchdog,
-    config: &loc_proto::config::Config,
-) -> ! {
+fn run(node: &mut uno_board::Node) -> ! {
     use loc_proto::msg::ReportView;
     use sink_fw::Sink;
     use uno_board::node::{self, Event};
+    use uno_board::prelude::*;
     use uno_board::{now_ms, rx_pending, sleep_unless};
+    let uno_board::Node {
+        radio,
+        led,
+        watchdog,
+        config,
+    } = node;
 
     let mut sink = Sink::new(sink_fw::room(config.position));
     // The clock's low 16 bits: the loop looks at least once a second (the watchdog's 1 s sees
@@ -91,7 +72,7 @@ fn run(
             if let Some(bytes) = got.and_then(|len| raw.get(..len)) {
                 match ReportView::accept(bytes) {
                     Ok(report) => {
-                        led.toggle();
+                        let Ok(()) = led.toggle();
                         on_report(&mut sink, &report, radio);
                     }
                     Err(e) => sink.on_bad_frame(e.into()),

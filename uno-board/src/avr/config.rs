@@ -8,6 +8,7 @@ use loc_proto::{xbee_channel, Role};
 use xbee_api::driver::BringUpConfig;
 
 use super::{now_ms, rx_pending, sleep_unless, Eeprom, Led, Serial};
+use embedded_hal::digital::{OutputPin, StatefulOutputPin};
 
 /// The radio settings of `config`: `MY` = the role's address of the node id, `ID` = the PAN,
 /// `CH` = the first anchor channel (anchors, agents: where the first beacons go) or the sink
@@ -100,7 +101,7 @@ pub fn load_config(
             };
             // One line either way (one round of the code per error line), written in one place.
             let Ok(()) = write_config_line(serial, role, code, source, config.id);
-            led.off();
+            let Ok(()) = led.set_low();
             if code == 0 {
                 return;
             }
@@ -108,7 +109,7 @@ pub fn load_config(
         }
         // From off, each phase of a round but the last flips the LED: on (even), off (odd).
         if left != 0 {
-            led.toggle();
+            let Ok(()) = led.toggle();
         }
         ms = if left == 0 {
             1500

@@ -1,8 +1,16 @@
-//! The 1 KB EEPROM (byte and slice access; writes skip unchanged bytes).
+//! The 1 KB EEPROM: reads, and verified writes that skip unchanged bytes.
 
 use super::pac::EEPROM;
+use super::{BlockAddr, IO_BASE};
 use crate::{eeprom_range, EepromError};
 use core::arch::asm;
+
+/// EECR's I/O address (for `sbi`): EECR is the first register of the PAC's EEPROM block.
+const EECR_IO: usize = <EEPROM as BlockAddr>::ADDR - IO_BASE;
+/// EECR bit: EEPROM master write enable (opens the four-cycle window for EEPE).
+const EEMPE: u8 = 2;
+/// EECR bit: EEPROM write enable (starts the erase + write).
+const EEPE: u8 = 1;
 
 /// The ATmega328P's EEPROM. A byte write takes ~3.4 ms and blocks; writes only touch bytes whose
 /// value changes (the cells last ~100 000 writes).
@@ -26,12 +34,6 @@ impl Eeprom {
         self.ee.eedr().read().bits()
     }
 
-    fn write_at(&mut self, addr: u16, value: u8) {
-        if self.read_at(addr) != value {
-            self.program_read(value);
-        }
-    }
-
     /// Writes `value` (erase + write), unconditionally, at the address [`Eeprom::read_at`] has
     /// just read: that read waited for the EEPROM and set EEAR, so neither is done again.
     fn program_read(&mut self, value: u8) {
@@ -39,15 +41,24 @@ impl Eeprom {
         avr_device::asm::wdr();
         self.ee.eedr().write(|w| w.set(value));
         avr_device::interrupt::free(|_| {
-            // SAFETY: the datasheet's timed sequence: EEMPE (EECR bit 2) then, within four cycles,
-            // EEPE (bit 1), with interrupts off. EEPM1:0 are 0 (erase + write). EECR is I/O 0x1F.
-            unsafe { asm!("sbi 0x1F, 2", "sbi 0x1F, 1", options(nostack)) };
+            // SAFETY: the datasheet's timed sequence: EEMPE then, within four cycles, EEPE, with
+            // interrupts off. EEPM1:0 are 0 (erase + write).
+            unsafe {
+                asm!(
+                    "sbi {eecr}, {eempe}",
+                    "sbi {eecr}, {eepe}",
+                    eecr = const EECR_IO,
+                    eempe = const EEMPE,
+                    eepe = const EEPE,
+                    options(nostack),
+                )
+            };
         });
     }
 
-    /// Writes `data` from `addr` like [`Eeprom::write`] (only the bytes that change) and reads
-    /// each byte back: `false` if one did not take its value (a worn-out cell) or the range is
-    /// not in the EEPROM. One read per byte, and one more after a write: one read site.
+    /// Writes `data` from `addr` (only the bytes that change) and reads each byte back: `false`
+    /// if one did not take its value (a worn-out cell) or the range is not in the EEPROM. One
+    /// read per byte, and one more after a write: one read site.
     pub fn write_verified(&mut self, addr: u16, data: &[u8]) -> bool {
         if eeprom_range(addr, data.len()).is_err() {
             return false;
@@ -65,33 +76,11 @@ impl Eeprom {
         true
     }
 
-    /// Reads the byte at `addr`.
-    pub fn read_byte(&self, addr: u16) -> Result<u8, EepromError> {
-        eeprom_range(addr, 1)?;
-        Ok(self.read_at(addr))
-    }
-
-    /// Writes `value` at `addr` (no-op if unchanged; blocks ~3.4 ms otherwise).
-    pub fn write_byte(&mut self, addr: u16, value: u8) -> Result<(), EepromError> {
-        eeprom_range(addr, 1)?;
-        self.write_at(addr, value);
-        Ok(())
-    }
-
     /// Fills `buf` from the bytes starting at `addr`.
     pub fn read(&self, addr: u16, buf: &mut [u8]) -> Result<(), EepromError> {
         eeprom_range(addr, buf.len())?;
         for (a, b) in (addr..).zip(buf.iter_mut()) {
             *b = self.read_at(a);
-        }
-        Ok(())
-    }
-
-    /// Writes `data` starting at `addr`, skipping bytes that already hold the value.
-    pub fn write(&mut self, addr: u16, data: &[u8]) -> Result<(), EepromError> {
-        eeprom_range(addr, data.len())?;
-        for (a, &b) in (addr..).zip(data.iter()) {
-            self.write_at(a, b);
         }
         Ok(())
     }

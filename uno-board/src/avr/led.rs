@@ -1,62 +1,71 @@
-//! The LED on D13 (PB5).
+//! The LED on D13 (PB5) as an embedded-hal output pin, and the error-code blinker.
 
 use super::pac::PORTB;
-use super::time::delay_ms;
+use core::convert::Infallible;
+use embedded_hal::delay::DelayNs;
+use embedded_hal::digital::{ErrorType, OutputPin, StatefulOutputPin};
 
-/// The on-board LED ("L", D13 = PB5). Owns port B.
+/// The on-board LED ("L", D13 = PB5), an output pin through embedded-hal's [`OutputPin`] and
+/// [`StatefulOutputPin`]; none of its operations can fail. Owns port B.
 pub struct Led {
     port: PORTB,
 }
 
 impl Led {
+    /// PB5 as an output, low (LED off).
     pub(crate) fn init(port: PORTB) -> Led {
         port.portb().modify(|_, w| w.pb5().clear_bit());
         port.ddrb().modify(|_, w| w.pb5().set_bit());
         Led { port }
     }
+}
+
+impl ErrorType for Led {
+    type Error = Infallible;
+}
+
+impl OutputPin for Led {
+    /// LED off.
+    fn set_low(&mut self) -> Result<(), Infallible> {
+        self.port.portb().modify(|_, w| w.pb5().clear_bit());
+        Ok(())
+    }
 
     /// LED on.
-    pub fn on(&mut self) {
+    fn set_high(&mut self) -> Result<(), Infallible> {
         self.port.portb().modify(|_, w| w.pb5().set_bit());
+        Ok(())
+    }
+}
+
+impl StatefulOutputPin for Led {
+    fn is_set_high(&mut self) -> Result<bool, Infallible> {
+        Ok(self.port.portb().read().pb5().bit_is_set())
     }
 
-    /// LED off.
-    pub fn off(&mut self) {
-        self.port.portb().modify(|_, w| w.pb5().clear_bit());
+    fn is_set_low(&mut self) -> Result<bool, Infallible> {
+        Ok(self.port.portb().read().pb5().bit_is_clear())
     }
 
-    /// Toggles the LED (writing 1 to PINB5 flips PB5 atomically).
-    pub fn toggle(&mut self) {
+    /// Flips the LED in one write (writing 1 to PINB5 toggles PB5).
+    fn toggle(&mut self) -> Result<(), Infallible> {
         self.port.pinb().write(|w| w.pb5().set_bit());
+        Ok(())
     }
+}
 
-    /// Sets the LED.
-    pub fn set(&mut self, on: bool) {
-        if on {
-            self.on()
-        } else {
-            self.off()
-        }
+/// One round of error code `code` on `led`: `code` short blinks (200 ms on, 300 ms off), then a
+/// 1.5 s pause. Call it in a loop to show the code for good. Leaves the LED off.
+pub fn blink_code(
+    led: &mut impl OutputPin<Error = Infallible>,
+    delay: &mut impl DelayNs,
+    code: u8,
+) {
+    for _ in 0..code {
+        let Ok(()) = led.set_high();
+        delay.delay_ms(200);
+        let Ok(()) = led.set_low();
+        delay.delay_ms(300);
     }
-
-    /// `n` blinks (`on_ms` on, `off_ms` off), blocking. Feeds the watchdog between phases.
-    pub fn blink(&mut self, n: u8, on_ms: u16, off_ms: u16) {
-        for _ in 0..n {
-            self.on();
-            avr_device::asm::wdr();
-            delay_ms(on_ms);
-            self.off();
-            avr_device::asm::wdr();
-            delay_ms(off_ms);
-        }
-    }
-
-    /// One round of an error code: `code` short blinks (200 ms on, 300 ms off), then a 1.5 s pause.
-    /// Call it in a loop to show the code forever. Feeds the watchdog.
-    pub fn blink_code(&mut self, code: u8) {
-        self.blink(code, 200, 300);
-        avr_device::asm::wdr();
-        delay_ms(1500);
-        avr_device::asm::wdr();
-    }
+    delay.delay_ms(1500);
 }

@@ -1,6 +1,6 @@
-//! The AVR half of the crate: peripherals, interrupt handlers, panic handler.
+//! The AVR half of the crate: peripherals, interrupt handlers, the node boot, panic handler.
 
-mod cell;
+mod boot;
 mod config;
 mod eeprom;
 mod led;
@@ -12,21 +12,40 @@ mod serial;
 mod time;
 mod watchdog;
 
+pub use boot::{boot, Node};
 pub use config::{load_config, radio_config};
 pub use eeprom::Eeprom;
-pub use led::Led;
-pub use power::{sleep_idle, sleep_unless};
+pub use led::{blink_code, Led};
+pub use power::sleep_unless;
 pub use radio::{bring_up_radio, write_line, NodeRadio};
-pub use serial::{rx_frame_start_us, rx_pending, RxStats, Serial};
-pub use time::{delay_ms, now_ms, now_us, SysClock};
-pub use watchdog::{reset, ResetCause, Watchdog};
+pub use serial::{rx_frame_start_us, rx_pending, Serial};
+pub use time::{now_ms, now_us, Delay, SysClock};
+pub use watchdog::{reset, Watchdog};
+
+/// The embedded-hal traits the board's types implement, for `use uno_board::prelude::*;`.
+pub mod prelude {
+    pub use embedded_hal::delay::DelayNs as _;
+    pub use embedded_hal::digital::{OutputPin as _, StatefulOutputPin as _};
+    pub use embedded_hal_nb::serial::{Read as _, Write as _};
+}
+
+/// The data-space address of a PAC peripheral's register block, for assembly operands.
+pub(crate) trait BlockAddr {
+    /// The address of the block's first register.
+    const ADDR: usize;
+}
+
+impl<RB, const A: usize> BlockAddr for avr_device::generic::Periph<RB, A> {
+    const ADDR: usize = A;
+}
+
+/// Data-space address of I/O address 0 (`in`, `out`, `sbi` and `cbi` take I/O addresses).
+pub(crate) const IO_BASE: usize = 0x20;
 
 /// The PAC, for peripherals uno-board does not wrap yet.
 pub use avr_device::atmega328p as pac;
 /// The entry-point attribute (`#[uno_board::entry] fn main() -> ! { … }`).
 pub use avr_device::entry;
-/// Flash-resident constants: `uno_board::avr_progmem::progmem! { static progmem string S = "…"; }`.
-pub use avr_progmem;
 
 // For builds without LTO, where upstream native libraries precede compiler-builtins; with LTO
 // only the binary's own `link_avr_libc!()` is early enough (see there).
@@ -54,7 +73,8 @@ macro_rules! link_avr_libc {
 }
 
 /// Everything on the board, configured: USART0 at 57600 8N1 with RX interrupts, the 1 ms tick,
-/// LED off, idle sleep mode selected, watchdog off, interrupts enabled.
+/// LED off, idle sleep mode selected, watchdog off, interrupts enabled. A node firmware takes it
+/// through [`boot`].
 pub struct Board {
     /// USART0 (D0/D1): the XBee and the USB serial.
     pub serial: Serial,
@@ -66,8 +86,8 @@ pub struct Board {
     pub watchdog: Watchdog,
     /// The millisecond clock.
     pub clock: SysClock,
-    /// Why the MCU last reset (MCUSR at boot; MCUSR is cleared).
-    pub reset_cause: ResetCause,
+    /// Delays on the millisecond clock.
+    pub delay: Delay,
 }
 
 impl Board {
@@ -77,7 +97,7 @@ impl Board {
     /// its shortest timeout, and this turns it off.
     pub fn take() -> Option<Board> {
         let dp = pac::Peripherals::take()?;
-        let (watchdog, reset_cause) = Watchdog::init(dp.WDT, &dp.CPU);
+        let watchdog = Watchdog::init(dp.WDT, &dp.CPU);
         let led = Led::init(dp.PORTB);
         time::init(&dp.TC0);
         let serial = Serial::init(dp.USART0);
@@ -91,13 +111,12 @@ impl Board {
             eeprom: Eeprom::new(dp.EEPROM),
             watchdog,
             clock: SysClock,
-            reset_cause,
+            delay: Delay,
         })
     }
 }
 
-/// Panic: reset the MCU through the watchdog (16 ms). No formatting, no message: the reset cause
-/// ([`ResetCause::watchdog`]) tells the next boot what happened.
+/// Panic: reset the MCU through the watchdog (16 ms). No formatting, no message.
 #[cfg(feature = "panic-reset")]
 #[panic_handler]
 fn panic(_info: &core::panic::PanicInfo) -> ! {

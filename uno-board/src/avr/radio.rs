@@ -8,7 +8,8 @@ use loc_proto::Role;
 use xbee_api::driver::{BringUp, BringUpConfig, Radio};
 use xbee_api::Ap2;
 
-use super::{Led, Serial, SysClock};
+use super::{blink_code, Delay, Led, Serial, SysClock};
+use embedded_hal::digital::OutputPin;
 
 /// The radio driver of a node: API mode 2 over USART0, timed by the 1 ms tick, without the
 /// driver's and decoder's counters (`Ap2<false>`: no node reads them).
@@ -37,16 +38,17 @@ impl ufmt::uWrite for Serial {
 /// works. Each failed attempt writes `hoploc <role> radio error <code> try <n>`, blinks `code`
 /// on the LED once (5 to 8 s), then tries again; success writes `hoploc <role> radio ok …`.
 ///
-/// The watchdog must be off (it is after `Board::take`): one attempt at a radio that never
+/// The watchdog must be off (it is after `Board::take`; [`boot`](crate::boot) starts it after
+/// this): one attempt at a radio that never
 /// answers takes about 14 s, longer than the watchdog's longest timeout, and every wait in it is
 /// bounded by the tick.
 pub fn bring_up_radio(radio: &mut NodeRadio, led: &mut Led, role: Role, config: &BringUpConfig) {
     let mut attempt: u16 = 0;
     loop {
         attempt = attempt.saturating_add(1);
-        led.on();
+        let Ok(()) = led.set_high();
         let result = radio.bring_up(config);
-        led.off();
+        let Ok(()) = led.set_low();
         // A failed search leaves the UART at the last rate it tried; lines go out at 57600.
         let _ = radio.serial_mut().set_bd(xbee_api::driver::BD);
         // One line either way, written in one place: one copy of its start and end. (Error
@@ -78,6 +80,6 @@ pub fn bring_up_radio(radio: &mut NodeRadio, led: &mut Led, role: Role, config: 
         if code == 0 {
             return;
         }
-        led.blink_code(code);
+        blink_code(led, &mut Delay, code);
     }
 }
