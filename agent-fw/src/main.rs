@@ -84,7 +84,7 @@ fn run(mut agent: agent_fw::Agent, node: &mut uno_board::Node) -> ! {
         }
         // What arrived: a beacon goes to the agent inside the poll (it borrows the frame); a TX
         // status comes out, and the action it gives is done after.
-        while let Some(status) = node::poll(radio, |ev| match ev {
+        while let Some(status) = node::poll(radio, |ev, _| match ev {
             Event::Packet {
                 rssi, data, at_us, ..
             } => {

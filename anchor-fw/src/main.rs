@@ -78,7 +78,7 @@ fn run(mut anchor: anchor_fw::Anchor, node: &mut uno_board::Node) -> ! {
                 }
             }
         }
-        while let Some(heard) = node::poll(radio, |ev| match ev {
+        while let Some(heard) = node::poll(radio, |ev, _| match ev {
             Event::Packet {
                 rssi, data, at_us, ..
             } => {

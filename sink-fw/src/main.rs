@@ -52,37 +52,30 @@ fn run(node: &mut uno_board::Node) -> ! {
     // The clock's low 16 bits: the loop looks at least once a second (the watchdog's 1 s sees
     // to that), far within their 65 s, and 16-bit arithmetic is half the AVR code.
     let mut last_status = now_ms() as u16;
-    // A packet's bytes (the radio's buffer is lent only while polling): the report is read in
-    // place from here and written as its `report` line. RX16 data always fits.
-    let mut raw = [0u8; xbee_api::MAX_FRAME_DATA];
     loop {
         watchdog.feed();
-        while let Some(got) = node::poll(radio, |ev| match ev {
-            Event::Packet { data, .. } => {
-                let len = data.len().min(raw.len());
-                raw[..len].copy_from_slice(&data[..len]);
-                Some(len)
-            }
-            _ => None,
-        }) {
+        // Each packet handled where the driver decoded it: the report read in place, its lines
+        // written on the serial port the poll lends beside it.
+        while node::poll(radio, |ev, serial| {
             // Fed per packet too: reports arriving faster than the sink handles them (≈ 70 ms
             // each) keep this loop busy for longer than the watchdog's 1 s.
             watchdog.feed();
-            // (`get`: `len` is at most `raw.len()`, but not known so here.)
-            if let Some(bytes) = got.and_then(|len| raw.get(..len)) {
-                match ReportView::accept(bytes) {
+            if let Event::Packet { data, .. } = ev {
+                match ReportView::accept(data) {
                     Ok(report) => {
                         let Ok(()) = led.toggle();
-                        on_report(&mut sink, &report, radio);
+                        on_report(&mut sink, &report, serial);
                     }
                     Err(e) => sink.on_bad_frame(e.into()),
                 }
             }
-        }
+        })
+        .is_some()
+        {}
         if (now_ms() as u16).wrapping_sub(last_status) >= STATUS_PERIOD_MS {
             last_status = last_status.wrapping_add(STATUS_PERIOD_MS);
             sink.add_uptime((STATUS_PERIOD_MS / 1000) as u8);
-            line(radio, Line::Status(sink.counters()));
+            line(radio.serial_mut(), Line::Status(sink.counters()));
         }
         sleep_unless(rx_pending);
     }
@@ -95,30 +88,30 @@ fn run(node: &mut uno_board::Node) -> ! {
 #[cfg(target_arch = "avr")]
 use glue::on_report;
 #[cfg(target_arch = "avr")]
-use lines::{line, uart, Line};
+use lines::{line, Line};
 
 #[cfg(target_arch = "avr")]
 mod glue {
-    use super::{line, uart, Line};
+    use super::{line, Line};
+    use uno_board::Serial;
 
-    /// A report's lines: its `report` line (the bytes it came in), then two `fix` lines or a
-    /// `nofix` line. Out of line, as [`super::run`].
+    /// A report's lines on `uart`: its `report` line (the bytes it came in), then two `fix`
+    /// lines or a `nofix` line. Out of line, as [`super::run`].
     #[inline(never)]
     pub fn on_report(
         sink: &mut sink_fw::Sink,
         report: &loc_proto::msg::ReportView,
-        radio: &mut uno_board::NodeRadio,
+        uart: &mut Serial,
     ) {
         use loc_proto::sink_line::Estimator;
-        let Ok(()) = loc_proto::sink_line::RawReport::write(report.bytes(), uart(radio));
+        let Ok(()) = loc_proto::sink_line::RawReport::write(report.bytes(), uart);
         sink.on_report_with(report, |result| match result {
             Ok(fix) => {
-                line(radio, Line::Fix(fix, Estimator::Mle));
-                line(radio, Line::Fix(fix, Estimator::Mmse));
+                line(uart, Line::Fix(fix, Estimator::Mle));
+                line(uart, Line::Fix(fix, Estimator::Mmse));
             }
             Err(e) => {
-                let Ok(()) =
-                    sink_fw::no_fix_line(report.agent(), report.seq(), e).write(uart(radio));
+                let Ok(()) = sink_fw::no_fix_line(report.agent(), report.seq(), e).write(uart);
             }
         })
     }
@@ -134,20 +127,14 @@ mod lines {
         Status(&'a sink_fw::Counters),
     }
 
-    /// `what` on the UART: each line built and written in one place, so only its fields'
-    /// writes remain (no line in memory); both kinds in one function (one prologue and
-    /// epilogue: the two apart were 0.1 KB more flash).
+    /// `what` on the UART (the `ufmt::uWrite` every line goes out through, the boot lines' too:
+    /// one copy of each of ufmt's writers): each line built and written in one place, so only
+    /// its fields' writes remain (no line in memory); both kinds in one function.
     #[inline(never)]
-    pub fn line(radio: &mut uno_board::NodeRadio, what: Line<'_>) {
+    pub fn line(uart: &mut uno_board::Serial, what: Line<'_>) {
         let Ok(()) = match what {
-            Line::Fix(fix, estimator) => fix.line(estimator).write(uart(radio)),
-            Line::Status(counters) => counters.write_line(uart(radio)),
+            Line::Fix(fix, estimator) => fix.line(estimator).write(uart),
+            Line::Status(counters) => counters.write_line(uart),
         };
-    }
-
-    /// The UART, the `ufmt::uWrite` every line goes out through (the boot lines' too, so one
-    /// copy of each of ufmt's writers).
-    pub fn uart(radio: &mut uno_board::NodeRadio) -> &mut uno_board::Serial {
-        radio.serial_mut()
     }
 }

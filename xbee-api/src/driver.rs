@@ -721,8 +721,18 @@ where
     /// At most one frame per call; bytes after it stay in the UART for the next call. TX status
     /// frames are noted (see [`Radio::tx_pending`]) and still handed to `f`.
     pub fn poll<R>(&mut self, f: impl FnOnce(RawFrame<'_>) -> R) -> Option<Result<R, Error>> {
+        self.poll_with_serial(|frame, _| f(frame))
+    }
+
+    /// [`Radio::poll`], with the serial port lent to `f` beside the frame: `f` can write (a line
+    /// on a UART the radio shares, a reply) while it reads the frame in the driver's buffer, so
+    /// the frame need not be copied out first.
+    pub fn poll_with_serial<R>(
+        &mut self,
+        f: impl FnOnce(RawFrame<'_>, &mut S) -> R,
+    ) -> Option<Result<R, Error>> {
         match self.next_frame() {
-            Next::Frame(len) => Some(Ok(f(self.decoder.frame_checked(len)))),
+            Next::Frame(len) => Some(Ok(f(self.decoder.frame_checked(len), &mut self.serial))),
             Next::Idle => None,
             // The decode error is built here, not in `next_frame`: the waits that ignore it
             // (and a caller that drops it) then never copy it.

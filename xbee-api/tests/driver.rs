@@ -534,6 +534,38 @@ fn poll_hands_frames_to_the_closure_and_reports_stream_errors() {
     }
 }
 
+/// `poll_with_serial` hands over the same frames as `poll`, and the serial port beside them:
+/// what the closure writes goes out on the UART while the frame is still read in place.
+#[test]
+fn poll_with_serial_lends_the_port_beside_the_frame() {
+    use embedded_hal_nb::serial::Write;
+    for mode in MODES {
+        let (m, mut radio) = setup(ap_of(mode), 57600, mode);
+        {
+            let mut m = m.borrow_mut();
+            m.emit_frame(&rx16(), 0);
+            m.emit(b"noise", 0, None);
+            m.emit_frame(&rx16(), 0);
+        }
+        let got = radio.poll_with_serial(|raw, serial| {
+            for &b in b"seen " {
+                serial.write(b).unwrap();
+            }
+            raw.data().to_vec()
+        });
+        assert_eq!(got, Some(Ok(rx16())), "{mode:?}");
+        assert_eq!(m.borrow().wire, b"seen ", "{mode:?}");
+        // Stream errors and the idle end as from `poll`; the closure sees only frames.
+        assert_eq!(
+            radio.poll_with_serial(|_, _| ()),
+            Some(Err(Error::Decode(DecodeError::Garbage { bytes: 5 })))
+        );
+        let got = radio.poll_with_serial(|raw, _| raw.data().to_vec());
+        assert_eq!(got, Some(Ok(rx16())), "{mode:?}");
+        assert_eq!(radio.poll_with_serial(|_, _| ()), None);
+    }
+}
+
 #[test]
 fn poll_ends_a_frame_that_stalls() {
     for mode in MODES {

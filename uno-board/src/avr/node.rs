@@ -5,7 +5,7 @@
 use loc_proto::xbee_channel;
 use xbee_api::driver::Error;
 
-use super::{rx_frame_start_us, rx_pending, sleep_unless, NodeRadio};
+use super::{rx_frame_start_us, rx_pending, sleep_unless, NodeRadio, Serial};
 
 /// How long a channel change may wait for the TX status of a frame still being sent, ms.
 pub const TUNE_TIMEOUT_MS: u32 = 20;
@@ -63,12 +63,13 @@ pub enum Event<'a> {
     Other,
 }
 
-/// Takes the next frame the radio has completed, if any, and hands it to `f` as an [`Event`].
-/// `None` when nothing more is waiting; stream errors (counted by the driver) give
-/// `Some(f(Event::Other))` so the caller keeps draining.
-pub fn poll<R>(radio: &mut NodeRadio, f: impl FnOnce(Event<'_>) -> R) -> Option<R> {
+/// Takes the next frame the radio has completed, if any, and hands it to `f` as an [`Event`],
+/// with the serial port beside it (a line written there goes out while the event's data is
+/// still read in place in the driver's buffer). `None` when nothing more is waiting; stream
+/// errors (counted by the driver) give `Some(f(Event::Other, …))` so the caller keeps draining.
+pub fn poll<R>(radio: &mut NodeRadio, f: impl FnOnce(Event<'_>, &mut Serial) -> R) -> Option<R> {
     let mut f = Some(f);
-    let r = radio.poll(|raw| {
+    let r = radio.poll_with_serial(|raw, serial| {
         let ev = if let Some(rx) = raw.rx16() {
             Event::Packet {
                 source: rx.source,
@@ -81,11 +82,11 @@ pub fn poll<R>(radio: &mut NodeRadio, f: impl FnOnce(Event<'_>) -> R) -> Option<
         } else {
             Event::Other
         };
-        f.take().map(|f| f(ev))
+        f.take().map(|f| f(ev, serial))
     })?;
     match r {
         Ok(Some(r)) => Some(r),
-        _ => f.take().map(|f| f(Event::Other)),
+        _ => f.take().map(|f| f(Event::Other, radio.serial_mut())),
     }
 }
 
