@@ -1,4 +1,4 @@
-//! Localization core of hoploc (SPEC §5): everything between "RSSI values per anchor and channel"
+//! Localization core of hoploc (`docs/design.md`, section 5): everything between "RSSI values per anchor and channel"
 //! and "a position".
 //!
 //! * [`model`]: the log-normal path-loss model, geometry ([`Point`], [`Area`]) and the

@@ -1,4 +1,4 @@
-//! The integer-only path of the sink MCU (SPEC §5): the reference algorithms of [`crate::refine`],
+//! The integer-only path of the sink MCU: the reference algorithms of [`crate::refine`],
 //! [`crate::params`] and [`crate::grid`] on the MCU's own inputs, with no `f32`/`f64` anywhere and
 //! the constant tables in flash on AVR.
 //!
