@@ -1,4 +1,4 @@
-//! The agent's logic, sans-IO (SPEC §4): follow the anchors' timeline, collect every beacon's
+//! The agent's logic, sans-IO (`docs/design.md`, section 4): follow the anchors' timeline, collect every beacon's
 //! RSSI, position and relay per anchor and channel, and send one report per superframe in its
 //! own report sub-slot on the sink channel.
 //!
@@ -78,8 +78,8 @@ pub struct Agent {
     /// A report is out, waiting for its TX status.
     awaiting: bool,
     /// What this superframe's beacons said so far: the next report. (There is no copy of the
-    /// report being sent: the shell encodes it when asked, and a second 330-byte `Report` would
-    /// not fit the Uno's SRAM budget next to the radio driver.)
+    /// report being sent: the shell encodes it when asked, and a second `Report` would not fit
+    /// the Uno's SRAM budget next to the radio driver.)
     cur: Report,
 }
 
