@@ -1,6 +1,6 @@
-//! The agent's logic, sans-IO (`docs/design.md`, section 4): follow the anchors' timeline, collect every beacon's
-//! RSSI, position and relay per anchor and channel, and send one report per superframe in its
-//! own report sub-slot on the sink channel.
+//! The agent's logic, sans-IO (`docs/design.md`, section 4): follow the anchors' timeline, collect
+//! every beacon's RSSI, position and relay per anchor and channel, and send one report per
+//! superframe in its own report sub-slot on the sink channel.
 //!
 //! [`Agent`] is fed the node's microsecond clock ([`Agent::poll`]), the beacons its radio
 //! receives ([`Agent::on_beacon`]) and the radio's TX status ([`Agent::on_tx_status`]), and

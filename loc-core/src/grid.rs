@@ -16,14 +16,14 @@
 //!   steps) of the coarse winner, clipped to the area: at most 121 + 121 = 242 cost evaluations.
 //! * [`Search::MultiStart`] (an improvement on the thesis search): the same coarse grid, then a
 //!   steepest descent over the 8 fine-lattice neighbours from each of the four best coarse points,
-//!   the best end point winning; never more than the thesis' 242 evaluations (a descent stops
-//!   when the budget is spent). The thesis search fails when the fine minimum's coarse cell is not
-//!   the coarse winner's neighbour: near edges and anchors the cost changes fastest, so one coarse
+//!   the best end point winning; never more than the thesis' 242 evaluations (a descent stops when
+//!   the budget is spent). The thesis search fails when the fine minimum's coarse cell is not the
+//!   coarse winner's neighbour: near edges and anchors the cost changes fastest, so one coarse
 //!   sample represents its cell worst there, and along the edge between two anchors the cost is
-//!   often bimodal. Measured on the thesis study's layouts (3 and 4 anchors, σ = 2…6 dB, 1–2 channels,
-//!   also 6 × 4 m and 30 × 30 m): the thesis search misses the fine-lattice minimum in 0.3–2.1 %
-//!   of trials, multi-start in 0.006–0.24 %, spending ~201–213 evaluations on average against
-//!   ~213–230. (The RMSE barely moves: the missed minima are near-ties.)
+//!   often bimodal. Measured on the thesis study's layouts (3 and 4 anchors, σ = 2…6 dB, 1–2
+//!   channels, also 6 × 4 m and 30 × 30 m): the thesis search misses the fine-lattice minimum in
+//!   0.3–2.1 % of trials, multi-start in 0.006–0.24 %, spending ~201–213 evaluations on average
+//!   against ~213–230. (The RMSE barely moves: the missed minima are near-ties.)
 //!
 //!   What it still misses is the lattice's doing, not the descent's: a descent ends at the first
 //!   point none of whose 8 neighbours is strictly cheaper, and the *sampled* cost can have several

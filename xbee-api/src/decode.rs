@@ -121,8 +121,8 @@ impl<'a> RawFrame<'a> {
     ///
     /// This and [`RawFrame::at_response`] and [`RawFrame::tx_status`] are the lean path for
     /// firmware: each reads only its own type, so a node that needs these three does not link
-    /// [`RawFrame::parse`] and its 64-bit address handling (the crate README has its AVR flash). Each
-    /// agrees with [`RawFrame::parse`] on every input (property-tested).
+    /// [`RawFrame::parse`] and its 64-bit address handling. Each agrees with [`RawFrame::parse`] on
+    /// every input (property-tested).
     pub fn rx16(&self) -> Option<Rx16<'a>> {
         match *self.data {
             [ty::RX16, hi, lo, rssi, options, ref data @ ..] => Some(Rx16 {
