@@ -1,4 +1,4 @@
-//! The Monte Carlo study behind `hoploc simulate` (SPEC §6): the thesis' localization study on the
+//! The Monte Carlo study behind `hoploc simulate`: the thesis' localization study on the
 //! loc-core f64 reference estimators, fast enough to rerun at will.
 //!
 //! # The study
