@@ -547,7 +547,7 @@ impl NotReport {
 
 /// A report checked in place: what [`Report::decode`] accepts (the same errors, the same
 /// order), its fields read from the bytes on demand. A sink needs only a few of a report's
-/// bytes once each; decoding into the 330-byte [`Report`] costs flash and stack on the AVR.
+/// bytes once each; decoding into a whole [`Report`] costs flash and stack on the AVR.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ReportView<'a> {
     buf: &'a [u8],
