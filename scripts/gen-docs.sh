@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates the study pages from `hoploc simulate --report` (release build; ~10 s on 2 cores):
-#   docs/study/README.md            the thesis study (SPEC §6): P0, α and σ known
+#   docs/study/README.md            the thesis study: P0, α and σ known
 #   docs/study/estimated/README.md  the same with P0/α/σ fitted per trial (--params estimated)
 # Each page records its own command line; the output is deterministic (same code, same bytes).
 set -euo pipefail

@@ -1,6 +1,6 @@
-//! The agent's logic, sans-IO (SPEC §4): follow the anchors' timeline, collect every beacon's
-//! RSSI, position and relay per anchor and channel, and send one report per superframe in its
-//! own report sub-slot on the sink channel.
+//! The agent's logic, sans-IO (`docs/design.md`, section 4): follow the anchors' timeline, collect
+//! every beacon's RSSI, position and relay per anchor and channel, and send one report per
+//! superframe in its own report sub-slot on the sink channel.
 //!
 //! [`Agent`] is fed the node's microsecond clock ([`Agent::poll`]), the beacons its radio
 //! receives ([`Agent::on_beacon`]) and the radio's TX status ([`Agent::on_tx_status`]), and
@@ -78,8 +78,8 @@ pub struct Agent {
     /// A report is out, waiting for its TX status.
     awaiting: bool,
     /// What this superframe's beacons said so far: the next report. (There is no copy of the
-    /// report being sent: the shell encodes it when asked, and a second 330-byte `Report` would
-    /// not fit the Uno's SRAM budget next to the radio driver.)
+    /// report being sent: the shell encodes it when asked, and a second `Report` would not fit
+    /// the Uno's SRAM budget next to the radio driver.)
     cur: Report,
 }
 

@@ -1,5 +1,6 @@
-//! The anchor's logic, sans-IO (SPEC §4): TDMA slots, channel hopping, sync on the time master
-//! with latency correction, takeover and hand-back, and the anchor-to-anchor RSSI relay.
+//! The anchor's logic, sans-IO (`docs/design.md`, section 4): TDMA slots, channel hopping, sync on
+//! the time master with latency correction, takeover and hand-back, and the anchor-to-anchor RSSI
+//! relay.
 //!
 //! [`Anchor`] is fed the node's microsecond clock ([`Anchor::poll`]) and the beacons its radio
 //! receives ([`Anchor::on_beacon`]), and answers with [`Action`]s: switch channel, send a beacon.

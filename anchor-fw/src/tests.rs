@@ -12,7 +12,7 @@ fn sched() -> Schedule {
 const LATENCY: u32 = 3_000;
 /// Simulation step, µs.
 const STEP: u32 = 100;
-/// Slot timing error allowed (issue 5: ≤ 1 ms).
+/// Slot timing error allowed: a beacon leaves within 1 ms of its scheduled time.
 const SLOT_ERROR: u64 = 1_000;
 
 /// A transmission: (global time, sender, seq, channel index).

@@ -1,4 +1,4 @@
-//! Emulation speed of the testbed (SPEC §8: a 6-node network ≥ 2× real time on 2 cores; how it
+//! Emulation speed of the testbed (the target: a 6-node network ≥ 2× real time on 2 cores; how it
 //! scales to 25 nodes), on proper testbeds built as `hoploc demo` builds them
 //! ([`hoploc::testbed::add_scenario`]: every node with its own config in EEPROM):
 //! * 6 nodes: room10 — 4 anchors, the agent and the sink firmware;

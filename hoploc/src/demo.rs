@@ -1,4 +1,5 @@
-//! `hoploc demo`: the emulated testbed (SPEC §7) running a scenario, and the boot timeline.
+//! `hoploc demo`: the emulated testbed (`docs/design.md`, section 8) running a scenario, and the
+//! boot timeline.
 //!
 //! [`run`] (`hoploc demo [SCENARIO]`): the scenario's anchors and agent as their real firmware in
 //! simavr on the modelled radio medium ([`crate::testbed`]), the agent moved along its path;

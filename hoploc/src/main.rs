@@ -20,7 +20,7 @@ enum Command {
     /// Run a testbed scenario on every node's real firmware in simavr with modelled XBee radios.
     ///
     /// The scenario's anchors (anchor-fw), agent (agent-fw) and sink (sink-fw) run in simavr on
-    /// the radio medium of SPEC §7, each with its config in EEPROM; the agent moves along the
+    /// the modelled radio medium, each with its config in EEPROM; the agent moves along the
     /// scenario's path. The sink firmware's lines give its fixes, shown live against the truth;
     /// at the end an RMSE/bias table per position and estimator (the sink's MLE and MMSE, and
     /// the host's references of the same reports: MLE-fixed with P0/α fixed, MLE-P0only with
@@ -49,7 +49,7 @@ enum Command {
         #[arg(long)]
         firmware_dir: Option<PathBuf>,
     },
-    /// Run the thesis' Monte Carlo localization study (SPEC §6) on the host estimators.
+    /// Run the thesis' Monte Carlo localization study on the host estimators.
     ///
     /// A 10 m × 10 m area (--area), anchors at its corners (3 and 4), the agent at 19 × 19
     /// points, 100 runs per point, σ = 2 and 4 dB, two channels with independent noise,

@@ -1,4 +1,4 @@
-//! Testbed scenarios (SPEC §7): a room, its anchors, the agent's path, the TDMA timing and the
+//! Testbed scenarios: a room, its anchors, the agent's path, the TDMA timing and the
 //! radio medium, read from a TOML file of `scenarios/` (documented field by field in
 //! `scenarios/README.md`). [`Scenario::load`] reads and checks one; every error names the file,
 //! the field and the problem.
@@ -41,7 +41,7 @@ pub struct Area {
     pub height_m: f64,
 }
 
-/// The nodes' TDMA timing (SPEC §4).
+/// The nodes' TDMA timing (`loc_proto::schedule`).
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Timing {

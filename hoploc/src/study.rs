@@ -1,4 +1,4 @@
-//! The Monte Carlo study behind `hoploc simulate` (SPEC §6): the thesis' localization study on the
+//! The Monte Carlo study behind `hoploc simulate`: the thesis' localization study on the
 //! loc-core f64 reference estimators, fast enough to rerun at will.
 //!
 //! # The study
@@ -539,7 +539,7 @@ impl Normal {
 // The lattice tables and the posterior kernel.
 
 /// Per anchor layout: `log10(d²)` from every anchor to every fine lattice point (loc-core's
-/// clamp at [`MIN_DISTANCE`]), anchor-major, padded to [`PADDED`].
+/// clamp at [`MIN_DISTANCE`]), anchor-major, padded to `PADDED`.
 pub struct Lattice {
     area: Area,
     n: usize,
@@ -627,7 +627,7 @@ impl Lattice {
         })
     }
 
-    /// The posterior mean with shadowing `sigma` (the MMSE estimate), `scratch` ≥ [`PADDED`]
+    /// The posterior mean with shadowing `sigma` (the MMSE estimate), `scratch` ≥ `PADDED`
     /// long. Falls back to loc-core's streaming [`grid::posterior_mean_lattice`] where the fast
     /// kernel does not apply (σ = 0, no finite cost).
     pub fn mmse(&self, obs: &Obs, sigma: f64, kernel: Kernel, scratch: &mut [f64]) -> Point {

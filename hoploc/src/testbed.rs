@@ -1,4 +1,4 @@
-//! The scenario runner of the emulated testbed (SPEC §7): a [`Scenario`] as a
+//! The scenario runner of the emulated testbed (`docs/design.md`, section 8): a [`Scenario`] as a
 //! [`simavr::network::Network`] of real firmware — every anchor runs `anchor-fw` and the agent
 //! `agent-fw`, each with its config in EEPROM as `hoploc provision` would write it, on the
 //! scenario's medium — with the agent moved along its path, and the sink's output lines
@@ -632,7 +632,7 @@ struct LoggedBeacon {
 }
 
 /// Beacon and report traffic of one testbed, counted from the network's TX log
-/// ([`simavr::network::TxRecord`] with its per-receiver outcomes): SPEC §8's delivery figures.
+/// ([`simavr::network::TxRecord`] with its per-receiver outcomes): the testbed's delivery figures.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Traffic {
     /// Beacons the anchors put on air.

@@ -556,7 +556,7 @@ fn the_sink_firmware_writes_what_the_host_sink_computes() {
     assert_eq!(status.5, status.1, "{status:?}");
 }
 
-/// Two agents side by side (SPEC §4: each reports in its own sub-slot) with the sink firmware,
+/// Two agents side by side (each reports in its own sub-slot) with the sink firmware,
 /// noise-free: both are located every superframe, each near its own position, and the sink
 /// counts no report missing.
 #[test]

@@ -1,4 +1,4 @@
-//! Host baseline algorithms (SPEC §5): trilateration, quadlateration and MDS-MAP.
+//! Host baseline algorithms: trilateration, quadlateration and MDS-MAP.
 //!
 //! The baselines work on anchor positions and **distance estimates** in metres (the caller turns
 //! RSSI into distance with [`PathLoss::distance`](crate::PathLoss::distance)), so they are

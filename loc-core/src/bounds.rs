@@ -1,4 +1,4 @@
-//! Performance bounds reported next to the estimators (SPEC §5).
+//! Performance bounds reported next to the estimators.
 //!
 //! * [`crlb`]: the Cramér–Rao lower bound for RSS localization with known anchors (Patwari et al.,
 //!   IEEE TSP 2003): Fisher information `F = C·b·Σ uᵢuᵢᵀ/dᵢ²`, `b = (10α/(σ·ln 10))²`, `uᵢ` the

@@ -1,4 +1,4 @@
-//! Position estimation on a grid (SPEC §5): the thesis' coarse-to-fine maximum-likelihood search
+//! Position estimation on a grid: the thesis' coarse-to-fine maximum-likelihood search
 //! and the posterior-mean (MMSE) estimate.
 //!
 //! The cost of a position `x` is `C(x) = Σ wᵢ (zᵢ − p(|x − aᵢ|))²` over the
@@ -14,16 +14,16 @@
 //!
 //! * [`Search::Thesis`]: coarse 11 × 11, then the fine lattice within ± one coarse step (± 5 fine
 //!   steps) of the coarse winner, clipped to the area: at most 121 + 121 = 242 cost evaluations.
-//! * [`Search::MultiStart`] (the improvement SPEC §5 invites): the same coarse grid, then a
+//! * [`Search::MultiStart`] (an improvement on the thesis search): the same coarse grid, then a
 //!   steepest descent over the 8 fine-lattice neighbours from each of the four best coarse points,
-//!   the best end point winning; never more than the thesis' 242 evaluations (a descent stops
-//!   when the budget is spent). The thesis search fails when the fine minimum's coarse cell is not
-//!   the coarse winner's neighbour: near edges and anchors the cost changes fastest, so one coarse
+//!   the best end point winning; never more than the thesis' 242 evaluations (a descent stops when
+//!   the budget is spent). The thesis search fails when the fine minimum's coarse cell is not the
+//!   coarse winner's neighbour: near edges and anchors the cost changes fastest, so one coarse
 //!   sample represents its cell worst there, and along the edge between two anchors the cost is
-//!   often bimodal. Measured on the SPEC §6 layouts (3 and 4 anchors, σ = 2…6 dB, 1–2 channels,
-//!   also 6 × 4 m and 30 × 30 m): the thesis search misses the fine-lattice minimum in 0.3–2.1 %
-//!   of trials, multi-start in 0.006–0.24 %, spending ~201–213 evaluations on average against
-//!   ~213–230. (The RMSE barely moves: the missed minima are near-ties.)
+//!   often bimodal. Measured on the thesis study's layouts (3 and 4 anchors, σ = 2…6 dB, 1–2
+//!   channels, also 6 × 4 m and 30 × 30 m): the thesis search misses the fine-lattice minimum in
+//!   0.3–2.1 % of trials, multi-start in 0.006–0.24 %, spending ~201–213 evaluations on average
+//!   against ~213–230. (The RMSE barely moves: the missed minima are near-ties.)
 //!
 //!   What it still misses is the lattice's doing, not the descent's: a descent ends at the first
 //!   point none of whose 8 neighbours is strictly cheaper, and the *sampled* cost can have several
@@ -36,7 +36,7 @@
 //!   the corner anchor), but (0.8, 0.8) (0.323, 1.131 m) is a pit too, separated by (0.6, 1.0)
 //!   (0.326, 1.166 m); the four best coarse points descend to (0, 1.2) and (0.8, 0.8), so the
 //!   search returns (0.8, 0.8), 0.36 m from the truth. The same happens at that point's seven
-//!   mirror images (8 of the 361 SPEC §6 points; at σ = 0.01 dB 7–8 of them). A plain full
+//!   mirror images (8 of the study's 361 points; at σ = 0.01 dB 7–8 of them). A plain full
 //!   8-neighbour descent from the same four starts ends at the same points
 //!   (`multi_start_misses_are_lattice_pits` in tests/estimator.rs).
 //! * [`Search::Exhaustive`]: all 51 × 51 fine points (2 601 evaluations): the true lattice MLE, the
@@ -56,8 +56,9 @@
 //! two agree when the posterior's mass lies inside it (σ small against the cost's curvature around
 //! the minimum), and the windowed one is pulled towards the window's centre otherwise (one noisy
 //! trial in the 10 m room with 4 anchors: 1 µm apart at σ = 0.5 dB, 9 mm at 1 dB, 0.27 m at
-//! 3 dB; see tests/estimator.rs). Its smallest-cost point is the thesis MLE. The fixed-point path ([`crate::fixed`]) and the f32 port
-//! of the MCU benchmark (`mcu-bench`) run this same algorithm.
+//! 3 dB; see tests/estimator.rs). Its smallest-cost point is the thesis MLE. The fixed-point
+//! path ([`crate::fixed`]) and the f32 port of the MCU benchmark (`mcu-bench`) run this same
+//! algorithm.
 
 use crate::model::{Area, Measurements, PathLoss, Point, MAX_ANCHORS, MIN_DISTANCE};
 use crate::refine::{observations, Observations, Refinement};

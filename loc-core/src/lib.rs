@@ -1,5 +1,5 @@
-//! Localization core of hoploc (SPEC §5): everything between "RSSI values per anchor and channel"
-//! and "a position".
+//! Localization core of hoploc (`docs/design.md`, section 5): everything between "RSSI values per
+//! anchor and channel" and "a position".
 //!
 //! * [`model`]: the log-normal path-loss model, geometry ([`Point`], [`Area`]) and the
 //!   measurement set ([`Anchor`], [`Measurements`]).

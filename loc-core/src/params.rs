@@ -1,4 +1,4 @@
-//! Path-loss parameter (P0, α) estimation from anchor-to-anchor RSSI (SPEC §5).
+//! Path-loss parameter (P0, α) estimation from anchor-to-anchor RSSI.
 //!
 //! Anchors know their mutual distances, so every anchor-to-anchor RSSI `a2a[i][j][c]` (`i ≠ j`) is a
 //! calibration sample `z = P0 + α·x` with `x = −10·log10(d_ij)`: the model is linear in `(P0, α)`.

@@ -1,4 +1,4 @@
-//! Channel refinements (SPEC §5): how one anchor's per-channel RSSI becomes what the position
+//! Channel refinements: how one anchor's per-channel RSSI becomes what the position
 //! estimators see.
 //!
 //! Every refinement turns an anchor into at most one [`Obs`] (position, value `z`, weight `w`); the

@@ -1,4 +1,4 @@
-//! The host baselines (SPEC §5): trilateration, quadlateration, MDS-MAP.
+//! The host baselines: trilateration, quadlateration, MDS-MAP.
 
 use loc_core::baselines::{mds_map, quadlaterate, trilaterate, Baseline, DEGENERATE_TOL};
 use loc_core::{Area, LocError, Point, MAX_ANCHORS};

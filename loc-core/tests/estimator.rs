@@ -297,7 +297,7 @@ fn multi_start_misses_are_lattice_pits() {
     }
     assert_eq!(plain_multi_start(&c), (4, 4, ms.cost));
 
-    // Everywhere else too: on the SPEC §6 points, noise-free and noisy, 3 and 4 anchors, the
+    // Everywhere else too: on the thesis study's points, noise-free and noisy, 3 and 4 anchors, the
     // search (ranking, shortcut descent, shared budget) ends where the plain reference does
     // whenever it did not run out of budget, and every miss of the lattice minimum is such an end.
     let mut rng = Rng(0xd15c);

@@ -1,5 +1,6 @@
-//! The fixed-point MCU path against the f64 reference (SPEC §5: the same algorithm within 1 cm on
-//! at least 99 % of trials) and its robustness on extreme input.
+//! The fixed-point MCU path against the f64 reference (the design's requirement: the same
+//! algorithm within 1 cm on at least 99 % of trials, `docs/design.md` section 5) and its
+//! robustness on extreme input.
 //!
 //! Every trial quantises the RSSI to whole −dBm bytes as the XBee does and feeds the *same* bytes,
 //! anchor positions (whole cm) and area (whole cm) to both paths: the reference gets them as f64

@@ -114,7 +114,7 @@ impl core::error::Error for Error {}
 /// CRC-16/CCITT-FALSE (polynomial 0x1021, initial value 0xFFFF, no reflection, no final XOR;
 /// check value of `"123456789"` is 0x29B1), a byte at a time without a table: the byte-wise
 /// form of the bit loop (x = the top byte ^ the data byte, folded once by its high nibble; then
-/// crc = crc << 8 ^ x << 12 ^ x << 5 ^ x), a few dozen bytes of flash and no inner loop.
+/// crc = crc << 8 ^ x << 12 ^ x << 5 ^ x): little flash and no inner loop.
 pub fn crc16(data: &[u8]) -> u16 {
     // On the two bytes apart (8-bit shifts only): hi' = lo ^ x << 4 ^ x >> 3, lo' = x << 5 ^ x.
     let mut crc = 0xFFFFu16;

@@ -52,7 +52,8 @@ pub const fn xbee_channel(n: u8) -> Option<u8> {
     }
 }
 
-/// The default channel list (testbed channels 1 and 12) and sink channel (3) of SPEC §4.
+/// The default channel list: testbed channels 1 and 12, as in the thesis (`docs/design.md`,
+/// section 2).
 pub const DEFAULT_CHANNELS: [u8; 2] = [1, 12];
 /// The default sink channel (testbed channel 3).
 pub const DEFAULT_SINK_CHANNEL: u8 = 3;

@@ -89,7 +89,7 @@ impl ChannelList {
     /// The list of `channels`, or why it is not one: [`Field::ChannelCount`] if empty or longer
     /// than 4, [`Field::Channel`] outside 1…16, [`Field::DuplicateChannel`]. Always inlined: out
     /// of line its result comes back through memory on AVR; inlined into the config decoder
-    /// (each firmware's one caller) it is 190 B less flash.
+    /// (each firmware's one caller) it is less flash.
     #[inline(always)]
     pub const fn new(channels: &[u8]) -> Result<ChannelList, Error> {
         if channels.is_empty() || channels.len() > MAX_CHANNELS {
@@ -194,7 +194,7 @@ impl<'a> Writer<'a> {
         Writer { buf, at: 0 }
     }
     /// Never inlined: an encoder writes a dozen fields, each inlined copy of the bounds check
-    /// costs ≈ 20 B of AVR flash.
+    /// would be AVR flash of its own.
     #[inline(never)]
     pub(crate) fn u8(&mut self, b: u8) {
         if let Some(s) = self.buf.get_mut(self.at) {
@@ -547,7 +547,7 @@ impl NotReport {
 
 /// A report checked in place: what [`Report::decode`] accepts (the same errors, the same
 /// order), its fields read from the bytes on demand. A sink needs only a few of a report's
-/// bytes once each; decoding into the 330-byte [`Report`] costs flash and stack on the AVR.
+/// bytes once each; decoding into a whole [`Report`] costs flash and stack on the AVR.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ReportView<'a> {
     buf: &'a [u8],
@@ -580,7 +580,7 @@ impl<'a> ReportView<'a> {
             return Err(bad(Field::ChannelCount));
         }
         // `ChannelList::new`'s checks in its order (the count is checked), with a bit per
-        // channel for the duplicates: 108 B less AVR flash than its nested loops.
+        // channel for the duplicates: less AVR flash than its nested loops.
         let mut seen = 0u16;
         for &ch in buf.get(9..9 + c).ok_or(Error::BadLength)? {
             if !(1..=MAX_CHANNEL).contains(&ch) {
@@ -625,8 +625,7 @@ impl<'a> ReportView<'a> {
     /// where it gives one, else only whether the frame is [`NotReport::Foreign`] (what `parse`
     /// calls [`Error::BadMagic`], [`Error::BadVersion`] or [`Error::BadKind`]) or
     /// [`NotReport::Corrupt`] (any other error). With no error order to keep, the checks fold
-    /// into one condition: the sink firmware's parser, 86 B less AVR flash than `parse` (408 B
-    /// with its helper, against 494 B).
+    /// into one condition: the sink firmware's parser, less AVR flash than `parse`.
     #[inline(never)]
     pub fn accept(buf: &'a [u8]) -> Result<ReportView<'a>, NotReport> {
         use NotReport::{Corrupt, Foreign};

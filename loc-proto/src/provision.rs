@@ -156,7 +156,7 @@ pub fn answer(outcome: Result<Config, Error>, role: Role) -> (Reply, Option<Conf
 }
 
 /// The parser's buffer: a whole frame, rounded up to a power of two so that an index masked
-/// with `BUF - 1` needs no bounds check (on AVR each costs dozens of bytes of flash).
+/// with `BUF - 1` needs no bounds check (on AVR each is a compare and a branch to the panic path).
 const BUF: usize = 32;
 const _: () = assert!(MAX_FRAME <= BUF && 5 + MAX_LEN <= BUF && BUF.is_power_of_two());
 
@@ -269,7 +269,7 @@ impl ProvisionParser {
     /// One more broken frame (saturating). Never inlined: the node's parser counts in two places.
     #[inline(never)]
     fn count(&mut self) {
-        // (10 B less AVR code than `saturating_add`.)
+        // (Less AVR code than `saturating_add`.)
         #[allow(clippy::implicit_saturating_add)]
         if self.errors != u16::MAX {
             self.errors += 1;
@@ -291,8 +291,8 @@ impl ProvisionParser {
         // needed), a whole frame with a good CRC (return it), or not a frame: none at all
         // (skip silently) or a broken one (bad version, length or CRC). The delimiter, then
         // the version, one byte at a time as far as they have come. Written as one block of
-        // early exits, not a step function returning a verdict to dispatch on: on AVR the
-        // verdict was materialised and matched again.
+        // early exits, not a step function returning a verdict to dispatch on: on AVR such a
+        // verdict is materialised and then matched again.
         let out = 'scan: loop {
             let broken = 'check: {
                 if at(&self.buf, 0) != DELIMITER[0] {

@@ -1,4 +1,4 @@
-//! The TDMA superframe (SPEC §4): when each anchor beacons, on which channel, and when each agent
+//! The TDMA superframe: when each anchor beacons, on which channel, and when each agent
 //! reports — the timing every node derives from the same config, defined once.
 //!
 //! A superframe is, for each channel of the channel list in order, a *channel phase* of `N`
@@ -219,10 +219,10 @@ pub const RADIO_RX_LATENCY_US: u32 = 200;
 /// How long after its scheduled transmit time a beacon of a network of `anchors` anchors reaches
 /// a receiver's MCU, µs: the TX16 frame over the sender's UART (frame delimiter, length, API id,
 /// frame id, destination, options and checksum around the payload: 9 + 13 + N bytes), the
-/// best-case time on air (0.928 ms + 32 µs per payload byte, SPEC §1), the receiving radio's
-/// latency, and the RX frame's first byte (the receiver stamps a frame when its 0x7E has
-/// arrived, `uno_board::rx_frame_start_us`). Escaped bytes add 174 µs each (rare: positions
-/// and RSSI bytes seldom equal 0x11, 0x13, 0x7D or 0x7E).
+/// best-case time on air (0.928 ms + 32 µs per payload byte, `docs/design.md` section 2), the
+/// receiving radio's latency, and the RX frame's first byte (the receiver stamps a frame when
+/// its 0x7E has arrived, `uno_board::rx_frame_start_us`). Escaped bytes add 174 µs each (rare:
+/// positions and RSSI bytes seldom equal 0x11, 0x13, 0x7D or 0x7E).
 pub const fn beacon_latency_us(anchors: u8) -> u32 {
     let payload = crate::msg::Beacon::BASE_LEN as u32 + anchors as u32;
     let frame = payload + 9;
@@ -260,7 +260,7 @@ impl Schedule {
 pub const SILENT_SUPERFRAMES: u8 = 3;
 
 /// A node's copy of the testbed's timeline: where superframe `seq` starts on the local clock,
-/// and who the time master is (SPEC §4). Anchors and agents follow it the same way: the master
+/// and who the time master is. Anchors and agents follow it the same way: the master
 /// is the lowest anchor id heard in the last [`SILENT_SUPERFRAMES`] superframes (or the node
 /// itself, for an anchor, if lower), and each of the master's beacons re-aligns the timeline:
 /// its transmit time in the schedule, less the radio latency, is taken as exact.

@@ -1,3 +1,6 @@
+//! A debugging aid for the column kernel's harness: prints the host digest of every `checkasm`
+//! case (`mcu_bench::checkasm::host_digest`, what the firmware's portable run must match) and the
+//! first jobs of the first case with their portable results. `cargo run -p mcu-bench --example hd`.
 use loc_core::fixed::{ColumnJob, ColumnKernel, Portable};
 use mcu_bench::checkasm::*;
 use mcu_bench::rng::Rng;

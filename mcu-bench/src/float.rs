@@ -1,9 +1,9 @@
 //! The same estimate in plain `f32`: a straightforward port of loc-core's f64 reference
 //! ([`loc_core::params`] with [`FitMethod::LeastSquares`](loc_core::params::FitMethod), AR(1),
 //! [`loc_core::refine`]'s Extended refinement, [`loc_core::grid`]'s thesis search and windowed
-//! MMSE), the yardstick the fixed path must beat by ≥ 25× (SPEC §8).
+//! MMSE), the yardstick the fixed path must beat by ≥ 25× (`docs/design.md`, section 6).
 //!
-//! On the AVR, `log10`, `exp` and `sqrt` are avr-libc's ([`uno_board::libm`]); on the host, std's.
+//! On the AVR, `log10`, `exp` and `sqrt` are avr-libc's (`uno_board::libm`); on the host, std's.
 //! It does what the reference does, with three exact economies the fixed path also makes, so the
 //! comparison is with a sensible f32 program and not a strawman: one `log10` per anchor pair (not
 //! per sample), `log10(d²)` instead of a square root per distance, and the fine window skips the

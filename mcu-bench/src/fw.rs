@@ -28,8 +28,8 @@ pub fn start() -> Serial {
 }
 
 /// Writes `end`, waits until it has left and stops: the MCU sleeps with interrupts off, where
-/// simavr ends the run ("done"). Inlined: out of line it changed how LLVM laid out the bench's
-/// `main` (est-fixed's stack peak +82 B), which the bench measures.
+/// simavr ends the run ("done"). Inlined: out of line it changes how LLVM lays out the bench's
+/// `main` (and so est-fixed's stack peak, which the bench measures).
 #[inline(always)]
 pub fn end(serial: &mut Serial) -> ! {
     serial.write_bytes(b"end\n");

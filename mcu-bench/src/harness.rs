@@ -89,7 +89,8 @@ pub struct Run {
 }
 
 impl Run {
-    /// Cycles of each phase of [`PHASES`] (between consecutive markers, overhead included).
+    /// Cycles of each phase of [`PHASES`](crate::PHASES) (between consecutive markers, overhead
+    /// included).
     pub fn phases(&self) -> Vec<u64> {
         self.marks.windows(2).map(|w| w[1] - w[0]).collect()
     }

@@ -1,5 +1,5 @@
 //! The check firmwares' random inputs: xorshift32, the same sequence on the MCU and on the host
-//! (the host recomputes `report-check`'s reports from its seeds).
+//! (the host recomputes `checkasm`'s jobs from their seeds).
 
 /// One step of xorshift32.
 #[inline(always)]

@@ -287,7 +287,7 @@ extern "C" {
 /// Installs (once per process) a logger that drops simavr's chatter: messages logged without a
 /// core (`avr == NULL`, e.g. the ELF loader's "Loaded N bytes…" debug lines, which simavr's
 /// default logger prints whatever the level) are kept only at error level; messages of a core
-/// follow that core's level, as before. x86_64 only, where the bindings give `va_list` as a
+/// follow that core's level, as with simavr's own logger. x86_64 only, where the bindings give `va_list` as a
 /// pointer that can be handed on to `vfprintf`; elsewhere simavr's default logger stays.
 fn install_logger() {
     #[cfg(target_arch = "x86_64")]

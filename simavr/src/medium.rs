@@ -1,8 +1,8 @@
-//! The radio medium of the emulated testbed (SPEC §7), sans IO: it is told the packets that go
-//! on air ([`Medium::transmit`]) and, once every node has simulated up to a packet's end, says
-//! who heard it at which level ([`Medium::resolve`]). It never looks at a clock; time is
-//! simulated cycles at [`crate::F_CPU`], as everywhere in this crate. [`crate::network`] drives
-//! it with real firmwares.
+//! The radio medium of the emulated testbed (`docs/design.md`, section 8), sans IO: it is told the
+//! packets that go on air ([`Medium::transmit`]) and, once every node has simulated up to a
+//! packet's end, says who heard it at which level ([`Medium::resolve`]). It never looks at a clock;
+//! time is simulated cycles at [`crate::F_CPU`], as everywhere in this crate. [`crate::network`]
+//! drives it with real firmwares.
 //!
 //! # The model
 //!
@@ -13,8 +13,9 @@
 //! ```
 //!
 //! * `P0` ([`MediumConfig::p0_dbm`], −40 dBm) at `d0` = 1 m and the path-loss exponent `α`
-//!   ([`MediumConfig::alpha`], 3) are the log-normal shadowing model of SPEC §5. `d` is the
-//!   distance in metres, at least [`MediumConfig::min_distance_m`] (co-located nodes).
+//!   ([`MediumConfig::alpha`], 3) are the estimator's log-normal shadowing model
+//!   (`docs/design.md`, section 5). `d` is the distance in metres, at least
+//!   [`MediumConfig::min_distance_m`] (co-located nodes).
 //! * `drift(t)`: battery droop lowers the *sender's* TX power linearly in time,
 //!   [`MediumConfig::drift_db_per_min`] for every node plus [`NodeRadio::drift_db_per_min`] of
 //!   the sender, counted from [`MediumConfig::drift_start_ms`] and taken at the packet's start

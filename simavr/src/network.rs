@@ -5,15 +5,15 @@
 //! # Lockstep
 //!
 //! Every node keeps its own simulated clock; [`Network`] advances them together in quanta of at
-//! most [`MAX_QUANTUM`] cycles, the shortest possible time on air (0.928 ms, SPEC §1). After
-//! each quantum it takes the packets every radio put on air and hands them to the medium. A
-//! packet is taken no later than the end of the quantum in which its radio accepted it, and it
-//! ends at least one time on air later, so it is always known before any node simulates past
-//! its end. The next quantum boundary is also never later than the end of the earliest packet
-//! still on air, so when the network stops there every packet that starts before that end is
-//! known too (collisions are decided exactly, see [`crate::medium`]) and no receiver has passed
-//! it: the medium's verdicts are delivered at the packet's exact end cycle (an [`Avr`] may end a
-//! run one instruction past its target, so at most a few cycles late).
+//! most [`MAX_QUANTUM`] cycles, the shortest possible time on air (0.928 ms, an empty payload).
+//! After each quantum it takes the packets every radio put on air and hands them to the medium. A
+//! packet is taken no later than the end of the quantum in which its radio accepted it, and it ends
+//! at least one time on air later, so it is always known before any node simulates past its end.
+//! The next quantum boundary is also never later than the end of the earliest packet still on air,
+//! so when the network stops there every packet that starts before that end is known too
+//! (collisions are decided exactly, see [`crate::medium`]) and no receiver has passed it: the
+//! medium's verdicts are delivered at the packet's exact end cycle (an [`Avr`] may end a run one
+//! instruction past its target, so at most a few cycles late).
 //!
 //! # Threads
 //!

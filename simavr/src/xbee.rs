@@ -31,18 +31,17 @@
 //!   persisted, a power cycle ([`XBee::reset`]) or `FR` restores the persisted set, `RE`
 //!   loads factory defaults into the active set. Registers without modelled behaviour (sleep,
 //!   I/O, encryption, MAC mode) are stored and answered only.
-//! * **API mode** (`AP`=1, 2): frames decoded with [`xbee_api::Decoder`] in the current mode.
-//!   0x08 AT command → 0x88 response with the same frame id ([`XBeeConfig::at_latency_ms`],
-//!   default 1 ms, after the frame's end; none for frame id 0) and the change applied at once:
-//!   `CH`, `AP` (the response still goes out in the old mode) and `BD` (the UART switches once
-//!   the response is on the line). 0x09 is checked and answered but applied only with the next
-//!   0x08 or `AC`. TX16 (0x01) / TX64 (0x00) → a [`Transmission`] on air for
-//!   [`time_on_air_ms`] (SPEC §1 best case, after an optional CSMA backoff [`Csma`];
-//!   transmissions queue behind each other) and, for a frame id ≠ 0, a 0x89 TX status SUCCESS
-//!   when it is off the air. Payloads over 100 bytes are refused: no transmission, no status
-//!   (counted in [`XBeeStats::oversize_tx`]). Modem status 0x8A (hardware reset) goes out
-//!   [`XBeeConfig::power_up_ms`] (default 5 ms) after power-up; host bytes before then are
-//!   lost.
+//! * **API mode** (`AP`=1, 2): frames decoded with [`xbee_api::Decoder`] in the current mode. 0x08
+//!   AT command → 0x88 response with the same frame id ([`XBeeConfig::at_latency_ms`], default 1
+//!   ms, after the frame's end; none for frame id 0) and the change applied at once: `CH`, `AP`
+//!   (the response still goes out in the old mode) and `BD` (the UART switches once the response is
+//!   on the line). 0x09 is checked and answered but applied only with the next 0x08 or `AC`. TX16
+//!   (0x01) / TX64 (0x00) → a [`Transmission`] on air for [`time_on_air_ms`] (the best case of the
+//!   XBee's figures, after an optional CSMA backoff [`Csma`]; transmissions queue behind each
+//!   other) and, for a frame id ≠ 0, a 0x89 TX status SUCCESS when it is off the air. Payloads over
+//!   100 bytes are refused: no transmission, no status (counted in [`XBeeStats::oversize_tx`]).
+//!   Modem status 0x8A (hardware reset) goes out [`XBeeConfig::power_up_ms`] (default 5 ms) after
+//!   power-up; host bytes before then are lost.
 //! * **Transparent mode** (`AP`=0): host bytes are RF payload to `DH:DL`, sent after `RO`
 //!   character times of silence or at 100 bytes; received payloads go to the host bare.
 //! * **Command mode**: `GT` of silence, three `CC` characters (`+`), each within `GT` of the

@@ -55,7 +55,7 @@ pub fn measurements(r: &Report) -> Measurements {
 }
 
 /// What [`Sink::on_report`] reads of a report: a decoded [`Report`] (host, tests) or a
-/// [`ReportView`] over its bytes (the firmware: no 330-byte copy).
+/// [`ReportView`] over its bytes (the firmware: no copy of the report).
 pub trait ReportData {
     /// The reporting agent.
     fn agent(&self) -> u8;
@@ -216,9 +216,9 @@ impl From<NotReport> for BadFrame {
     }
 }
 
-/// The room of a sink whose config `position` is `p` (SPEC §4: the sink's position is the room's
-/// size, cm): `Some` area `[0, x] × [0, y]` when both are positive, else `None` — the room is
-/// then the anchors' bounding box from the origin, per report ([`anchors_box`]).
+/// The room of a sink whose config `position` is `p` (a sink's position is the room's size, cm:
+/// see `loc_proto::config`): `Some` area `[0, x] × [0, y]` when both are positive, else `None` —
+/// the room is then the anchors' bounding box from the origin, per report ([`anchors_box`]).
 pub fn room(p: Position) -> Option<AreaCm> {
     (p.x > 0 && p.y > 0).then(|| AreaCm::new(p.x as u16, p.y as u16))
 }

@@ -57,8 +57,8 @@ fn run(node: &mut uno_board::Node) -> ! {
         // Each packet handled where the driver decoded it: the report read in place, its lines
         // written on the serial port the poll lends beside it.
         while node::poll(radio, |ev, serial| {
-            // Fed per packet too: reports arriving faster than the sink handles them (≈ 70 ms
-            // each) keep this loop busy for longer than the watchdog's 1 s.
+            // Fed per packet too: reports arriving faster than the sink handles them keep this
+            // loop busy for longer than the watchdog's 1 s.
             watchdog.feed();
             if let Event::Packet { data, .. } = ev {
                 match ReportView::accept(data) {

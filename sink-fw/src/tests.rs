@@ -345,7 +345,7 @@ fn reports_go_the_same_way_as_their_measurements() {
     assert!(views > 500, "{views}");
 }
 
-/// `centi` is the 64-bit rounding it replaces, on the edges and across the whole range of α
+/// `centi` is the plain 64-bit rounding, on the edges and across the whole range of α
 /// (Q.24) and P0 (Q.16) a sink can hold.
 #[test]
 fn hundredths_are_the_64_bit_rounding() {

@@ -1,6 +1,6 @@
 //! The agent firmware in simavr on a modelled XBee (API mode 2 at 57600), with the beacons of
 //! four scripted anchors delivered to its radio as a medium would: the exact reports it sends
-//! to the sink, on which channel and when (SPEC §4; issue 5: slot timing error ≤ 1 ms).
+//! to the sink, on which channel and when (slot timing error ≤ 1 ms).
 //!
 //! The firmware runs the build-time default config as agent 1: 4 anchors, channels [1, 12],
 //! 62 ms slots, sink channel 3 (`Schedule::for_config`: 620 ms superframes, report sub-slot 1

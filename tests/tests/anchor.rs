@@ -1,9 +1,9 @@
-//! The anchor firmware in simavr on a modelled XBee that is already in API mode 2 at 57600:
-//! the exact beacons it puts on air, on which channel, and when (SPEC §4; issue 5: slot timing
-//! error ≤ 1 ms), with beacons of other anchors delivered to its radio as a medium would.
+//! The anchor firmware in simavr on a modelled XBee that is already in API mode 2 at 57600: the
+//! exact beacons it puts on air, on which channel, and when (slot timing error ≤ 1 ms), with
+//! beacons of other anchors delivered to its radio as a medium would.
 //!
-//! The firmware runs its built-in config (built without `HOPLOC_*` variables): anchor 1 of 4, channels [1, 12], 62 ms slots
-//! (`Schedule::for_config`: 620 ms superframes).
+//! The firmware runs its built-in config (built without `HOPLOC_*` variables): anchor 1 of 4,
+//! channels [1, 12], 62 ms slots (`Schedule::for_config`: 620 ms superframes).
 
 use hoploc_tests::{beacon_packet, beacons_sent, boot, rx_frame_delivery};
 use loc_proto::config::Config;

@@ -1,9 +1,9 @@
 //! The MCU estimate benchmark's firmwares compute the right thing (not how fast: that is
 //! `cargo bench -p hoploc --bench mcu_estimate`): `est-fixed` and `est-portable` in simavr print
-//! exactly what `loc_core::fixed` computes on the host for the same inputs, `est-f32` what the same f32 code
-//! computes on the host and a position within one fine lattice step (20 cm) of the fixed path's,
-//! and `est-none` runs the same markers; and on the host, the f32 port and the fixed path against
-//! loc-core's f64 reference (thesis MLE, windowed MMSE).
+//! exactly what `loc_core::fixed` computes on the host for the same inputs, `est-f32` what the same
+//! f32 code computes on the host and a position within one fine lattice step (20 cm) of the fixed
+//! path's, and `est-none` runs the same markers; and on the host, the f32 port and the fixed path
+//! against loc-core's f64 reference (thesis MLE, windowed MMSE).
 
 use std::sync::OnceLock;
 

@@ -2,7 +2,7 @@
 //! network with a noise-free medium (`simavr::network`): the anchors find one timeline and
 //! beacon in their own slots (never two in one slot), the agent reports every superframe, and
 //! when anchor 1 is powered off anchor 2 takes over on the same slots, and hands back when
-//! anchor 1 returns (SPEC §4).
+//! anchor 1 returns (`loc_proto::schedule::Timeline`).
 
 use hoploc_tests::firmware_elf;
 use loc_proto::config::Config;
@@ -14,11 +14,11 @@ use simavr::medium::{Medium, MediumConfig, NodeRadio};
 use simavr::network::{Network, NodeSpec, TxRecord};
 
 const CORNERS: [[i16; 2]; 4] = [[0, 0], [1000, 0], [1000, 1000], [0, 1000]];
-/// Slot timing error allowed between two anchors, ms: the firmware's 1 ms (issue 5, asserted
-/// with real-hardware UART timing in tests/anchor.rs and tests/agent.rs), plus what simavr's
-/// UART adds here: it counts 11 bit times per byte (SPEC §9), 192.5 µs at the AVR's 57 143 baud
-/// against the 173.6 µs the beacon latency assumes, over the 26-byte TX frame and the RX frame's
-/// delimiter (0.51 ms). Measured: followers 0.89 ms behind anchor 1's slots (1.10 ms once).
+/// Slot timing error allowed between two anchors, ms: the firmware's 1 ms (asserted with
+/// real-hardware UART timing in tests/anchor.rs and tests/agent.rs), plus what simavr's UART adds
+/// here: it counts 11 bit times per byte (`simavr::Avr::uart_cycles_per_byte`), 192.5 µs at the
+/// AVR's 57 143 baud against the 173.6 µs the beacon latency assumes, over the 26-byte TX frame
+/// and the RX frame's delimiter (0.51 ms).
 const SLOT_ERROR_MS: f64 = 1.0 + 27.0 * (0.1925 - 0.1736);
 
 fn config(role: Role, id: u8, position: [i16; 2]) -> Vec<u8> {

@@ -1,6 +1,6 @@
 //! The UART's receive ring (uno-board `serial`: the RX interrupt's push and `try_read`'s pop)
 //! with a backlog: the sink firmware in simavr on a modelled XBee gets a second report while it
-//! is still busy with the first (≈ 70 ms: its lines over the UART and the estimate), so the
+//! is still busy with the first (its lines over the UART and the estimate), so the
 //! second report's whole frame waits in the 128-byte ring and is read from it in one go, its
 //! read index passing the ring's wrap points with bytes still waiting. Both reports must come
 //! out intact: their `report` lines hold their very bytes, and their fixes are what the host

@@ -1,37 +1,37 @@
 //! Board layer for the Arduino Uno (ATmega328P @ 16 MHz) over [`avr-device`], in the manner of
-//! avr-hal's board crates: the peripherals the hoploc nodes use, set up once by [`Board::take`].
+//! avr-hal's board crates: the peripherals the hoploc nodes use, set up once by `Board::take`.
 //!
-//! * [`Serial`]: USART0 (pins D0/D1, the XBee and the USB serial) at 57600 8N1 by default,
+//! * `Serial`: USART0 (pins D0/D1, the XBee and the USB serial) at 57600 8N1 by default,
 //!   interrupt-driven RX into a [`RX_BUFFER_SIZE`]-byte ring, blocking or non-blocking TX,
-//!   [`Serial::set_baud`] for radio bring-up; it implements the `embedded-hal-nb` 1.0 serial
+//!   `Serial::set_baud` for radio bring-up; it implements the `embedded-hal-nb` 1.0 serial
 //!   traits and `xbee_api::driver::SetBaud`, which is all `xbee-api`'s driver needs.
-//! * Timer0: a 1 ms tick and the clocks [`now_ms`] and [`now_us`]; [`Delay`] (embedded-hal 1.0
-//!   `DelayNs`) and [`SysClock`] (`xbee_api::driver::Clock`).
-//! * [`Led`] on D13, an embedded-hal 1.0 `OutputPin` and `StatefulOutputPin`, and
-//!   [`blink_code`] for error codes.
-//! * [`Eeprom`] (1 KB), [`Watchdog`] and [`reset`]; [`sleep_unless`] (idle mode, interrupts
+//! * Timer0: a 1 ms tick and the clocks `now_ms` and `now_us`; `Delay` (embedded-hal 1.0
+//!   `DelayNs`) and `SysClock` (`xbee_api::driver::Clock`).
+//! * `Led` on D13, an embedded-hal 1.0 `OutputPin` and `StatefulOutputPin`, and
+//!   `blink_code` for error codes.
+//! * `Eeprom` (1 KB), `Watchdog` and `reset`; `sleep_unless` (idle mode, interrupts
 //!   keep running).
 //! * State shared with the interrupt handlers lives in `avr_device::interrupt::Mutex`es and is
 //!   touched inside critical sections only.
 //!
-//! On top of the board, what every node does at boot, in one routine, [`boot`]: the boot line,
-//! the node config ([`load_config`]: the provisioning window on the UART, then the config in
+//! On top of the board, what every node does at boot, in one routine, `boot`: the boot line,
+//! the node config (`load_config`: the provisioning window on the UART, then the config in
 //! EEPROM or the firmware's built-in one, or a config error the node does not run with), the
-//! radio bring-up ([`bring_up_radio`]: the xbee-api driver on [`Serial`], the
+//! radio bring-up (`bring_up_radio`: the xbee-api driver on `Serial`, the
 //! `loc_proto::line::BootLine` lines, the LED error code and the retry), the watchdog; and
-//! [`node`], what the node loops do with the radio.
+//! `node`, what the node loops do with the radio.
 //!
-//! Also here: [`libm`] (safe wrappers of avr-libc's `f32` `log10`/`exp`/`sqrt`, for the f32
+//! Also here: `libm` (safe wrappers of avr-libc's `f32` `log10`/`exp`/`sqrt`, for the f32
 //! benchmark in `mcu-bench`). With the default `panic-reset` feature the crate provides the
 //! `#[panic_handler]`: reset through the watchdog, no formatting.
 //!
-//! Everything AVR-specific is behind `cfg(target_arch = "avr")`: on the host the crate only has
-//! its portable, unit-tested parts ([`baud`], [`WdtTimeout`], [`eeprom_range`]), so the
-//! workspace builds and tests there.
+//! Everything AVR-specific is behind `cfg(target_arch = "avr")` (so these docs, built for the host,
+//! name those items without linking them): on the host the crate only has its portable, unit-tested
+//! parts ([`baud`], [`WdtTimeout`], [`eeprom_range`]), so the workspace builds and tests there.
 //!
 //! `unsafe` in uno-board is only for: register access from interrupt handlers, the timed write
 //! sequences (watchdog, EEPROM) and `SEI; SLEEP` in inline assembly, and the calls into
-//! avr-libc's float math ([`libm`]). Each use carries a `SAFETY` comment.
+//! avr-libc's float math (`libm`). Each use carries a `SAFETY` comment.
 //!
 //! [`avr-device`]: https://docs.rs/avr-device
 #![no_std]

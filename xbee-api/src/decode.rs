@@ -121,8 +121,8 @@ impl<'a> RawFrame<'a> {
     ///
     /// This and [`RawFrame::at_response`] and [`RawFrame::tx_status`] are the lean path for
     /// firmware: each reads only its own type, so a node that needs these three does not link
-    /// [`RawFrame::parse`] and its 64-bit address handling (about 1.4 KB of AVR flash). Each
-    /// agrees with [`RawFrame::parse`] on every input (property-tested).
+    /// [`RawFrame::parse`] and its 64-bit address handling. Each agrees with [`RawFrame::parse`] on
+    /// every input (property-tested).
     pub fn rx16(&self) -> Option<Rx16<'a>> {
         match *self.data {
             [ty::RX16, hi, lo, rssi, options, ref data @ ..] => Some(Rx16 {
@@ -199,7 +199,7 @@ pub(crate) enum Step {
 }
 
 /// Indices of the counters in [`Decoder::counts`] (one array, one increment function: on AVR
-/// every inlined saturating `u32` increment costs about 20 bytes of flash).
+/// a saturating `u32` increment is several instructions, better kept in one copy).
 const FRAMES: usize = 0;
 const BAD_CHECKSUM: usize = 1;
 const BAD_LENGTH: usize = 2;
@@ -210,7 +210,7 @@ const GARBAGE_BYTES: usize = 4;
 /// driver's) goes through this one function.
 #[inline(never)]
 pub(crate) fn count(counter: &mut u32) {
-    // Not `saturating_add` (68 B on AVR) nor `checked_add` (56 B): store unless it wrapped.
+    // Not `saturating_add` nor `checked_add`, both larger on AVR: store unless it wrapped.
     let n = counter.wrapping_add(1);
     if n != 0 {
         *counter = n;
@@ -407,12 +407,12 @@ impl<M: ApiMode> Decoder<M> {
     /// The frame [`Decoder::poll_len`] just reported as `len` bytes long.
     pub(crate) fn frame(&self, len: u8) -> RawFrame<'_> {
         // `len` is at most MAX_FRAME_DATA (the decoder checked it); the `min` spares the
-        // slice its bounds check (one compare where `get` took two and a select).
+        // slice its bounds check (one compare where `get` takes two and a select).
         RawFrame::new(&self.buf[2..2 + (len as usize).min(MAX_FRAME_DATA)])
     }
 
     /// [`Decoder::frame`] with `get` (empty for a `len` out of range): what [`crate::driver`]'s
-    /// `poll` hands out (in the nodes' receive loops this form came out smaller on AVR).
+    /// `poll` hands out (in the nodes' receive loops this form is the smaller on AVR).
     pub(crate) fn frame_checked(&self, len: u8) -> RawFrame<'_> {
         RawFrame::new(self.buf.get(2..2 + len as usize).unwrap_or(&[]))
     }

@@ -8,7 +8,8 @@
 //!
 //! * **No buffers beyond the decoder.** Frames are escaped and written byte by byte straight to
 //!   the UART ([`Radio::send`]), so the driver needs no TX buffer: its whole state is one
-//!   [`Decoder`] plus about 30 bytes, which matters on a 2 KB-SRAM ATmega328P.
+//!   [`Decoder`] plus a few frame ids, timestamps and counters, which matters on a 2 KB-SRAM
+//!   ATmega328P.
 //! * **Nothing blocks forever.** Every wait (AT response, TX status, guard times, a UART that
 //!   will not take a byte) is bounded by the [`Clock`]; [`Radio::poll`] returns as soon as the
 //!   UART has nothing more. A wait's `timeout_ms` counts at most 65 535 ms (a larger one waits
@@ -330,8 +331,8 @@ impl AtValue {
 
 /// `bytes` as a big-endian number of 1 to 4 bytes, if it is below 65 536 (what the driver's own
 /// queries need: every register it reads is 8 or 16 bits; 16-bit arithmetic is half the AVR
-/// code of 32-bit). Always inlined: its one firmware caller is `at_dyn` (18 B less AVR flash
-/// than out of line).
+/// code of 32-bit). Always inlined: its one firmware caller is `at_dyn` (less AVR flash than out
+/// of line).
 #[inline(always)]
 fn be_u16(bytes: &[u8]) -> Option<u16> {
     if !(1..=4).contains(&bytes.len()) {
@@ -468,7 +469,7 @@ pub struct Radio<S, C, M = Mode> {
 /// Why not return [`Error`] itself: rustc's AVR calling convention returns every value that
 /// is not one or two scalars through memory, and `Result<_, Error>` is such a value. With the
 /// error kept in the driver, `Result<(), Failed>`, `Result<u32, Failed>` and the like come back
-/// in registers: on the ATmega328P that saved hundreds of bytes of flash across the driver.
+/// in registers: on the ATmega328P no stack slot is written and read back at every `?`.
 #[derive(Clone, Copy, Debug)]
 struct Failed;
 
@@ -542,7 +543,7 @@ impl<S, C, M: ApiMode> Radio<S, C, M> {
 
     /// A fresh frame id: 1…255, wrapping, never 0 (0 asks the radio for no answer).
     pub fn next_frame_id(&mut self) -> u8 {
-        // `max(1)` of the wrapped sum: one compare (`checked_add`'s `Option` was two).
+        // `max(1)` of the wrapped sum: one compare (`checked_add`'s `Option` takes two).
         self.last_id = self.last_id.wrapping_add(1).max(1);
         self.last_id
     }
@@ -644,7 +645,7 @@ where
     /// latter build their few header bytes themselves, so firmware that only uses them does not
     /// link the serializer for every frame type. Not forced out of line: where several senders
     /// use it LLVM keeps one copy anyway, and where only `at_dyn` does (the sink's boot) it
-    /// folds in, 234 B less AVR flash.
+    /// folds in, which is less AVR flash.
     fn send_parts(&mut self, head: &[u8], rest: &[u8]) -> Result<(), Failed> {
         let len = head.len() + rest.len();
         // A TX64/TX16 request's frame id (0: no TX status wanted).
@@ -1047,7 +1048,7 @@ const AP_DIGIT: usize = 4;
 
 /// Advances the match `progress` of `pattern` (which has no proper prefix that is also a
 /// suffix) by `b`; true when the pattern is complete (it then starts over). Inlined: with
-/// constant patterns it folds to a few compares (86 B less AVR flash than one shared copy).
+/// constant patterns it folds to a few compares (less AVR flash than one shared copy).
 fn advance(progress: &mut u8, pattern: &[u8], b: u8) -> bool {
     *progress = if pattern.get(*progress as usize) == Some(&b) {
         *progress + 1
@@ -1096,7 +1097,7 @@ where
     }
 
     /// [`Radio::bring_up`]'s body. Not forced out of line: it has one caller, and inlined
-    /// (with the command-mode step) it is 178 B less AVR flash.
+    /// (with the command-mode step) it is less AVR flash.
     fn bring_up_dyn(&mut self, cfg: &BringUpConfig) -> Result<BringUp, Failed> {
         let ap = u16::from(self.mode().ap());
         // Steps 1 and 3 are the same query: once before configuring, once after.
@@ -1139,7 +1140,7 @@ where
     }
 
     /// Step 2 of [`Radio::bring_up`]: the baud rate the radio was found at. (Inlined into its
-    /// one caller: 120 B less AVR flash than out of line.)
+    /// one caller: less AVR flash than out of line.)
     fn configure_in_command_mode(&mut self, cfg: &BringUpConfig) -> Result<u32, Failed> {
         let mut heard = false;
         // By reference: iterating the array by value copies it to the stack first.

@@ -576,7 +576,7 @@ impl Header {
 
     /// Splits a frame into its fixed fields and its variable part. The one serializer of the
     /// crate: [`Frame::encode`] and the driver's `send` both write these bytes. (A per-byte walk
-    /// over the fields through a closure cost twice the AVR flash of this.)
+    /// over the fields through a closure is about twice the AVR flash of this.)
     #[inline(never)]
     pub(crate) fn split<'a>(frame: &Frame<'a>) -> (Header, &'a [u8]) {
         let mut h = Header {

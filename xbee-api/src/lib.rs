@@ -90,13 +90,13 @@ impl ApiMode for Mode {
 }
 
 /// API mode 2 (escaped), fixed at compile time: a decoder or radio of this mode has no mode
-/// to look up and no AP=1 code (the re-reading of a broken frame's bytes). On the AVR that is
-/// a few hundred bytes less flash for a node, which only ever talks AP=2.
+/// to look up and no AP=1 code (the re-reading of a broken frame's bytes): less AVR flash for a
+/// node, which only ever talks AP=2.
 ///
 /// `Ap2<false>` also keeps no counters: its decoder's and driver's `stats()` stay zero, and
 /// everything else (frames, errors, timing) is as with `Ap2` (tested). For firmware that never
-/// reads the counters (hoploc's nodes): on the AVR every increment is a call, and the counters
-/// were written on every frame and never read.
+/// reads the counters (hoploc's nodes): on the AVR every increment is a call, made on every
+/// frame for a counter nobody reads.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Ap2<const COUNTS: bool = true>;
 

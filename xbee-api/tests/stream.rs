@@ -221,7 +221,8 @@ fn good_data(encoded: &[u8], mode: Mode) -> Vec<u8> {
 
 #[test]
 fn fixed_size_frames_with_trailing_bytes_are_rejected_not_truncated() {
-    // Found by the fuzzer: a modem status with trailing bytes used to parse and drop them.
+    // A fuzzer-found case: a fixed-size frame with trailing bytes must not parse with the bytes
+    // dropped.
     for data in [&[0x8A, 0x00, 0x01][..], &[0x89, 0x01, 0x00, 0x00][..]] {
         let err = Frame::parse(data).unwrap_err();
         assert!(matches!(err, xbee_api::ParseError::TooLong { len, .. } if len == data.len()));

@@ -1,8 +1,8 @@
-//! Flash-cost probe for the xbee-api driver as a node uses it: radio bring-up at boot, read the
-//! config, switch channel, then read every received RX16 frame (the lean `RawFrame::rx16` view) and answer each RX16 frame with a TX16
-//! broadcast of its payload (waiting for the TX status). Over `uno-board`'s `Serial` (which
-//! implements the embedded-hal-nb traits and `SetBaud`) and `SysClock` (`Clock`). Compare with
-//! `size-baseline`.
+//! Flash-cost probe for the xbee-api driver as a node uses it: radio bring-up at boot, switch
+//! channel, then read every received RX16 frame (the lean `RawFrame::rx16` view) and answer each
+//! with a TX16 broadcast of its payload (waiting for the TX status). Over `uno-board`'s `Serial`
+//! (which implements the embedded-hal-nb traits and `SetBaud`) and `SysClock` (`Clock`). Compare
+//! with `size-baseline`.
 #![cfg_attr(target_arch = "avr", no_std, no_main)]
 
 #[cfg(not(target_arch = "avr"))]

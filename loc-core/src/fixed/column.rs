@@ -4,7 +4,7 @@
 //! the anchors of `w·(ρ + max(log2 d², clamp))²`, stopped as soon as it reaches a bound (the
 //! point can then no longer win). That sum is nearly all of an estimate's cycles, so it is the
 //! one piece of the estimator with a hand-written twin: [`Portable`] is the definition, and on
-//! the ATmega328P [`Avr`] runs the same arithmetic in AVR assembly (`column/avr.rs`), kept
+//! the ATmega328P `Avr` runs the same arithmetic in AVR assembly (`column/avr.rs`), kept
 //! equal to it by one table-driven harness (`mcu-bench`'s `checkasm` firmware, run in simavr by
 //! `tests/tests/checkasm.rs`). Everything around it, including the searches that call it, is the
 //! same Rust on the host and on the sink.
@@ -65,7 +65,7 @@ impl ColumnKernel for Portable {
 /// The kernel the searches use by default: [`Avr`] on the ATmega328P, [`Portable`] elsewhere.
 #[cfg(target_arch = "avr")]
 pub type Native = Avr;
-/// The kernel the searches use by default: [`Avr`] on the ATmega328P, [`Portable`] elsewhere.
+/// The kernel the searches use by default: `Avr` on the ATmega328P, [`Portable`] elsewhere.
 #[cfg(not(target_arch = "avr"))]
 pub type Native = Portable;
 

@@ -39,7 +39,8 @@ fn isqrt_u32(x: u32) -> u32 {
     r
 }
 
-/// The log2 of the reference (the shared table evaluation, as before the change).
+/// The log2 of the reference: the MCU fit's own table evaluation, so the comparison tests the
+/// sums and divisions around it.
 fn log2_u33(lo: u32, carry: bool) -> i32 {
     crate::fixed::math::log2_fast(lo, carry)
 }
@@ -323,7 +324,7 @@ fn box_least_squares(
     best
 }
 
-/// `Ar1::update` before the change: `(a, b, y)` → the new `y`.
+/// `Ar1::update` written plainly (one rounded `i64` sum, clamped): `(a, b, y)` → the new `y`.
 pub fn ar1_update(a: i32, b: i32, y: Option<i32>, x: i32) -> i32 {
     match y {
         Some(prev) => {
@@ -334,7 +335,7 @@ pub fn ar1_update(a: i32, b: i32, y: Option<i32>, x: i32) -> i32 {
     }
 }
 
-/// `OnlineParams` before the change (default smoothers), for the state comparison.
+/// `OnlineParams` written plainly (default smoothers), for the state comparison.
 #[derive(Clone, Copy, Debug)]
 pub struct OnlineParams {
     pub mode: ParamMode,

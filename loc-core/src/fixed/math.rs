@@ -5,15 +5,15 @@
 
 use super::tables::{exp2_seg, log2_seg};
 
-/// 8 × 8 → 16 multiply: one `mul` instruction on AVR (a 32-bit multiply is a library call of
-/// ~90 cycles there), the building block of every product in the inner loops.
+/// 8 × 8 → 16 multiply: one `mul` instruction on AVR (a 32-bit multiply is a library call
+/// there), the building block of every product in the inner loops.
 #[inline(always)]
 pub(crate) fn m8(a: u8, b: u8) -> u16 {
     a as u16 * b as u16
 }
 
 /// `a²` for a 16-bit `a` (three 8 × 8 multiplies). Out of line: `distance_x`'s two squares share
-/// one copy (92 B less AVR flash).
+/// one copy.
 #[inline(never)]
 pub(crate) fn sq_u16(a: u16) -> u32 {
     let [a0, a1] = a.to_le_bytes();

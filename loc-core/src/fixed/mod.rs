@@ -1,4 +1,4 @@
-//! The integer-only path of the sink MCU (SPEC §5): the reference algorithms of [`crate::refine`],
+//! The integer-only path of the sink MCU: the reference algorithms of [`crate::refine`],
 //! [`crate::params`] and [`crate::grid`] on the MCU's own inputs, with no `f32`/`f64` anywhere and
 //! the constant tables in flash on AVR.
 //!
@@ -31,8 +31,8 @@
 //! `dy` from anywhere in the area below 2^16 once rounded to `2^h` lattice units (`h = 0`
 //! within 13.1 m of the anchor; `ρ` and the clamp absorb the `2h`), so every lattice point costs
 //! the same wherever the search evaluates it. A window (the coarse grid, the fine window, a
-//! descent step's 3 × 3 block) is evaluated a column at a time ([`column`]): per column each
-//! anchor's `dx²`, per row `dy²`, `d²` one 32-bit add with carry. Then per (anchor, lattice
+//! descent step's 3 × 3 block) is evaluated a column at a time ([`mod@column`]): per column
+//! each anchor's `dx²`, per row `dy²`, `d²` one 32-bit add with carry. Then per (anchor, lattice
 //! point): `log2` from a 64-segment quadratic table in flash (error < 2.2·10⁻⁶, six 8 × 8
 //! multiplies, constant shifts only), the clamp at the model's 1 cm
 //! ([`crate::model::MIN_DISTANCE`]), `u = ρ + log2 d²` (Q.20), `u²` in Q.20 from five 8 × 8
@@ -62,11 +62,11 @@
 //!   over the window give both the thesis MLE and the windowed MMSE, bit for bit the
 //!   [`Estimate`]s of [`mle`] (`Search::Thesis`) and [`mmse_window`]; only 32-bit arithmetic
 //!   (the posterior in `u32` sums, weights Q.20).
-//! * The search's column ([`column`]): the one piece with a hand-written twin. Every search
+//! * The search's column ([`mod@column`]): the one piece with a hand-written twin. Every search
 //!   takes its [`ColumnKernel`] as a type parameter (`mle_with::<Portable>`); the functions
-//!   without `_with` use [`Native`]: on the ATmega328P the AVR assembly kernel [`Avr`], which is
-//!   held equal to [`Portable`] in simavr, elsewhere [`Portable`] itself. Everything else is the
-//!   same Rust on the host and on the sink.
+//!   without `_with` use [`Native`]: on the ATmega328P the AVR assembly kernel `column::Avr`,
+//!   which is held equal to [`Portable`] in simavr, elsewhere [`Portable`] itself. Everything
+//!   else is the same Rust on the host and on the sink.
 //!
 //! Errors are [`LocError`]: fewer than three usable anchors is
 //! [`LocError::TooFewAnchors`]; a fit without samples [`LocError::NoCalibrationData`]. Nothing

@@ -607,7 +607,7 @@ fn snap(s: i32, side: u16, sw: i32) -> u8 {
 }
 
 /// Posterior weights `2^(−y)`, `y = (C' − C'ref)·β` in Q.16, relative to a reference cost
-/// (see [`Posterior`]), for the search's `K` and σ.
+/// (see `Posterior`), for the search's `K` and σ.
 ///
 /// With ΔC' in Q.20, `β = K²·log2(e)/(32σ²)·2^−4`. A weight is 0 from `ΔC' ≥ span` (`y ≥ 21`);
 /// below it `ΔC'` is scaled below 2^16 (`a = ΔC' >> ra`) and `y = (a·b mod 2^32) >> 11` with one

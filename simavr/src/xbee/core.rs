@@ -23,7 +23,8 @@ pub fn byte_cycles(baud: u32) -> u64 {
     (BIT_TIMES_PER_BYTE * u64::from(F_CPU) + baud / 2) / baud
 }
 
-/// Best-case time on air of a packet with a `k`-byte RF payload (SPEC §1): 0.928 + 0.032·k ms.
+/// Best-case time on air of a packet with a `k`-byte RF payload (`docs/design.md`, section 2):
+/// 0.928 + 0.032·k ms.
 pub fn time_on_air_ms(k: usize) -> f64 {
     0.928 + 0.032 * k as f64
 }

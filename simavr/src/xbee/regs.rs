@@ -3,7 +3,7 @@
 use std::collections::BTreeMap;
 use std::fmt;
 
-/// Which radio: the channel range differs (SPEC §1).
+/// Which radio: the channel range differs (S1 Pro has no testbed channel 1).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Model {
     /// XBee 802.15.4 S1: `CH` 0x0B…0x1A.
@@ -54,7 +54,7 @@ const fn s(cmd: &[u8; 2], width: u8, min: u32, max: u32, default: u32) -> Spec {
 
 /// The writable numeric registers the model knows (802.15.4 firmware 10Ex names). `CH`'s range
 /// here is the S1's; [`Model::S1Pro`] narrows it.
-pub(crate) const SPECS: &[Spec] = &[
+pub(crate) const REGISTERS: &[Spec] = &[
     // Networking and addressing.
     s(b"CH", 1, 0x0B, 0x1A, 0x0C),
     s(b"ID", 2, 0, 0xFFFF, 0x3332),
@@ -115,7 +115,7 @@ pub(crate) const READ_ONLY: &[([u8; 2], u8)] = &[
 pub const NI_MAX: usize = 20;
 
 pub(crate) fn spec(cmd: [u8; 2]) -> Option<&'static Spec> {
-    SPECS.iter().find(|s| s.cmd == cmd)
+    REGISTERS.iter().find(|s| s.cmd == cmd)
 }
 
 /// A set of register values: the active set (what the radio uses) or the persisted set (what
@@ -147,7 +147,7 @@ impl Registers {
     /// Factory defaults (`RE`): transparent mode, 9600 baud, channel 0x0C, PAN 0x3332, MY 0.
     pub fn factory() -> Registers {
         Registers {
-            values: SPECS.iter().map(|s| (s.cmd, s.default)).collect(),
+            values: REGISTERS.iter().map(|s| (s.cmd, s.default)).collect(),
             ni: Vec::new(),
         }
     }

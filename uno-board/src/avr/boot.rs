@@ -35,7 +35,7 @@ pub struct Node {
 /// 5. starts the watchdog (1 s),
 /// 6. calls `run` with the radio, the LED, the watchdog and the config.
 ///
-/// The node is lent to `run`, not returned: returned, it was copied into the caller's frame
+/// The node is lent to `run`, not returned: returned, it would be copied into the caller's frame
 /// (the radio driver is most of it), and the stack is the sink's scarcest resource. Always
 /// inlined: each firmware calls it once, with a constant role that folds into the code.
 #[inline(always)]

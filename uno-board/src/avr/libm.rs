@@ -1,9 +1,8 @@
 //! avr-libc's `f32` math (`libm.a`, linked by [`link_avr_libc!`](crate::link_avr_libc)) behind safe
 //! wrappers, for firmware that needs transcendental functions in floating point.
 //!
-//! Hand-written assembly, faster than the pure-Rust `libm` crate on this MCU (SPEC §9: avr-libc's
-//! `log10` 2 436 cycles; `libm::log10f` 4 181 with avr-libc's float arithmetic linked, 22 627
-//! without). avr-libc's `double` is 32 bits, so its
+//! Hand-written assembly: faster than the pure-Rust `libm` crate on this MCU, even with
+//! avr-libc's float arithmetic under that crate. avr-libc's `double` is 32 bits, so its
 //! `log10`, `exp` and `sqrt` are the `f32` functions (its `math.h` defines `log10f` & co. as
 //! aliases of them; `libm.a` exports only the unsuffixed names).
 

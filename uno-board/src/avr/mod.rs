@@ -60,8 +60,8 @@ extern "C" {}
 /// libraries of the binary crate itself are the only ones the linker sees before
 /// compiler-builtins (with LTO, those of upstream crates such as this one come after it), and
 /// compiler-builtins exports slower and larger versions of the same symbols, which would win:
-/// measured on the xbee-api driver probe, `__udivmodsi4` 1208 -> 68 B of flash and memcpy/memmove/
-/// memset ~1.1 KB smaller; SPEC §9 has the cycle counts (f32 mul 942 -> 132, u32 div 855 -> 581).
+/// avr-libc's and libgcc's hand-written `__udivmodsi4`, `memcpy`/`memmove`/`memset` and `f32`
+/// arithmetic are much smaller and faster (`docs/design.md`, section 7).
 #[macro_export]
 macro_rules! link_avr_libc {
     () => {

@@ -197,7 +197,8 @@ impl Serial {
     }
 
     /// Writes `byte`, waiting for room in the transmit buffer. Never inlined: text lines and
-    /// provisioning replies call it from many places, each inlined copy cost ≈ 24 B of flash.
+    /// provisioning replies call it from many places, and each inlined copy would be flash of its
+    /// own.
     #[inline(never)]
     pub fn write_byte(&mut self, byte: u8) {
         while !self.try_write(byte) {}

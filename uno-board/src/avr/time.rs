@@ -117,7 +117,7 @@ fn spin_us(us: u32) {
 
 impl DelayNs for Delay {
     fn delay_ns(&mut self, ns: u32) {
-        // At least `ns / 1000` µs without a 32-bit division (hundreds of cycles on the AVR):
+        // At least `ns / 1000` µs without a 32-bit division (a slow library call on the AVR):
         // 1/1024 + 1/32768 > 1/1000, and the 2 covers what the shifts drop.
         self.delay_us((ns >> 10) + (ns >> 15) + 2);
     }
