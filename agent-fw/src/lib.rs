@@ -180,6 +180,9 @@ impl Agent {
             // The report: only less than a guard time late (never into the next sub-slot).
             if t - time < s.guard_us().max(1) {
                 self.awaiting = true;
+                // One packet whatever the testbed's size: as many relay rows as fit, others in
+                // the next superframes.
+                self.cur.fit_relay();
                 return Some(Action::SendReport { seq: self.cur.seq });
             }
         }

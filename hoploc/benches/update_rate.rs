@@ -66,7 +66,7 @@ fn main() {
     let slots: Vec<u16> = std::env::var("HOPLOC_SLOTS")
         .ok()
         .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
-        .unwrap_or_else(|| vec![40, 30, 25, 20, 16, 14, 12, 10, 9, 8, 7, 6, 5]);
+        .unwrap_or_else(|| vec![40, 30, 25, 20, 16, 14, 12, 10, 9, 8]);
     let sink = match std::env::var("HOPLOC_SINK") {
         Ok(v) => <SinkSource as clap::ValueEnum>::from_str(&v, true).expect("HOPLOC_SINK"),
         Err(_) => SinkSource::Host,

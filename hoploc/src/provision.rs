@@ -31,6 +31,13 @@ pub const REPLY_TIMEOUT: Duration = Duration::from_secs(2);
 pub enum ProvisionError {
     /// The config given on the command line is not valid (which field).
     InvalidConfig(loc_proto::Error),
+    /// The slot is too short for a beacon of the network (`loc_proto::schedule::min_slot_ms`).
+    SlotTooShort {
+        /// The slot given, ms.
+        slot_ms: u16,
+        /// The network's anchors.
+        anchors: u8,
+    },
     /// The serial port could not be opened or used.
     Io(io::Error),
     /// No `hoploc <role> boot` line came in time: not a hoploc firmware, or the port does not
@@ -68,6 +75,12 @@ impl fmt::Display for ProvisionError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             ProvisionError::InvalidConfig(e) => write!(f, "invalid config: {e}"),
+            ProvisionError::SlotTooShort { slot_ms, anchors } => write!(
+                f,
+                "invalid config: a {slot_ms} ms slot cannot hold a beacon of {anchors} anchors \
+                 (its guard and the beacon's way over the UARTs and the air): at least {} ms",
+                loc_proto::schedule::min_slot_ms(*anchors)
+            ),
             ProvisionError::Io(e) => write!(f, "serial port: {e}"),
             ProvisionError::NoBootLine => write!(
                 f,
@@ -131,7 +144,16 @@ impl Provisioner {
     /// A provisioner for `config` (validated and encoded here).
     pub fn new(config: Config) -> Result<Provisioner, ProvisionError> {
         let mut buf = [0u8; MAX_FRAME];
-        let n = encode(&config, &mut buf).map_err(ProvisionError::InvalidConfig)?;
+        let slot_too_short = |e| match e {
+            loc_proto::Error::BadValue {
+                field: loc_proto::error::Field::SlotLength,
+            } if config.slot_ms <= loc_proto::config::MAX_SLOT_MS => ProvisionError::SlotTooShort {
+                slot_ms: config.slot_ms,
+                anchors: config.anchors,
+            },
+            e => ProvisionError::InvalidConfig(e),
+        };
+        let n = encode(&config, &mut buf).map_err(slot_too_short)?;
         Ok(Provisioner {
             config,
             frame: buf[..n].to_vec(),
@@ -287,7 +309,8 @@ pub struct Args {
     /// Number of anchors N in the network (3…8).
     #[arg(long, default_value_t = Config::DEFAULT.anchors)]
     pub anchors: u8,
-    /// TDMA slot length in ms (2…10000).
+    /// TDMA slot length in ms (up to 10000; at least 9 with 3…5 anchors, 10 with 6…8: a slot
+    /// must hold a beacon).
     #[arg(long, default_value_t = Config::DEFAULT.slot_ms)]
     pub slot_ms: u16,
     /// Anchor channels in hop order, testbed channels 1…16 (channel n = 802.15.4 channel 10+n).
@@ -437,6 +460,22 @@ mod tests {
             Provisioner::new(bad),
             Err(ProvisionError::InvalidConfig(_))
         ));
+        // A slot too short for the network's beacons: refused before anything is sent, saying
+        // how long a slot it needs.
+        let short = Config {
+            anchors: 7,
+            slot_ms: 9,
+            ..Config::DEFAULT
+        };
+        let e = Provisioner::new(short).err().expect("refused");
+        assert!(matches!(
+            e,
+            ProvisionError::SlotTooShort {
+                slot_ms: 9,
+                anchors: 7
+            }
+        ));
+        assert!(e.to_string().contains("at least 10 ms"), "{e}");
     }
 
     /// A port that answers like a node: the boot line at once, the ACK once the frame is in.

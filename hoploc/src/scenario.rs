@@ -294,6 +294,18 @@ impl Scenario {
                 format!("{} is not within {lo}…{hi}", t.slot_ms),
             );
         }
+        let n = self.anchors.len().min(u8::MAX as usize) as u8;
+        if !loc_proto::schedule::slot_fits_beacon(n, t.slot_ms) {
+            return bad(
+                "timing.slot_ms",
+                format!(
+                    "{} ms cannot hold a beacon of {n} anchors: a slot needs its guard and the \
+                     beacon's way over the UARTs and the air, at least {} ms",
+                    t.slot_ms,
+                    loc_proto::schedule::min_slot_ms(n)
+                ),
+            );
+        }
         if t.channels.is_empty() || t.channels.len() > 4 {
             return bad(
                 "timing.channels",

@@ -14,7 +14,7 @@
 //! | 4 | node id (1…255; an anchor's 1…N) |
 //! | 5 | N, the number of anchors (3…8) |
 //! | 6–7, 8–9 | the anchor's position x, y (i16, cm; 0 for other roles by convention) |
-//! | 10–11 | slot length (u16, ms, 2…10000) |
+//! | 10–11 | slot length (u16, ms, up to 10000 and at least [`schedule::min_slot_ms`] of N: 9 with 3…5 anchors, 10 with 6…8) |
 //! | 12 | sink channel (testbed channel 1…16) |
 //! | 13–14 | PAN id (u16, not 0xFFFF) |
 //! | 15 | C, the number of channels (1…4) |
@@ -44,6 +44,7 @@ use core::fmt;
 
 use crate::error::{crc16, Error, Field};
 use crate::msg::{bad, ChannelList, Position, Writer, MAX_ANCHORS, MAX_CHANNEL};
+use crate::schedule;
 use crate::{Role, DEFAULT_CHANNELS, DEFAULT_PAN_ID, DEFAULT_SINK_CHANNEL};
 use ufmt::uWrite;
 
@@ -55,8 +56,10 @@ pub const VERSION: u8 = 1;
 pub const MIN_LEN: usize = 19;
 /// The longest config (four channels).
 pub const MAX_LEN: usize = 22;
-/// The shortest slot accepted (ms): a beacon's best-case time on air is about 1.6 ms.
-pub const MIN_SLOT_MS: u16 = 2;
+/// The shortest slot accepted (ms), that of the smallest network: a slot must hold its guard
+/// and a beacon's way from the sender's MCU to the receivers' ([`schedule::min_slot_ms`]; with
+/// more anchors a beacon is longer, and a config's slot must fit its own).
+pub const MIN_SLOT_MS: u16 = schedule::min_slot_ms(3);
 /// The longest slot accepted (ms).
 pub const MAX_SLOT_MS: u16 = 10_000;
 /// The default slot length (ms): 4 anchors × 62 ms ≈ the thesis's 250 ms per channel phase.
@@ -205,7 +208,7 @@ pub fn read_into(buf: &[u8], role: Role, out: Option<&mut Config>) -> u8 {
     if id == 0 {
         return BAD_VALUE;
     }
-    if slot_ms.wrapping_sub(MIN_SLOT_MS) > MAX_SLOT_MS - MIN_SLOT_MS {
+    if slot_ms > MAX_SLOT_MS || !schedule::slot_fits_beacon(anchors, slot_ms) {
         return BAD_VALUE;
     }
     if b[12].wrapping_sub(1) > MAX_CHANNEL - 1 {
@@ -343,7 +346,7 @@ fn check_fields(
     if id == 0 || (role == Role::Anchor && id > anchors) {
         return Err(bad(Field::NodeId));
     }
-    if !(MIN_SLOT_MS..=MAX_SLOT_MS).contains(&slot_ms) {
+    if slot_ms > MAX_SLOT_MS || !schedule::slot_fits_beacon(anchors, slot_ms) {
         return Err(bad(Field::SlotLength));
     }
     if !(1..=MAX_CHANNEL).contains(&sink_channel) {
@@ -425,7 +428,8 @@ impl core::error::Error for EnvError {}
 const EXPECT_ID: &str = "a node id 1…255 (an anchor's at most HOPLOC_ANCHORS)";
 const EXPECT_POS: &str = "an integer -32768…32767 (cm)";
 const EXPECT_ANCHORS: &str = "the number of anchors, 3…8";
-const EXPECT_SLOT: &str = "a slot length in ms, 2…10000";
+const EXPECT_SLOT: &str = "a slot length in ms, up to 10000, that holds a beacon: at least 9 \
+     with 3 to 5 anchors, 10 with 6 to 8 (loc_proto::schedule::min_slot_ms)";
 const EXPECT_CHANNELS: &str =
     "1…4 distinct testbed channels 1…16, comma separated, e.g. 1,12 (the S1 Pro has 2…13 only)";
 const EXPECT_SINK: &str = "a testbed channel 1…16";

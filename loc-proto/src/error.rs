@@ -64,16 +64,19 @@ pub enum Field {
     ChannelCount,
     /// The same channel twice in a channel list.
     DuplicateChannel,
-    /// The report's flags (only the relay bit may be set).
+    /// The report's flags (only the relay bits may be set, the rows bit only with the relay bit).
     Flags,
     /// The role byte (0 anchor, 1 agent, 2 sink).
     Role,
-    /// The slot length (2…10000 ms).
+    /// The slot length (up to 10000 ms, and long enough for a beacon of the network:
+    /// `schedule::min_slot_ms`).
     SlotLength,
     /// The sink channel (1…16).
     SinkChannel,
     /// The PAN id (0xFFFF is the broadcast PAN).
     PanId,
+    /// A report's relay rows (a row of an anchor the report does not have).
+    RelayRows,
 }
 
 impl Error {

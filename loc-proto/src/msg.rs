@@ -32,17 +32,22 @@
 //! | 4 | agent id (1…255) |
 //! | 5–6 | superframe sequence (u16) |
 //! | 7 | N |
-//! | 8 | C in bits 0–2; bit 7 set: the relay matrix follows (other bits 0) |
+//! | 8 | C in bits 0–2; bit 7 set: relay rows follow; bit 6 set (with bit 7): only a window of them (other bits 0) |
 //! | 9 … 8+C | the C testbed channels (1…16, distinct) |
 //! | then 4·N | per anchor *i* = 1…N: position x, y (i16, cm; 0, 0 if never heard) |
 //! | then C·N | per channel, per anchor: the RSSI byte of its beacon (−dBm, 0 = not heard) |
-//! | then C·N·(N−1) | if bit 7: per channel, per relaying anchor *i*, per other anchor *j* ≠ *i* (ascending): the RSSI *i* relayed having measured from *j* (0 = not heard or not relayed); the diagonal is not sent |
+//! | then 2 | if bits 7 and 6: the window of relay rows sent: its first row *s* and its length *k* (rows numbered *r* = *c*·N + *i* for anchor *i* + 1 on channel number *c*, so 0 ≤ *s* < C·N, 0 ≤ *k* < C·N); the rows *s*, *s* + 1, … *s* + *k* − 1 (modulo C·N) follow, in that order |
+//! | then (N−1) per row | if bit 7: per row, anchor *i*'s: per other anchor *j* ≠ *i* (ascending), the RSSI *i* relayed having measured from *j* (0 = not heard or not relayed); the diagonal is not sent. Without bit 6, every row in order *r* = 0 … C·N − 1: the relay matrix |
 //!
-//! Size: 9 + C + 4N + C·N² with the relay matrix, 9 + C + 4N + C·N without.
-//! 4 anchors × 2 channels: **59 bytes** (35 without relay). With the relay matrix the RF payload
-//! limit of 100 bytes ([`MAX_PAYLOAD`]) admits N×C up to 4×4 (93 bytes), 5×2 (81), 7×1 (87);
-//! 8 anchors with relay never fit (8×1 is 106 bytes): send those without the relay matrix
-//! (8×4: 77 bytes). [`Report::encode`] returns [`Error::TooLarge`] for a report that does not fit.
+//! Size: 9 + C + 4N + C·N without relay rows; 9 + C + 4N + C·N² with all of them (the relay
+//! matrix); 11 + C + 4N + C·N + k·(N−1) with a window of k rows. 4 anchors × 2 channels:
+//! **59 bytes** (35 without relay). The RF payload limit of 100 bytes ([`MAX_PAYLOAD`]) admits
+//! the whole matrix up to N×C = 4×4 (93 bytes), 5×2 (81), 7×1 (87); beyond, an agent sends as
+//! many rows as fit and a different set in each superframe ([`Report::fit_relay`]), so that every
+//! row reaches the sink every few superframes: with 8 anchors × 4 channels, 3 of the 32 rows
+//! (100 bytes), each row at least every 11 superframes. Every configuration's report fits one
+//! packet.
+//! [`Report::encode`] returns [`Error::TooLarge`] for a report that does not fit.
 
 use crate::error::{Error, Field};
 
@@ -65,8 +70,10 @@ pub const KIND_BEACON: u8 = 1;
 /// The kind byte of a [`Report`].
 pub const KIND_REPORT: u8 = 2;
 
-/// The report flag: the relay matrix follows.
+/// The report flag: relay rows follow.
 const RELAY_FLAG: u8 = 0x80;
+/// The report flag (with [`RELAY_FLAG`]): only a window of the rows.
+const ROWS_FLAG: u8 = 0x40;
 
 /// A position in cm.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -357,7 +364,8 @@ impl Beacon {
 /// An agent's report of one superframe to the sink. See the [module docs](self) for the layout.
 ///
 /// Entries for anchors past `anchors` and channels past `channels.len()` are not sent (and
-/// decode as 0); so is the relay matrix's diagonal and, without `has_relay`, the whole matrix.
+/// decode as 0); so is the relay matrix's diagonal, its rows outside `relay_window` and, without
+/// `has_relay`, the whole matrix.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Report {
     /// The reporting agent (1…255).
@@ -373,10 +381,14 @@ pub struct Report {
     /// `rssi[c][i]`: the RSSI byte (−dBm, 0 = not heard) of anchor `i + 1`'s beacon on channel
     /// `channels[c]`.
     pub rssi: [[u8; MAX_ANCHORS]; MAX_CHANNELS],
-    /// Whether the relay matrix is sent.
+    /// Whether relay rows are sent.
     pub has_relay: bool,
+    /// Which relay rows are sent (with `has_relay`): `None`, every row (the relay matrix);
+    /// `Some((s, k))`, the `k` rows from row `s` on, wrapping around (row `c·N + i` is anchor
+    /// `i + 1`'s on channel number `c`; `s` and `k` below C·N).
+    pub relay_window: Option<(u8, u8)>,
     /// `relay[c][i][j]`: what anchor `i + 1` relayed on channel `channels[c]` as the RSSI it
-    /// measured from anchor `j + 1` (0 = not heard or no beacon from `i + 1`).
+    /// measured from anchor `j + 1` (0 = not heard, no beacon from `i + 1`, or a row not sent).
     pub relay: [[[u8; MAX_ANCHORS]; MAX_ANCHORS]; MAX_CHANNELS],
 }
 
@@ -391,11 +403,13 @@ impl Report {
             positions: [Position { x: 0, y: 0 }; MAX_ANCHORS],
             rssi: [[0; MAX_ANCHORS]; MAX_CHANNELS],
             has_relay: true,
+            relay_window: None,
             relay: [[[0; MAX_ANCHORS]; MAX_ANCHORS]; MAX_CHANNELS],
         }
     }
 
-    /// The encoded size of a report of `anchors` × `channels`, with or without the relay matrix.
+    /// The encoded size of a report of `anchors` × `channels`, with the whole relay matrix or
+    /// without relay rows.
     pub const fn wire_size(anchors: usize, channels: usize, relay: bool) -> usize {
         let per_channel = if relay { anchors * anchors } else { anchors };
         9 + channels + 4 * anchors + channels * per_channel
@@ -403,7 +417,74 @@ impl Report {
 
     /// The encoded size of this report (may exceed [`MAX_PAYLOAD`]: then it cannot be sent).
     pub const fn size(&self) -> usize {
-        Self::wire_size(self.anchors as usize, self.channels.len(), self.has_relay)
+        let (n, c) = (self.anchors as usize, self.channels.len());
+        match (self.has_relay, self.relay_window) {
+            (true, Some((_, k))) => Self::wire_size(n, c, false) + 2 + k as usize * (n - 1),
+            (relay, _) => Self::wire_size(n, c, relay),
+        }
+    }
+
+    /// The largest report of `anchors` × `channels` an agent sends (with as many relay rows as
+    /// fit, [`Report::fit_relay`]): at most [`MAX_PAYLOAD`].
+    pub const fn max_size(anchors: usize, channels: usize) -> usize {
+        let full = Self::wire_size(anchors, channels, true);
+        if full <= MAX_PAYLOAD {
+            return full;
+        }
+        let rows = Self::relay_rows_that_fit(anchors, channels);
+        if rows == 0 {
+            Self::wire_size(anchors, channels, false)
+        } else {
+            Self::wire_size(anchors, channels, false) + 2 + rows * (anchors - 1)
+        }
+    }
+
+    /// The most relay rows a report of `anchors` × `channels` can carry in one packet.
+    pub const fn relay_rows_that_fit(anchors: usize, channels: usize) -> usize {
+        if Self::wire_size(anchors, channels, true) <= MAX_PAYLOAD {
+            return anchors * channels;
+        }
+        let base = Self::wire_size(anchors, channels, false) + 2;
+        if base >= MAX_PAYLOAD || anchors < 2 {
+            return 0;
+        }
+        (MAX_PAYLOAD - base) / (anchors - 1)
+    }
+
+    /// Whether relay row `row` (`c·N + i`) is sent.
+    pub fn sends_row(&self, row: usize) -> bool {
+        let total = self.n() * self.channels.len();
+        match (self.has_relay, self.relay_window) {
+            (false, _) => false,
+            (true, None) => row < total,
+            (true, Some((s, k))) => row < total && (row + total - s as usize) % total < k as usize,
+        }
+    }
+
+    /// Makes the report fit one packet ([`MAX_PAYLOAD`]): when the relay matrix does not fit,
+    /// keeps a window of as many of its rows as fit ([`Report::relay_rows_that_fit`]), the one
+    /// after the previous sequence number's (rows wrapping around), so that successive reports
+    /// carry every row in turn; the other rows' bytes are cleared. A report that fits, or one
+    /// without relay, is left as it is.
+    pub fn fit_relay(&mut self) {
+        if !self.has_relay || self.size() <= MAX_PAYLOAD {
+            return;
+        }
+        let (n, c) = (self.n(), self.channels.len());
+        let total = n * c;
+        let keep = Self::relay_rows_that_fit(n, c).min(total - 1);
+        if keep == 0 {
+            self.has_relay = false;
+            return;
+        }
+        // In 32 bits: `usize` is 16 bits on the MCU, and the window must be the host's.
+        let start = (self.seq as u32 * keep as u32 % total as u32) as usize;
+        self.relay_window = Some((start as u8, keep as u8));
+        for r in 0..total {
+            if !self.sends_row(r) {
+                self.relay[r / n][r % n] = [0; MAX_ANCHORS];
+            }
+        }
     }
 
     fn n(&self) -> usize {
@@ -417,6 +498,12 @@ impl Report {
         if !(3..=MAX_ANCHORS as u8).contains(&self.anchors) {
             return Err(bad(Field::Anchors));
         }
+        let total = self.n() * self.channels.len();
+        if let (true, Some((s, k))) = (self.has_relay, self.relay_window) {
+            if s as usize >= total || k as usize >= total {
+                return Err(bad(Field::RelayRows));
+            }
+        }
         // `ChannelList` is valid by construction.
         Ok(())
     }
@@ -428,10 +515,18 @@ impl Report {
         let n = self.n();
         let c = self.channels.len();
         let mut w = start(buf, KIND_REPORT, self.size())?;
+        let window = if self.has_relay {
+            self.relay_window
+        } else {
+            None
+        };
+        let some_rows = window.is_some();
         w.u8(self.agent);
         w.u16(self.seq);
         w.u8(self.anchors);
-        w.u8(c as u8 | if self.has_relay { RELAY_FLAG } else { 0 });
+        w.u8(c as u8
+            | if self.has_relay { RELAY_FLAG } else { 0 }
+            | if some_rows { ROWS_FLAG } else { 0 });
         for &ch in self.channels.as_slice() {
             w.u8(ch);
         }
@@ -444,12 +539,19 @@ impl Report {
             }
         }
         if self.has_relay {
-            for m in &self.relay[..c] {
-                for (i, row) in m[..n].iter().enumerate() {
-                    for (j, &r) in row[..n].iter().enumerate() {
-                        if i != j {
-                            w.u8(r);
-                        }
+            let total = n * c;
+            let (s, k) = match window {
+                Some((s, k)) => {
+                    w.u8(s);
+                    w.u8(k);
+                    (s as usize, k as usize)
+                }
+                None => (0, total),
+            };
+            for r in (s..s + k).map(|r| r % total) {
+                for (j, &b) in self.relay[r / n][r % n][..n].iter().enumerate() {
+                    if j != r % n {
+                        w.u8(b);
                     }
                 }
             }
@@ -470,7 +572,8 @@ impl Report {
         let seq = r.u16()?;
         let anchors = r.u8()?;
         let cf = r.u8()?;
-        if cf & !(RELAY_FLAG | 0x07) != 0 {
+        if cf & !(RELAY_FLAG | ROWS_FLAG | 0x07) != 0 || cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG
+        {
             return Err(bad(Field::Flags));
         }
         let c = (cf & 0x07) as usize;
@@ -493,13 +596,24 @@ impl Report {
                 *x = r.u8()?;
             }
         }
+        let total = n * c;
+        let (s, k) = if cf & ROWS_FLAG != 0 {
+            let (s, k) = (r.u8()?, r.u8()?);
+            // (A window of every row is the relay matrix, which has its own form.)
+            if s as usize >= total || k as usize >= total {
+                return Err(bad(Field::RelayRows));
+            }
+            rep.relay_window = Some((s, k));
+            (s as usize, k as usize)
+        } else {
+            (0, total)
+        };
         if rep.has_relay {
-            for m in &mut rep.relay[..c] {
-                for (i, row) in m[..n].iter_mut().enumerate() {
-                    for (j, x) in row[..n].iter_mut().enumerate() {
-                        if i != j {
-                            *x = r.u8()?;
-                        }
+            for row in (s..s + k).map(|row| row % total) {
+                let (i, m) = (row % n, &mut rep.relay[row / n]);
+                for (j, x) in m[i][..n].iter_mut().enumerate() {
+                    if j != i {
+                        *x = r.u8()?;
                     }
                 }
             }
@@ -507,6 +621,27 @@ impl Report {
         r.end()?;
         Ok(rep)
     }
+}
+
+/// A report's size from its N, C and flags `cf` (all checked but the window), and its window
+/// of relay rows (every row: 0 and C·N); `Some(Err(()))` for a window outside the rows, `None`
+/// when `buf` is too short to hold the window. In 16 bits (N ≤ 8, C ≤ 4).
+fn relay_size(buf: &[u8], n: u8, c: u8, cf: u8) -> Option<Result<(u16, (u8, u8)), ()>> {
+    let base = (9 + c + 4 * n + c * n) as u16;
+    let total = c * n;
+    if cf & RELAY_FLAG == 0 {
+        return Some(Ok((base, (0, 0))));
+    }
+    if cf & ROWS_FLAG == 0 {
+        return Some(Ok((base + total as u16 * (n - 1) as u16, (0, total))));
+    }
+    let &[s, k] = buf.get(base as usize..base as usize + 2)? else {
+        return None;
+    };
+    if s >= total || k >= total {
+        return Some(Err(()));
+    }
+    Some(Ok((base + 2 + k as u16 * (n - 1) as u16, (s, k))))
 }
 
 /// Whether `chans` are testbed channels (1…16), none twice: a bit each for the duplicates.
@@ -555,6 +690,8 @@ pub struct ReportView<'a> {
     n: u8,
     c: u8,
     has_relay: bool,
+    /// The window of relay rows sent: its first row and its length (every row: 0 and C·N).
+    win: (u8, u8),
     /// The agent and the sequence, as parsed: read with no bounds checks.
     agent: u8,
     seq: u16,
@@ -572,7 +709,8 @@ impl<'a> ReportView<'a> {
         let &[agent, s0, s1, anchors, cf] = buf.get(4..9).ok_or(Error::BadLength)? else {
             return Err(Error::BadLength);
         };
-        if cf & !(RELAY_FLAG | 0x07) != 0 {
+        if cf & !(RELAY_FLAG | ROWS_FLAG | 0x07) != 0 || cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG
+        {
             return Err(bad(Field::Flags));
         }
         let c = (cf & 0x07) as usize;
@@ -599,15 +737,14 @@ impl<'a> ReportView<'a> {
             return Err(bad(Field::Anchors));
         }
         let has_relay = cf & RELAY_FLAG != 0;
-        // Every field left is a byte string of fixed length: too few or too many bytes is all
-        // that can be wrong with them.
-        // `Report::wire_size` with 8-bit products (N ≤ 8, C ≤ 4).
-        let per_channel = if has_relay {
-            anchors * anchors
-        } else {
-            anchors
+        // Every field left is a byte string of fixed length (the masks giving the relay
+        // rows'): too few or too many bytes is all that can be wrong with them, but for a mask
+        // naming an anchor the report does not have.
+        let (size, win) = match relay_size(buf, anchors, c as u8, cf) {
+            Some(Ok(v)) => v,
+            Some(Err(())) => return Err(bad(Field::RelayRows)),
+            None => return Err(Error::BadLength),
         };
-        let size = (9 + c as u8 + 4 * anchors) as u16 + c as u8 as u16 * per_channel as u16;
         if buf.len() != size as usize {
             return Err(Error::BadLength);
         }
@@ -616,6 +753,7 @@ impl<'a> ReportView<'a> {
             n: anchors,
             c: c as u8,
             has_relay,
+            win,
             agent,
             seq: u16::from_le_bytes([s0, s1]),
         })
@@ -646,7 +784,8 @@ impl<'a> ReportView<'a> {
             return Err(Corrupt);
         };
         let c = cf & 0x07;
-        if cf & !(RELAY_FLAG | 0x07) != 0
+        if cf & !(RELAY_FLAG | ROWS_FLAG | 0x07) != 0
+            || cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG
             || !(1..=MAX_CHANNELS as u8).contains(&c)
             || !channels.get(..c as usize).is_some_and(distinct_channels)
             || agent == 0
@@ -654,21 +793,18 @@ impl<'a> ReportView<'a> {
         {
             return Err(Corrupt);
         }
-        let has_relay = cf & RELAY_FLAG != 0;
-        let per_channel = if has_relay {
-            anchors * anchors
-        } else {
-            anchors
+        let Some(Ok((size, win))) = relay_size(buf, anchors, c, cf) else {
+            return Err(Corrupt);
         };
-        // `Report::wire_size` (N ≤ 8, C ≤ 4: the one product that can pass 255 in 16 bits).
-        if len as u16 != (9 + c + 4 * anchors) as u16 + c as u16 * per_channel as u16 {
+        if len as u16 != size {
             return Err(Corrupt);
         }
         Ok(ReportView {
             buf,
             n: anchors,
             c,
-            has_relay,
+            has_relay: cf & RELAY_FLAG != 0,
+            win,
             agent,
             seq: u16::from_le_bytes([s0, s1]),
         })
@@ -703,7 +839,7 @@ impl<'a> ReportView<'a> {
         self.c as usize
     }
 
-    /// Whether the relay matrix was sent.
+    /// Whether relay rows were sent.
     pub fn has_relay(&self) -> bool {
         self.has_relay
     }
@@ -732,7 +868,7 @@ impl<'a> ReportView<'a> {
     }
 
     /// What anchor `i + 1` relayed on channel number `c` as heard from anchor `j + 1`
-    /// ([`Report::relay`]): 0 on the diagonal and without the relay matrix.
+    /// ([`Report::relay`]): 0 on the diagonal, for a row not sent and without relay rows.
     /// (0 too for `c`, `i` or `j` out of range.)
     pub fn relay(&self, c: usize, i: usize, j: usize) -> u8 {
         let (n, cs) = (self.n, self.c);
@@ -741,8 +877,17 @@ impl<'a> ReportView<'a> {
         }
         // In bytes (N ≤ 8, C ≤ 4): 8 × 8-bit products, the offset below 2^9.
         let (c, i, j) = (c as u8, i as u8, j as u8);
-        let base = 9 + cs + 4 * n + cs * n;
-        let row = (c * n + i) as u16 * (n - 1) as u16;
+        // The row's place in the window: rows from its start on, wrapping around.
+        let (total, (start, len)) = (cs * n, self.win);
+        let mut row = c * n + i + total - start;
+        if row >= total {
+            row -= total;
+        }
+        if row >= len {
+            return 0;
+        }
+        let base = 9 + cs + 4 * n + cs * n + if len < total { 2 } else { 0 };
+        let row = row as u16 * (n - 1) as u16;
         self.at(base as usize + row as usize + (j - u8::from(j > i)) as usize)
     }
 }
@@ -839,6 +984,76 @@ mod tests {
         assert_eq!(buf[..59], REPORT);
         assert_eq!(Report::decode(&REPORT), Ok(report()));
         assert_eq!(decode_any(&REPORT), Ok(Message::Report(report())));
+    }
+
+    /// Every configuration's report fits one packet, and successive reports carry every relay
+    /// row in turn: all of them within ⌈rows / rows per report⌉ superframes.
+    #[test]
+    fn every_configuration_fits_and_rotates_through_every_row() {
+        for n in 3..=MAX_ANCHORS as u8 {
+            for c in 1..=MAX_CHANNELS {
+                let list = ChannelList::new(&[1, 2, 3, 4][..c]).unwrap();
+                let total = n as usize * c;
+                let keep = Report::relay_rows_that_fit(n as usize, c);
+                assert!(keep >= 1, "{n}×{c}: no relay row fits");
+                let mut seen = [false; MAX_ANCHORS * MAX_CHANNELS];
+                for seq in 0..total.div_ceil(keep) as u16 {
+                    let mut r = Report::new(1, seq, n, list);
+                    r.fit_relay();
+                    assert!(r.size() <= MAX_PAYLOAD, "{n}×{c}: {} bytes", r.size());
+                    assert!(r.has_relay);
+                    for (row, s) in seen[..total].iter_mut().enumerate() {
+                        *s |= r.sends_row(row);
+                    }
+                }
+                assert!(seen[..total].iter().all(|&s| s), "{n}×{c}");
+            }
+        }
+        // The documented case: 8 × 4, three rows, 100 bytes.
+        let mut r = Report::new(1, 0, 8, ChannelList::new(&[1, 2, 3, 4]).unwrap());
+        r.fit_relay();
+        assert_eq!((Report::relay_rows_that_fit(8, 4), r.size()), (3, 100));
+    }
+
+    /// The window is checked as the rest of a report: the rows flag only with the relay flag,
+    /// its start and length below the report's rows (every row is the relay matrix's own
+    /// form); the view and the sink's check say the same.
+    #[test]
+    fn relay_windows_are_checked() {
+        let mut r = Report::new(3, 9, 4, ChannelList::new(&[1, 12]).unwrap());
+        r.relay_window = Some((6, 3));
+        // Rows 6, 7 and 0: anchors 3 and 4 on the second channel, anchor 1 on the first.
+        for (k, row) in [6, 7, 0].into_iter().enumerate() {
+            let (c, i) = (row / 4, row % 4);
+            for j in (0..4).filter(|&j| j != i) {
+                r.relay[c][i][j] = k as u8 + 1;
+            }
+        }
+        let mut buf = [0; 128];
+        let n = r.encode(&mut buf).unwrap();
+        assert_eq!(n, 9 + 2 + 16 + 8 + 2 + 3 * 3);
+        assert_eq!(Report::decode(&buf[..n]), Ok(r));
+        let view = ReportView::parse(&buf[..n]).unwrap();
+        assert_eq!(ReportView::accept(&buf[..n]), Ok(view));
+        for k in 0..2 {
+            for i in 0..4 {
+                for j in 0..4 {
+                    assert_eq!(view.relay(k, i, j), r.relay[k][i][j], "{k} {i} {j}");
+                }
+            }
+        }
+        assert_eq!(view.relay(0, 0, 1), 3);
+        let at = 9 + 2 + 16 + 8;
+        let wrong = |edit: &dyn Fn(&mut [u8]), want: Error| {
+            let mut b = buf;
+            edit(&mut b);
+            assert_eq!(Report::decode(&b[..n]), Err(want));
+            assert_eq!(ReportView::parse(&b[..n]), Err(want));
+            assert_eq!(ReportView::accept(&b[..n]), Err(NotReport::Corrupt));
+        };
+        wrong(&|b| b[8] &= !RELAY_FLAG, bad(Field::Flags));
+        wrong(&|b| b[at] = 8, bad(Field::RelayRows));
+        wrong(&|b| b[at + 1] = 8, bad(Field::RelayRows));
     }
 
     #[test]

@@ -208,8 +208,12 @@ pub const GUARD_US: u32 = 3_000;
 /// Report sub-slots per superframe: agents 1…`REPORT_SUBSLOTS` report, one sub-slot each.
 pub const REPORT_SUBSLOTS: u8 = 2;
 /// The shortest report sub-slot, µs: a 4-anchor × 2-channel report (59 B) takes ≈ 12 ms over the
-/// agent's UART and ≈ 2.8 ms on air, after the sink-channel switch.
+/// agent's UART and ≈ 2.8 ms on air, after the sink-channel switch. Larger reports get longer
+/// sub-slots ([`report_slot_us`]).
 pub const MIN_REPORT_SLOT_US: u32 = 20_000;
+/// What a report sub-slot leaves after the guard and the report's way to the sink's MCU
+/// ([`packet_latency_us`]): the margin the shortest sub-slot has for a 4 × 2 report.
+const REPORT_MARGIN_US: u32 = 2_000;
 /// One byte on the 57600-baud 8N1 UART between MCU and radio (10 bit times), ns.
 pub const UART_BYTE_NS: u32 = 173_611;
 /// From the end of a packet on air to the first byte of its RX frame on the receiving radio's
@@ -224,34 +228,74 @@ pub const RADIO_RX_LATENCY_US: u32 = 200;
 /// its 0x7E has arrived, `uno_board::rx_frame_start_us`). Escaped bytes add 174 µs each (rare:
 /// positions and RSSI bytes seldom equal 0x11, 0x13, 0x7D or 0x7E).
 pub const fn beacon_latency_us(anchors: u8) -> u32 {
-    let payload = crate::msg::Beacon::BASE_LEN as u32 + anchors as u32;
+    packet_latency_us(crate::msg::Beacon::BASE_LEN as u32 + anchors as u32)
+}
+
+/// How long after the sender's MCU starts writing a TX16 frame of a `payload`-byte packet the
+/// packet's RX frame starts on the receiver's UART, µs (as [`beacon_latency_us`]).
+pub const fn packet_latency_us(payload: u32) -> u32 {
     let frame = payload + 9;
     (frame + 1) * UART_BYTE_NS / 1000 + 928 + 32 * payload + RADIO_RX_LATENCY_US
 }
 
+/// The guard time of a slot of `slot_us`: [`GUARD_US`], at most a quarter of the slot.
+pub const fn guard_us(slot_us: u32) -> u32 {
+    if GUARD_US < slot_us / 4 {
+        GUARD_US
+    } else {
+        slot_us / 4
+    }
+}
+
+/// Whether a slot of `slot_ms` holds a beacon of a network of `anchors` anchors: its guard, then
+/// the beacon's way to the receivers' MCUs ([`beacon_latency_us`]), must end within the slot,
+/// or the next slot's sender and the receivers' timing would be off.
+pub const fn slot_fits_beacon(anchors: u8, slot_ms: u16) -> bool {
+    let slot_us = slot_ms as u32 * 1000;
+    guard_us(slot_us) + beacon_latency_us(anchors) <= slot_us
+}
+
+/// The shortest slot a network of `anchors` anchors can run with, ms ([`slot_fits_beacon`]).
+pub const fn min_slot_ms(anchors: u8) -> u16 {
+    let mut slot = 1;
+    while !slot_fits_beacon(anchors, slot) {
+        slot += 1;
+    }
+    slot
+}
+
+/// The report sub-slot of a network of `anchors` × `channels` with slots of `slot_us`: a slot,
+/// at least [`MIN_REPORT_SLOT_US`], and long enough for the guard, the largest report an agent
+/// sends ([`crate::msg::Report::max_size`]) on its way to the sink, and a margin.
+pub const fn report_slot_us(anchors: u8, channels: u8, slot_us: u32) -> u32 {
+    let size = crate::msg::Report::max_size(anchors as usize, channels as usize) as u32;
+    let need = GUARD_US + packet_latency_us(size) + REPORT_MARGIN_US;
+    let min = if need > MIN_REPORT_SLOT_US {
+        need
+    } else {
+        MIN_REPORT_SLOT_US
+    };
+    if slot_us > min {
+        slot_us
+    } else {
+        min
+    }
+}
+
 impl Schedule {
     /// The superframe every node derives from its config: `anchors` slots of `slot_ms` per
-    /// channel, [`REPORT_SUBSLOTS`] report sub-slots of `slot_ms` (at least
-    /// [`MIN_REPORT_SLOT_US`]), and a guard of [`GUARD_US`] (at most a quarter of a slot).
+    /// channel, [`REPORT_SUBSLOTS`] report sub-slots ([`report_slot_us`]), and the guard of
+    /// the slot ([`guard_us`]).
     pub const fn for_config(c: &crate::config::Config) -> Result<Schedule, ScheduleError> {
         let slot_us = c.slot_ms as u32 * 1000;
-        let report_us = if slot_us > MIN_REPORT_SLOT_US {
-            slot_us
-        } else {
-            MIN_REPORT_SLOT_US
-        };
-        let guard_us = if GUARD_US < slot_us / 4 {
-            GUARD_US
-        } else {
-            slot_us / 4
-        };
+        let channels = c.channels.len() as u8;
         Schedule::new(
             c.anchors,
-            c.channels.len() as u8,
+            channels,
             slot_us,
             REPORT_SUBSLOTS,
-            report_us,
-            guard_us,
+            report_slot_us(c.anchors, channels, slot_us),
+            guard_us(slot_us),
         )
     }
 }
@@ -541,13 +585,67 @@ mod tests {
         assert_eq!(s.agents(), REPORT_SUBSLOTS);
         // Short slots: report sub-slots stay long enough for a report, the guard shrinks.
         let fast = Config {
-            slot_ms: 8,
+            slot_ms: 10,
             ..Config::DEFAULT
         };
         let s = Schedule::for_config(&fast).unwrap();
-        assert_eq!(s.guard_us(), 2_000);
-        assert_eq!(s.report_at_us(1), Some(8 * 8_000 + 2_000));
-        assert_eq!(s.superframe_us(), 8 * 8_000 + 2 * MIN_REPORT_SLOT_US);
+        assert_eq!(s.guard_us(), 2_500);
+        assert_eq!(s.report_at_us(1), Some(8 * 10_000 + 2_500));
+        assert_eq!(s.superframe_us(), 8 * 10_000 + 2 * MIN_REPORT_SLOT_US);
+    }
+
+    /// A slot holds its guard and a beacon's way to the receivers: 9 ms with 3 to 5 anchors,
+    /// 10 ms with 6 to 8; and a config with a shorter slot is refused.
+    #[test]
+    fn a_slot_must_hold_a_beacon() {
+        use crate::config::Config;
+        for anchors in 3..=8u8 {
+            let min = min_slot_ms(anchors);
+            assert_eq!(min, if anchors <= 5 { 9 } else { 10 }, "{anchors}");
+            let slot_us = min as u32 * 1000;
+            assert!(guard_us(slot_us) + beacon_latency_us(anchors) <= slot_us);
+            let shorter = (min - 1) as u32 * 1000;
+            assert!(guard_us(shorter) + beacon_latency_us(anchors) > shorter);
+            let c = Config {
+                anchors,
+                slot_ms: min,
+                ..Config::DEFAULT
+            };
+            assert_eq!(c.validate(), Ok(()));
+            let c = Config {
+                slot_ms: min - 1,
+                ..c
+            };
+            assert_eq!(
+                c.validate(),
+                Err(crate::Error::BadValue {
+                    field: crate::error::Field::SlotLength
+                })
+            );
+        }
+    }
+
+    /// A report sub-slot holds the largest report an agent sends: the guard, the report's way
+    /// to the sink's MCU and a margin; the 4 × 2 report keeps the shortest sub-slot.
+    #[test]
+    fn a_report_sub_slot_holds_the_largest_report() {
+        assert_eq!(report_slot_us(4, 2, 10_000), MIN_REPORT_SLOT_US);
+        for anchors in 3..=8u8 {
+            for channels in 1..=4u8 {
+                let size = crate::msg::Report::max_size(anchors.into(), channels.into());
+                assert!(size <= crate::msg::MAX_PAYLOAD);
+                let sub = report_slot_us(anchors, channels, min_slot_ms(anchors) as u32 * 1000);
+                let need = GUARD_US + packet_latency_us(size as u32) + REPORT_MARGIN_US;
+                assert!(
+                    sub >= need && sub >= MIN_REPORT_SLOT_US,
+                    "{anchors}×{channels}"
+                );
+                // Long slots are report sub-slots as they are.
+                assert_eq!(report_slot_us(anchors, channels, 62_000), 62_000);
+            }
+        }
+        // The largest report (100 bytes) needs more than the shortest sub-slot.
+        assert!(report_slot_us(8, 4, 10_000) > MIN_REPORT_SLOT_US);
     }
 
     #[test]

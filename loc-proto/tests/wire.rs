@@ -51,24 +51,33 @@ fn beacon() -> impl Strategy<Value = Beacon> {
 #[allow(clippy::needless_range_loop)] // three parallel index sets read clearer as ranges
 fn report() -> impl Strategy<Value = Report> {
     (
-        1..=255u8,
-        any::<u16>(),
-        3..=8u8,
-        channels(),
-        any::<bool>(),
+        (1..=255u8, any::<u16>(), 3..=8u8, channels()),
+        // No relay rows, all of them, or a window of them.
+        prop_oneof![
+            Just(None),
+            Just(Some(None)),
+            any::<(u8, u8)>().prop_map(|w| Some(Some(w)))
+        ],
         proptest::array::uniform8(position()),
         any::<[[u8; 8]; 4]>(),
         any::<[[[u8; 8]; 8]; 4]>(),
     )
-        .prop_map(|(agent, seq, n, ch, has_relay, pos, rssi, relay)| {
+        .prop_map(|((agent, seq, n, ch), rows, pos, rssi, relay)| {
             let mut r = Report::new(agent, seq, n, ch);
-            r.has_relay = has_relay;
+            r.has_relay = rows.is_some();
             let (n, c) = (n as usize, ch.len());
+            if let Some(Some((s, k))) = rows {
+                let total = (n * c) as u8;
+                r.relay_window = Some((s % total, k % total));
+            }
             r.positions[..n].copy_from_slice(&pos[..n]);
             for k in 0..c {
                 r.rssi[k][..n].copy_from_slice(&rssi[k][..n]);
-                if has_relay {
+                if r.has_relay {
                     for i in 0..n {
+                        if !r.sends_row(k * n + i) {
+                            continue;
+                        }
                         for j in 0..n {
                             if i != j {
                                 r.relay[k][i][j] = relay[k][i][j];
@@ -94,6 +103,8 @@ fn config() -> impl Strategy<Value = Config> {
     )
         .prop_map(
             |(role, id, anchors, position, slot_ms, channels, sink_channel, pan_id)| Config {
+                // A slot that holds the network's beacons.
+                slot_ms: slot_ms.max(loc_proto::schedule::min_slot_ms(anchors)),
                 role,
                 id: if role == Role::Anchor {
                     (id - 1) % anchors + 1
@@ -102,7 +113,6 @@ fn config() -> impl Strategy<Value = Config> {
                 },
                 anchors,
                 position,
-                slot_ms,
                 channels,
                 sink_channel,
                 pan_id,
@@ -229,6 +239,53 @@ proptest! {
                 prop_assert_eq!(e, Error::TooLarge { size: r.size() as u16 });
             }
         }
+    }
+
+    /// Whatever its size, a report made to fit ([`Report::fit_relay`]) is one packet, keeps
+    /// as many relay rows as fit (all of them when the matrix fits), and round trips.
+    #[test]
+    fn reports_fit_one_packet(mut r in report()) {
+        // The whole matrix, when there is relay.
+        let had = r.has_relay;
+        r.relay_window = None;
+        for k in 0..r.channels.len() {
+            for i in 0..r.anchors as usize {
+                for j in 0..r.anchors as usize {
+                    if i != j && had {
+                        r.relay[k][i][j] = (k * 64 + i * 8 + j) as u8 | 1;
+                    }
+                }
+            }
+        }
+        let before = r;
+        r.fit_relay();
+        prop_assert!(r.size() <= MAX_PAYLOAD, "{} bytes", r.size());
+        let (n, c) = (r.anchors as usize, r.channels.len());
+        let kept = (0..n * c).filter(|&row| r.sends_row(row)).count();
+        let fit = Report::relay_rows_that_fit(n, c);
+        if had {
+            prop_assert_eq!(r.has_relay, fit > 0);
+            if r.has_relay {
+                // Every row when the matrix fits, else as many as fit.
+                prop_assert_eq!(kept, fit.min(n * c));
+            }
+            // The rows kept are the matrix's; the others are cleared.
+            for k in 0..c {
+                for i in 0..n {
+                    let sent = r.sends_row(k * n + i);
+                    for j in 0..n {
+                        let want = if sent { before.relay[k][i][j] } else { 0 };
+                        prop_assert_eq!(r.relay[k][i][j], want);
+                    }
+                }
+            }
+        } else {
+            prop_assert_eq!(r, before);
+        }
+        let mut buf = [0; 256];
+        let len = r.encode(&mut buf).unwrap();
+        prop_assert_eq!(Report::decode(&buf[..len]), Ok(r));
+        view_is_decode(&buf[..len])?;
     }
 
     #[test]
