@@ -623,25 +623,34 @@ impl Report {
     }
 }
 
-/// A report's size from its N, C and flags `cf` (all checked but the window), and its window
-/// of relay rows (every row: 0 and C·N); `Some(Err(()))` for a window outside the rows, `None`
-/// when `buf` is too short to hold the window. In 16 bits (N ≤ 8, C ≤ 4).
-fn relay_size(buf: &[u8], n: u8, c: u8, cf: u8) -> Option<Result<(u16, (u8, u8)), ()>> {
+/// What [`relay_size`] finds of a report's layout.
+enum Layout {
+    /// Its size, and the window of relay rows it sends (every row: 0 and C·N).
+    Size(u16, (u8, u8)),
+    /// A window outside the relay rows.
+    BadWindow,
+    /// Too short to hold its window.
+    Short,
+}
+
+/// A report's layout from its N, C and flags `cf` (all checked but the window). In 16 bits
+/// (N ≤ 8, C ≤ 4).
+fn relay_size(buf: &[u8], n: u8, c: u8, cf: u8) -> Layout {
     let base = (9 + c + 4 * n + c * n) as u16;
     let total = c * n;
     if cf & RELAY_FLAG == 0 {
-        return Some(Ok((base, (0, 0))));
+        return Layout::Size(base, (0, 0));
     }
     if cf & ROWS_FLAG == 0 {
-        return Some(Ok((base + total as u16 * (n - 1) as u16, (0, total))));
+        return Layout::Size(base + total as u16 * (n - 1) as u16, (0, total));
     }
-    let &[s, k] = buf.get(base as usize..base as usize + 2)? else {
-        return None;
+    let Some(&[s, k]) = buf.get(base as usize..base as usize + 2) else {
+        return Layout::Short;
     };
     if s >= total || k >= total {
-        return Some(Err(()));
+        return Layout::BadWindow;
     }
-    Some(Ok((base + 2 + k as u16 * (n - 1) as u16, (s, k))))
+    Layout::Size(base + 2 + k as u16 * (n - 1) as u16, (s, k))
 }
 
 /// Whether `chans` are testbed channels (1…16), none twice: a bit each for the duplicates.
@@ -741,9 +750,9 @@ impl<'a> ReportView<'a> {
         // rows'): too few or too many bytes is all that can be wrong with them, but for a mask
         // naming an anchor the report does not have.
         let (size, win) = match relay_size(buf, anchors, c as u8, cf) {
-            Some(Ok(v)) => v,
-            Some(Err(())) => return Err(bad(Field::RelayRows)),
-            None => return Err(Error::BadLength),
+            Layout::Size(size, win) => (size, win),
+            Layout::BadWindow => return Err(bad(Field::RelayRows)),
+            Layout::Short => return Err(Error::BadLength),
         };
         if buf.len() != size as usize {
             return Err(Error::BadLength);
@@ -793,7 +802,7 @@ impl<'a> ReportView<'a> {
         {
             return Err(Corrupt);
         }
-        let Some(Ok((size, win))) = relay_size(buf, anchors, c, cf) else {
+        let Layout::Size(size, win) = relay_size(buf, anchors, c, cf) else {
             return Err(Corrupt);
         };
         if len as u16 != size {

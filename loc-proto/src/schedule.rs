@@ -250,25 +250,57 @@ pub const fn guard_us(slot_us: u32) -> u32 {
 /// Whether a slot of `slot_ms` holds a beacon of a network of `anchors` anchors: its guard, then
 /// the beacon's way to the receivers' MCUs ([`beacon_latency_us`]), must end within the slot,
 /// or the next slot's sender and the receivers' timing would be off.
+///
+/// Nodes check it with a table built from that rule at compile time ([`min_slot_ms`]), which
+/// costs the MCU a lookup rather than the arithmetic.
 pub const fn slot_fits_beacon(anchors: u8, slot_ms: u16) -> bool {
-    let slot_us = slot_ms as u32 * 1000;
+    slot_ms >= min_slot_ms(anchors)
+}
+
+/// Whether the guard of a slot of `slot_us`, then a beacon of `anchors` anchors on its way to the
+/// receivers' MCUs, end within the slot: the rule [`slot_fits_beacon`] applies.
+const fn beacon_ends_in_slot(anchors: u8, slot_us: u32) -> bool {
     guard_us(slot_us) + beacon_latency_us(anchors) <= slot_us
 }
 
+/// The shortest slot of every anchor count up to [`crate::msg::MAX_ANCHORS`], ms (larger counts: the
+/// last), by the rule of [`slot_fits_beacon`].
+const MIN_SLOT_MS: [u8; crate::msg::MAX_ANCHORS + 1] = {
+    let mut t = [0; crate::msg::MAX_ANCHORS + 1];
+    let mut n = 0;
+    while n < t.len() {
+        let mut slot = 1;
+        while !beacon_ends_in_slot(n as u8, slot * 1000) {
+            slot += 1;
+        }
+        t[n] = slot as u8;
+        n += 1;
+    }
+    t
+};
+
 /// The shortest slot a network of `anchors` anchors can run with, ms ([`slot_fits_beacon`]).
 pub const fn min_slot_ms(anchors: u8) -> u16 {
-    let mut slot = 1;
-    while !slot_fits_beacon(anchors, slot) {
-        slot += 1;
-    }
-    slot
+    let n = if (anchors as usize) < MIN_SLOT_MS.len() {
+        anchors as usize
+    } else {
+        MIN_SLOT_MS.len() - 1
+    };
+    MIN_SLOT_MS[n] as u16
 }
 
 /// The report sub-slot of a network of `anchors` × `channels` with slots of `slot_us`: a slot,
 /// at least [`MIN_REPORT_SLOT_US`], and long enough for the guard, the largest report an agent
-/// sends ([`crate::msg::Report::max_size`]) on its way to the sink, and a margin.
+/// sends on its way to the sink, and a margin. The report is taken as its relay matrix whole or
+/// a full packet ([`crate::msg::MAX_PAYLOAD`]), whichever is smaller: at most a few bytes more
+/// than [`crate::msg::Report::max_size`], and no division for the MCU.
 pub const fn report_slot_us(anchors: u8, channels: u8, slot_us: u32) -> u32 {
-    let size = crate::msg::Report::max_size(anchors as usize, channels as usize) as u32;
+    let whole = crate::msg::Report::wire_size(anchors as usize, channels as usize, true);
+    let size = if whole < crate::msg::MAX_PAYLOAD {
+        whole
+    } else {
+        crate::msg::MAX_PAYLOAD
+    } as u32;
     let need = GUARD_US + packet_latency_us(size) + REPORT_MARGIN_US;
     let min = if need > MIN_REPORT_SLOT_US {
         need
@@ -622,6 +654,22 @@ mod tests {
                     field: crate::error::Field::SlotLength
                 })
             );
+        }
+    }
+
+    /// The table the nodes look the shortest slot up in is the rule itself, for every anchor
+    /// count the table has and every slot length a config takes.
+    #[test]
+    fn the_slot_table_is_the_rule() {
+        for anchors in 0..=MIN_SLOT_MS.len() as u8 + 1 {
+            for slot_ms in 1..=crate::config::MAX_SLOT_MS {
+                let n = anchors.min(MIN_SLOT_MS.len() as u8 - 1);
+                assert_eq!(
+                    slot_fits_beacon(anchors, slot_ms),
+                    beacon_ends_in_slot(n, slot_ms as u32 * 1000),
+                    "{anchors} anchors, {slot_ms} ms"
+                );
+            }
         }
     }
 
