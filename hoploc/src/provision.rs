@@ -309,8 +309,8 @@ pub struct Args {
     /// Number of anchors N in the network (3…8).
     #[arg(long, default_value_t = Config::DEFAULT.anchors)]
     pub anchors: u8,
-    /// TDMA slot length in ms (up to 10000; at least 9 with 3…5 anchors, 10 with 6…8: a slot
-    /// must hold a beacon).
+    /// TDMA slot length in ms (up to 10000; at least 16 with 3 or 4 anchors, 17 with 5…7, 18
+    /// with 8: a slot must hold a beacon).
     #[arg(long, default_value_t = Config::DEFAULT.slot_ms)]
     pub slot_ms: u16,
     /// Anchor channels in hop order, testbed channels 1…16 (channel n = 802.15.4 channel 10+n).
@@ -464,20 +464,20 @@ mod tests {
         // how long a slot it needs.
         let short = Config {
             anchors: 7,
-            slot_ms: 9,
+            slot_ms: 14,
             ..Config::DEFAULT
         };
         let Err(e) = Provisioner::new(short) else {
-            panic!("a 9 ms slot for 7 anchors is accepted");
+            panic!("a 14 ms slot for 7 anchors is accepted");
         };
         assert!(matches!(
             e,
             ProvisionError::SlotTooShort {
-                slot_ms: 9,
+                slot_ms: 14,
                 anchors: 7
             }
         ));
-        assert!(e.to_string().contains("at least 10 ms"), "{e}");
+        assert!(e.to_string().contains("at least 17 ms"), "{e}");
     }
 
     /// A port that answers like a node: the boot line at once, the ACK once the frame is in.

@@ -14,7 +14,7 @@
 //! | 4 | node id (1…255; an anchor's 1…N) |
 //! | 5 | N, the number of anchors (3…8) |
 //! | 6–7, 8–9 | the anchor's position x, y (i16, cm; 0 for other roles by convention) |
-//! | 10–11 | slot length (u16, ms, up to 10000 and at least [`schedule::min_slot_ms`] of N: 9 with 3…5 anchors, 10 with 6…8) |
+//! | 10–11 | slot length (u16, ms, up to 10000 and at least [`schedule::min_slot_ms`] of N: 16 with 3 or 4 anchors, 17 with 5…7, 18 with 8) |
 //! | 12 | sink channel (testbed channel 1…16) |
 //! | 13–14 | PAN id (u16, not 0xFFFF) |
 //! | 15 | C, the number of channels (1…4) |
@@ -57,7 +57,7 @@ pub const MIN_LEN: usize = 19;
 /// The longest config (four channels).
 pub const MAX_LEN: usize = 22;
 /// The shortest slot accepted (ms), that of the smallest network: a slot must hold its guard
-/// and a beacon's way from the sender's MCU to the receivers' ([`schedule::min_slot_ms`]; with
+/// and a beacon's way from the sender's MCU into the receivers' ([`schedule::min_slot_ms`]; with
 /// more anchors a beacon is longer, and a config's slot must fit its own).
 pub const MIN_SLOT_MS: u16 = schedule::min_slot_ms(3);
 /// The longest slot accepted (ms).
@@ -428,8 +428,8 @@ impl core::error::Error for EnvError {}
 const EXPECT_ID: &str = "a node id 1…255 (an anchor's at most HOPLOC_ANCHORS)";
 const EXPECT_POS: &str = "an integer -32768…32767 (cm)";
 const EXPECT_ANCHORS: &str = "the number of anchors, 3…8";
-const EXPECT_SLOT: &str = "a slot length in ms, up to 10000, that holds a beacon: at least 9 \
-     with 3 to 5 anchors, 10 with 6 to 8 (loc_proto::schedule::min_slot_ms)";
+const EXPECT_SLOT: &str = "a slot length in ms, up to 10000, that holds a beacon: at least 16 \
+     with 3 or 4 anchors, 17 with 5 to 7, 18 with 8 (loc_proto::schedule::min_slot_ms)";
 const EXPECT_CHANNELS: &str =
     "1…4 distinct testbed channels 1…16, comma separated, e.g. 1,12 (the S1 Pro has 2…13 only)";
 const EXPECT_SINK: &str = "a testbed channel 1…16";

@@ -205,6 +205,9 @@ impl Schedule {
 /// the first sender of the phase covers with its guard plus the ≈ 4.5 ms its beacon takes over
 /// its own UART before it goes on air. The rest is margin for the sync error (< 1 ms).
 pub const GUARD_US: u32 = 3_000;
+/// The most two nodes' timelines are apart, µs: the slot rule leaves it at a slot's end, where a
+/// receiver ahead of the sender ends the slot that much earlier than the sender.
+pub const SYNC_ERROR_US: u32 = 1_000;
 /// Report sub-slots per superframe: agents 1…`REPORT_SUBSLOTS` report, one sub-slot each.
 pub const REPORT_SUBSLOTS: u8 = 2;
 /// The shortest report sub-slot, µs: a 4-anchor × 2-channel report (59 B) takes ≈ 12 ms over the
@@ -238,6 +241,21 @@ pub const fn packet_latency_us(payload: u32) -> u32 {
     (frame + 1) * UART_BYTE_NS / 1000 + 928 + 32 * payload + RADIO_RX_LATENCY_US
 }
 
+/// One UART byte as the slot rules count it ([`packet_received_us`]), ns: 11 bit times, 10 %
+/// over an 8N1 byte. simavr's UART takes that long per byte, and a real radio's UART may leave
+/// gaps between the bytes of a frame; the rules hold for both.
+pub const SLOT_RULE_BYTE_NS: u32 = UART_BYTE_NS / 10 * 11;
+
+/// How long after the sender's MCU starts writing a TX16 frame of a `payload`-byte packet the
+/// receiver's MCU has the whole RX16 frame, at the latest, µs: the TX frame over the sender's
+/// UART, the time on air and the receiving radio's latency as in [`packet_latency_us`], then the
+/// whole RX frame (the same 9 bytes around the payload) over the receiver's UART, every UART
+/// byte counted at [`SLOT_RULE_BYTE_NS`].
+pub const fn packet_received_us(payload: u32) -> u32 {
+    let uart = 2 * (payload + 9);
+    uart * SLOT_RULE_BYTE_NS / 1000 + 928 + 32 * payload + RADIO_RX_LATENCY_US
+}
+
 /// The guard time of a slot of `slot_us`: [`GUARD_US`], at most a quarter of the slot.
 pub const fn guard_us(slot_us: u32) -> u32 {
     if GUARD_US < slot_us / 4 {
@@ -248,8 +266,9 @@ pub const fn guard_us(slot_us: u32) -> u32 {
 }
 
 /// Whether a slot of `slot_ms` holds a beacon of a network of `anchors` anchors: its guard, then
-/// the beacon's way to the receivers' MCUs ([`beacon_latency_us`]), must end within the slot,
-/// or the next slot's sender and the receivers' timing would be off.
+/// the beacon's way into the receivers' MCUs, whole ([`packet_received_us`]), must end within
+/// the slot, [`SYNC_ERROR_US`] before its end. A beacon still on its way when the slot ends is lost where that slot ends a phase:
+/// the receivers tune to the next channel, and an agent sends its report without it.
 ///
 /// Nodes check it with a table built from that rule at compile time ([`min_slot_ms`]), which
 /// costs the MCU a lookup rather than the arithmetic.
@@ -257,10 +276,11 @@ pub const fn slot_fits_beacon(anchors: u8, slot_ms: u16) -> bool {
     slot_ms >= min_slot_ms(anchors)
 }
 
-/// Whether the guard of a slot of `slot_us`, then a beacon of `anchors` anchors on its way to the
-/// receivers' MCUs, end within the slot: the rule [`slot_fits_beacon`] applies.
+/// Whether the guard of a slot of `slot_us`, then a beacon of `anchors` anchors on its way into
+/// the receivers' MCUs, end within the slot: the rule [`slot_fits_beacon`] applies.
 const fn beacon_ends_in_slot(anchors: u8, slot_us: u32) -> bool {
-    guard_us(slot_us) + beacon_latency_us(anchors) <= slot_us
+    let payload = crate::msg::Beacon::BASE_LEN as u32 + anchors as u32;
+    guard_us(slot_us) + packet_received_us(payload) + SYNC_ERROR_US <= slot_us
 }
 
 /// The shortest slot of every anchor count up to [`crate::msg::MAX_ANCHORS`], ms (larger counts: the
@@ -615,29 +635,49 @@ mod tests {
         assert_eq!(s.beacon_at_us(1, 3), Some(6 * 62_000 + GUARD_US));
         assert_eq!(s.report_at_us(2), Some(8 * 62_000 + 62_000 + GUARD_US));
         assert_eq!(s.agents(), REPORT_SUBSLOTS);
-        // Short slots: report sub-slots stay long enough for a report, the guard shrinks.
+        // Short slots: report sub-slots stay long enough for a report.
         let fast = Config {
-            slot_ms: 10,
+            slot_ms: 16,
             ..Config::DEFAULT
         };
         let s = Schedule::for_config(&fast).unwrap();
-        assert_eq!(s.guard_us(), 2_500);
-        assert_eq!(s.report_at_us(1), Some(8 * 10_000 + 2_500));
-        assert_eq!(s.superframe_us(), 8 * 10_000 + 2 * MIN_REPORT_SLOT_US);
+        assert_eq!(s.guard_us(), GUARD_US);
+        assert_eq!(s.report_at_us(1), Some(8 * 16_000 + GUARD_US));
+        assert_eq!(s.superframe_us(), 8 * 16_000 + 2 * MIN_REPORT_SLOT_US);
+        // The guard is at most a quarter of a slot.
+        assert_eq!(guard_us(10_000), 2_500);
     }
 
-    /// A slot holds its guard and a beacon's way to the receivers: 9 ms with 3 to 5 anchors,
-    /// 10 ms with 6 to 8; and a config with a shorter slot is refused.
+    /// A slot holds its guard, a beacon's way into the receivers, whole, and the sync error:
+    /// 16 ms with 3 or 4 anchors, 17 with 5 to 7, 18 with 8; and a config with a shorter slot
+    /// is refused.
     #[test]
     fn a_slot_must_hold_a_beacon() {
         use crate::config::Config;
         for anchors in 3..=8u8 {
             let min = min_slot_ms(anchors);
-            assert_eq!(min, if anchors <= 5 { 9 } else { 10 }, "{anchors}");
+            let want = match anchors {
+                3 | 4 => 16,
+                5..=7 => 17,
+                _ => 18,
+            };
+            assert_eq!(min, want, "{anchors}");
+            // The whole RX frame: the TX frame's first byte to the RX frame's last, the UART's
+            // bytes at 11 bit times; a tenth of a UART byte more per byte than the latency the
+            // followers correct for (the RX frame's first byte), and the RX frame's other bytes.
+            let payload = crate::msg::Beacon::BASE_LEN as u32 + anchors as u32;
+            let frame = payload + 9;
+            let whole = beacon_latency_us(anchors)
+                + (frame - 1) * UART_BYTE_NS / 1000
+                + 2 * frame * (SLOT_RULE_BYTE_NS - UART_BYTE_NS) / 1000;
+            assert!(
+                packet_received_us(payload).abs_diff(whole) <= 2,
+                "{anchors}"
+            );
             let slot_us = min as u32 * 1000;
-            assert!(guard_us(slot_us) + beacon_latency_us(anchors) <= slot_us);
+            assert!(guard_us(slot_us) + whole + SYNC_ERROR_US <= slot_us);
             let shorter = (min - 1) as u32 * 1000;
-            assert!(guard_us(shorter) + beacon_latency_us(anchors) > shorter);
+            assert!(guard_us(shorter) + whole + SYNC_ERROR_US > shorter);
             let c = Config {
                 anchors,
                 slot_ms: min,
