@@ -187,10 +187,10 @@ fn agents_report_every_superframe_in_their_sub_slots() {
             }
             assert_eq!(c.positions[..4], POS.map(|[x, y]| Position { x, y }));
             assert_eq!(c.positions[4], Position::default());
-            // It encodes: 59 bytes for 4 anchors × 2 channels with the relay matrix.
+            // It encodes: 61 bytes for 4 anchors × 2 channels with the relay matrix.
             let mut buf = [0; 100];
-            assert_eq!(c.encode(&mut buf), Ok(59));
-            assert_eq!(Report::decode(&buf[..59]), Ok(*c));
+            assert_eq!(c.encode(&mut buf), Ok(61));
+            assert_eq!(Report::decode(&buf[..61]), Ok(*c));
         }
     }
     // Agent 2's report is one sub-slot after agent 1's, within the timing error.

@@ -271,7 +271,7 @@ fn the_relay_carries_last_superframes_rssi_per_channel() {
     assert_eq!(b.relay, [41, 42, 0, 44]);
     let mut buf = [0; Beacon::MAX_LEN];
     let n = b.encode(&mut buf).unwrap();
-    assert_eq!(n, 17);
+    assert_eq!(n, 19);
     assert_eq!(Beacon::decode(&buf[..n]), Ok(b));
 }
 

@@ -14,7 +14,7 @@ use std::fmt;
 use std::io::{self, Read, Write};
 use std::time::{Duration, Instant};
 
-use loc_proto::config::{self, Config, WRONG_ROLE};
+use loc_proto::config::{self, Config, NetworkKey, WRONG_ROLE};
 use loc_proto::line::BootLine;
 use loc_proto::msg::{ChannelList, Position};
 use loc_proto::provision::{encode, Reply, MAX_FRAME, REPLY_LEN, WRITE_FAILED};
@@ -309,7 +309,7 @@ pub struct Args {
     /// Number of anchors N in the network (3…8).
     #[arg(long, default_value_t = Config::DEFAULT.anchors)]
     pub anchors: u8,
-    /// TDMA slot length in ms (up to 10000; at least 16 with 3 or 4 anchors, 17 with 5…7, 18
+    /// TDMA slot length in ms (up to 10000; at least 17 with 3…5 anchors, 18 with 6 or 7, 19
     /// with 8: a slot must hold a beacon).
     #[arg(long, default_value_t = Config::DEFAULT.slot_ms)]
     pub slot_ms: u16,
@@ -323,6 +323,21 @@ pub struct Args {
     /// PAN id, decimal or 0x-hex (not 0xFFFF).
     #[arg(long, default_value = "0x3332", value_parser = parse_pan)]
     pub pan: u16,
+    /// Network key: 32 hex digits, the same on every node of the network. The node turns its
+    /// radio's AES-128 encryption on with it; without --key, off. Keeps devices without the key
+    /// out, but the XBee encrypts without an integrity check or replay protection (see
+    /// docs/design.md). The key is stored in the board's EEPROM in the clear.
+    #[arg(long, value_parser = parse_key)]
+    pub key: Option<NetworkKey>,
+}
+
+fn parse_key(s: &str) -> Result<NetworkKey, String> {
+    NetworkKey::parse(s).ok_or_else(|| {
+        format!(
+            "`{}…`: expected a network key of 32 hex digits (16 bytes)",
+            s.chars().take(4).collect::<String>()
+        )
+    })
 }
 
 fn parse_role(s: &str) -> Result<Role, String> {
@@ -355,6 +370,7 @@ impl Args {
             channels: self.channels,
             sink_channel: self.sink_channel,
             pan_id: self.pan,
+            key: self.key,
         }
     }
 }
@@ -364,7 +380,7 @@ pub fn describe(c: &Config) -> String {
     let channels: Vec<String> = c.channels.as_slice().iter().map(u8::to_string).collect();
     let pos = if c.role == Role::Sink { "room" } else { "at" };
     format!(
-        "{} {} {pos} ({}, {}) cm, {} anchors, {} ms slots, channels {}, sink channel {}, PAN {:#06x}",
+        "{} {} {pos} ({}, {}) cm, {} anchors, {} ms slots, channels {}, sink channel {}, PAN {:#06x}, {}",
         c.role.name(),
         c.id,
         c.position.x,
@@ -373,7 +389,12 @@ pub fn describe(c: &Config) -> String {
         c.slot_ms,
         channels.join(","),
         c.sink_channel,
-        c.pan_id
+        c.pan_id,
+        if c.key.is_some() {
+            "encrypted (network key set)"
+        } else {
+            "not encrypted"
+        }
     )
 }
 
@@ -477,7 +498,7 @@ mod tests {
                 anchors: 7
             }
         ));
-        assert!(e.to_string().contains("at least 17 ms"), "{e}");
+        assert!(e.to_string().contains("at least 18 ms"), "{e}");
     }
 
     /// A port that answers like a node: the boot line at once, the ACK once the frame is in.

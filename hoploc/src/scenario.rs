@@ -56,6 +56,19 @@ pub struct Timing {
     /// bring-up, anchors finding the timeline), s.
     #[serde(default = "default_warmup")]
     pub warmup_s: f64,
+    /// The network key every node is provisioned with (32 hex digits): the radios encrypt
+    /// (`loc_proto::config::NetworkKey`). None: no encryption.
+    #[serde(default)]
+    pub network_key: Option<String>,
+}
+
+impl Timing {
+    /// The network key, if set and valid (the scenario's checks refuse an invalid one).
+    pub fn key(&self) -> Option<loc_proto::config::NetworkKey> {
+        self.network_key
+            .as_deref()
+            .and_then(loc_proto::config::NetworkKey::parse)
+    }
 }
 
 fn default_sink_channel() -> u8 {
@@ -341,6 +354,12 @@ impl Scenario {
         }
         if !(t.warmup_s >= 0.0 && t.warmup_s.is_finite()) {
             return bad("timing.warmup_s", format!("{} is not ≥ 0", t.warmup_s));
+        }
+        if t.network_key.is_some() && t.key().is_none() {
+            return bad(
+                "timing.network_key",
+                "not a network key: 32 hex digits (16 bytes)".to_string(),
+            );
         }
         let m = &self.medium;
         if !(m.alpha > 0.0 && m.alpha <= 10.0) {

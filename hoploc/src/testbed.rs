@@ -218,8 +218,9 @@ pub fn eeprom(s: &Scenario, role: Role, id: u8, position: Position) -> Result<Ve
         channels,
         sink_channel: s.timing.sink_channel,
         pan_id: Config::DEFAULT.pan_id,
+        key: s.timing.key(),
     };
-    let mut buf = [0; 32];
+    let mut buf = [0; loc_proto::config::MAX_LEN];
     let n = c
         .to_bytes(&mut buf)
         .map_err(|e| format!("{} {id} config: {e:?}", role.name()))?;

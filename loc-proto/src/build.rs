@@ -31,7 +31,7 @@ pub fn rust_source(config: &Config) -> String {
          position: ::loc_proto::msg::Position {{ x: {x}, y: {y} }},\n    slot_ms: {slot},\n    \
          channels: match ::loc_proto::msg::ChannelList::new(&{channels:?}) {{\n        \
          Ok(c) => c,\n        Err(_) => panic!(\"checked by the build script\"),\n    }},\n    \
-         sink_channel: {sink},\n    pan_id: {pan:#06x},\n}};\n\n\
+         sink_channel: {sink},\n    pan_id: {pan:#06x},\n    key: {key},\n}};\n\n\
          /// [`BUILT_IN`] as stored in EEPROM, in the ELF's `.eeprom` section (for ISP:\n\
          /// `avrdude -U eeprom:w:<fw>.elf:e`).\n\
          #[cfg_attr(target_arch = \"avr\", link_section = \".eeprom\")]\n\
@@ -45,6 +45,10 @@ pub fn rust_source(config: &Config) -> String {
         channels = config.channels.as_slice(),
         sink = config.sink_channel,
         pan = config.pan_id,
+        key = match config.key {
+            Some(k) => std::format!("Some(::loc_proto::config::NetworkKey({:?}))", k.0),
+            None => "None".into(),
+        },
         bytes = &bytes[..n],
     );
     s
@@ -60,7 +64,11 @@ pub fn firmware_config(role: Role) {
     let config = match from_env(role, |name| std::env::var(name).ok()) {
         Ok(c) => c,
         Err(e) => {
-            let value = std::env::var(e.var).unwrap_or_default();
+            // (A key is not echoed into the build log.)
+            let value = match e.var {
+                "HOPLOC_KEY" => "…".into(),
+                var => std::env::var(var).unwrap_or_default(),
+            };
             std::eprintln!("error: {}={value:?}: {e}", e.var);
             std::process::exit(1);
         }
@@ -84,5 +92,16 @@ mod tests {
             s.contains("EEPROM_IMAGE: [u8; 20] = [197, 1, 20, 0, 1, 4, 0, 0, 0, 0, 62, 0, 3, 50, 51, 2, 1, 12, 225, 227];"),
             "{s}"
         );
+        assert!(s.contains("key: None,"), "{s}");
+        let keyed = Config {
+            key: Some(crate::config::NetworkKey([7; 16])),
+            ..Config::DEFAULT
+        };
+        let s = rust_source(&keyed);
+        assert!(
+            s.contains("key: Some(::loc_proto::config::NetworkKey([7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7])),"),
+            "{s}"
+        );
+        assert!(s.contains("EEPROM_IMAGE: [u8; 36]"), "{s}");
     }
 }

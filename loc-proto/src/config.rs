@@ -1,25 +1,43 @@
 //! The node config, as stored in EEPROM (from address 0) and carried by a provisioning frame
 //! ([`crate::provision`]).
 //!
-//! 18 + C bytes (C = 1…4 channels; 20 with the default two channels, 22 at most). Multi-byte
-//! fields are little endian except the CRC, which is big endian so that the CRC over the whole
-//! block is 0:
+//! 18 + C bytes (C = 1…4 channels; 20 with the default two channels, 22 at most), 16 more with a
+//! network key (38 at most). Multi-byte fields are little endian except the CRC, which is big
+//! endian so that the CRC over the whole block is 0:
 //!
 //! | byte | field |
 //! |---|---|
 //! | 0 | magic [`MAGIC`] (0xC5; an erased EEPROM reads 0xFF) |
 //! | 1 | version [`VERSION`] (1) |
-//! | 2 | length of the whole block in bytes, CRC included (18 + C) |
+//! | 2 | length of the whole block in bytes, CRC included (18 + C, or 34 + C with a key) |
 //! | 3 | role: 0 anchor, 1 agent, 2 sink |
 //! | 4 | node id (1…255; an anchor's 1…N) |
 //! | 5 | N, the number of anchors (3…8) |
 //! | 6–7, 8–9 | the anchor's position x, y (i16, cm; 0 for other roles by convention) |
-//! | 10–11 | slot length (u16, ms, up to 10000 and at least [`schedule::min_slot_ms`] of N: 16 with 3 or 4 anchors, 17 with 5…7, 18 with 8) |
+//! | 10–11 | slot length (u16, ms, up to 10000 and at least [`schedule::min_slot_ms`] of N: 17 with 3…5 anchors, 18 with 6 or 7, 19 with 8) |
 //! | 12 | sink channel (testbed channel 1…16) |
 //! | 13–14 | PAN id (u16, not 0xFFFF) |
-//! | 15 | C, the number of channels (1…4) |
+//! | 15 | C, the number of channels (1…4), in bits 0–6; bit 7 ([`KEY_FLAG`]) set: a network key follows the channels |
 //! | 16 … 15+C | the channels (testbed channels 1…16, distinct, in hop order) |
-//! | 16+C, 17+C | CRC-16/CCITT-FALSE ([`crate::error::crc16`]) of bytes 0 … 15+C, big endian |
+//! | 16+C … 31+C | with bit 7 of byte 15: the network key ([`NetworkKey`], 16 bytes) |
+//! | last 2 | CRC-16/CCITT-FALSE ([`crate::error::crc16`]) of every byte before it, big endian |
+//!
+//! A config without a key is the same bytes as before keys existed, so EEPROMs written then stay
+//! valid.
+//!
+//! ## The network key
+//!
+//! With a key, the node turns its radio's AES-128 encryption on (XBee `EE` = 1, `KY` = the key)
+//! at every boot; without one it turns it off. Every node of a network must have the same key,
+//! or none: a radio with encryption on hears nothing from one with it off (and the other way
+//! round), and a radio with another key passes on garbled payloads, which every message's CRC
+//! rejects ([`crate::msg`]). What it protects: the content of the packets from anyone without
+//! the key, and the sink from reports of a device without the key. What it does not: the XBee
+//! 802.15.4 radios encrypt without an integrity check or replay protection, so a device without
+//! the key can still replay packets it recorded, or flip bits in them (the CRC catches a
+//! random change, not a deliberate one fixed up by someone who knows the plaintext layout), and
+//! it can jam the channel. The key is stored in the node's EEPROM in the clear: anyone with the
+//! board can read it.
 //!
 //! Testbed channel *n* is XBee `CH` = 0x0A + *n* ([`crate::xbee_channel`]). Channel 1 (`CH`
 //! 0x0B) exists on the XBee S1 but not on the S1 Pro, which only has channels 2…13: a network
@@ -54,8 +72,39 @@ pub const MAGIC: u8 = 0xC5;
 pub const VERSION: u8 = 1;
 /// The shortest config (one channel).
 pub const MIN_LEN: usize = 19;
-/// The longest config (four channels).
-pub const MAX_LEN: usize = 22;
+/// The longest config (four channels and a key).
+pub const MAX_LEN: usize = 22 + KEY_LEN;
+/// Bytes of a network key.
+pub const KEY_LEN: usize = 16;
+/// The bit of the channel-count byte that says a network key follows the channels.
+pub const KEY_FLAG: u8 = 0x80;
+
+/// A network key: the AES-128 key of the radios' encryption (XBee `KY`; see the
+/// [module docs](self)). Its `Debug` does not show the key.
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+pub struct NetworkKey(pub [u8; KEY_LEN]);
+
+impl fmt::Debug for NetworkKey {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("NetworkKey(..)")
+    }
+}
+
+impl NetworkKey {
+    /// A key as the tools take it: 32 hex digits (`HOPLOC_KEY`, `hoploc provision --key`).
+    pub fn parse(s: &str) -> Option<NetworkKey> {
+        let s = s.trim().as_bytes();
+        if s.len() != 2 * KEY_LEN || !s.iter().all(u8::is_ascii_hexdigit) {
+            return None;
+        }
+        let mut key = [0; KEY_LEN];
+        for (k, pair) in key.iter_mut().zip(s.chunks_exact(2)) {
+            let hex = core::str::from_utf8(pair).ok()?;
+            *k = u8::from_str_radix(hex, 16).ok()?;
+        }
+        Some(NetworkKey(key))
+    }
+}
 /// The shortest slot accepted (ms), that of the smallest network: a slot must hold its guard
 /// and a beacon's way from the sender's MCU into the receivers' ([`schedule::min_slot_ms`]; with
 /// more anchors a beacon is longer, and a config's slot must fit its own).
@@ -85,6 +134,8 @@ pub struct Config {
     pub sink_channel: u8,
     /// The 802.15.4 PAN id (XBee `ID`).
     pub pan_id: u16,
+    /// The network key, if the network encrypts (see the [module docs](self)).
+    pub key: Option<NetworkKey>,
 }
 
 const fn default_channels() -> ChannelList {
@@ -106,11 +157,12 @@ impl Config {
         channels: default_channels(),
         sink_channel: DEFAULT_SINK_CHANNEL,
         pan_id: DEFAULT_PAN_ID,
+        key: None,
     };
 
-    /// The stored size of this config (18 + C).
+    /// The stored size of this config (18 + C, 16 more with a key).
     pub const fn size(&self) -> usize {
-        18 + self.channels.len()
+        18 + self.channels.len() + if self.key.is_some() { KEY_LEN } else { 0 }
     }
 
     /// Checks every field (the channel list is valid by construction).
@@ -143,9 +195,14 @@ impl Config {
         w.u16(self.slot_ms);
         w.u8(self.sink_channel);
         w.u16(self.pan_id);
-        w.u8(self.channels.len() as u8);
+        w.u8(self.channels.len() as u8 | if self.key.is_some() { KEY_FLAG } else { 0 });
         for &c in self.channels.as_slice() {
             w.u8(c);
+        }
+        if let Some(NetworkKey(key)) = self.key {
+            for b in key {
+                w.u8(b);
+            }
         }
         let crc = crc16(&buf[..size - 2]);
         buf[size - 2..size].copy_from_slice(&crc.to_be_bytes());
@@ -190,10 +247,11 @@ pub fn read_into(buf: &[u8], role: Role, out: Option<&mut Config>) -> u8 {
     let Some(b) = block.first_chunk::<16>() else {
         return Error::TooShort.code();
     };
-    if b[15].wrapping_add(18) != len {
+    let (c, key_len) = channel_count(b[15]);
+    if c.wrapping_add(18 + key_len) != len {
         return Error::BadLength.code();
     }
-    let Ok(channels) = ChannelList::new(&block[16..len as usize - 2]) else {
+    let Ok(channels) = ChannelList::new(&block[16..16 + c as usize]) else {
         return BAD_VALUE;
     };
     let slot_ms = u16::from_le_bytes([b[10], b[11]]);
@@ -243,9 +301,31 @@ pub fn read_into(buf: &[u8], role: Role, out: Option<&mut Config>) -> u8 {
             channels,
             sink_channel: b[12],
             pan_id,
+            key: stored_key(block, c, key_len),
         };
     }
     0
+}
+
+/// The channel count C of the channel-count byte `b`, and the bytes of key after the channels.
+#[inline(always)]
+fn channel_count(b: u8) -> (u8, u8) {
+    (
+        b & !KEY_FLAG,
+        if b & KEY_FLAG != 0 { KEY_LEN as u8 } else { 0 },
+    )
+}
+
+/// The key of a checked config `block` of `c` channels and `key_len` bytes of key.
+fn stored_key(block: &[u8], c: u8, key_len: u8) -> Option<NetworkKey> {
+    if key_len == 0 {
+        return None;
+    }
+    block
+        .get(16 + c as usize..)
+        .and_then(<[u8]>::first_chunk)
+        .copied()
+        .map(NetworkKey)
 }
 
 /// The node's config line: [`BootLine::Config`] (`code` 0: `hoploc <role> config
@@ -305,12 +385,13 @@ fn decode(buf: &[u8]) -> Result<Config, Error> {
     let Some(b) = block.first_chunk::<16>() else {
         return Err(Error::TooShort);
     };
-    // C + 18 = len (a C that would wrap around is ≥ 238, never a length's).
-    if b[15].wrapping_add(18) != len {
+    // C + 18 (+ the key) = len (a C that would wrap around is ≥ 222, never a length's).
+    let (c, key_len) = channel_count(b[15]);
+    if c.wrapping_add(18 + key_len) != len {
         return Err(Error::BadLength);
     }
     let role = role_of(b[3])?;
-    let channels = ChannelList::new(&block[16..len as usize - 2])?;
+    let channels = ChannelList::new(&block[16..16 + c as usize])?;
     let slot_ms = u16::from_le_bytes([b[10], b[11]]);
     let pan_id = u16::from_le_bytes([b[13], b[14]]);
     check_fields(role, b[4], b[5], slot_ms, b[12], pan_id)?;
@@ -326,6 +407,7 @@ fn decode(buf: &[u8]) -> Result<Config, Error> {
         channels,
         sink_channel: b[12],
         pan_id,
+        key: stored_key(block, c, key_len),
     })
 }
 
@@ -397,7 +479,7 @@ pub fn stored(bytes: &[u8], role: Role) -> Stored {
 }
 
 /// The environment variables [`from_env`] reads, for `cargo:rerun-if-env-changed`.
-pub const ENV_VARS: [&str; 8] = [
+pub const ENV_VARS: [&str; 9] = [
     "HOPLOC_ID",
     "HOPLOC_X",
     "HOPLOC_Y",
@@ -406,6 +488,7 @@ pub const ENV_VARS: [&str; 8] = [
     "HOPLOC_CHANNELS",
     "HOPLOC_SINK_CHANNEL",
     "HOPLOC_PAN",
+    "HOPLOC_KEY",
 ];
 
 /// Why [`from_env`] rejected a variable: which one, and what it should hold.
@@ -428,12 +511,13 @@ impl core::error::Error for EnvError {}
 const EXPECT_ID: &str = "a node id 1…255 (an anchor's at most HOPLOC_ANCHORS)";
 const EXPECT_POS: &str = "an integer -32768…32767 (cm)";
 const EXPECT_ANCHORS: &str = "the number of anchors, 3…8";
-const EXPECT_SLOT: &str = "a slot length in ms, up to 10000, that holds a beacon: at least 16 \
-     with 3 or 4 anchors, 17 with 5 to 7, 18 with 8 (loc_proto::schedule::min_slot_ms)";
+const EXPECT_SLOT: &str = "a slot length in ms, up to 10000, that holds a beacon: at least 17 \
+     with 3 to 5 anchors, 18 with 6 or 7, 19 with 8 (loc_proto::schedule::min_slot_ms)";
 const EXPECT_CHANNELS: &str =
     "1…4 distinct testbed channels 1…16, comma separated, e.g. 1,12 (the S1 Pro has 2…13 only)";
 const EXPECT_SINK: &str = "a testbed channel 1…16";
 const EXPECT_PAN: &str = "a PAN id, decimal or 0x-hex, not 0xFFFF";
+const EXPECT_KEY: &str = "a network key: 32 hex digits (16 bytes), the same on every node";
 
 /// A PAN id as the tools take it: decimal (`13106`) or hex with `0x` (`0x3332`); 0xFFFF (the
 /// broadcast PAN) is refused.
@@ -483,6 +567,7 @@ fn env_value<V: AsRef<str>, T>(
 /// | `HOPLOC_CHANNELS` | anchor channels in hop order | `1,12` |
 /// | `HOPLOC_SINK_CHANNEL` | sink channel | `3` |
 /// | `HOPLOC_PAN` | PAN id, decimal or `0x` hex | `0x3332` |
+/// | `HOPLOC_KEY` | network key, 32 hex digits (unset: no encryption) | `000102030405060708090A0B0C0D0E0F` |
 ///
 /// An unset (or empty) variable keeps the field of [`Config::default_for`] `role`. Values may
 /// have surrounding spaces. The first invalid variable is the error, naming it; a config whose
@@ -522,6 +607,9 @@ pub fn from_env<V: AsRef<str>>(
     }
     if let Some(v) = var!("HOPLOC_PAN", EXPECT_PAN, parse_pan) {
         c.pan_id = v;
+    }
+    if let Some(v) = var!("HOPLOC_KEY", EXPECT_KEY, NetworkKey::parse) {
+        c.key = Some(v);
     }
     c.validate().map_err(|e| {
         let (var, expected) = match e {
@@ -651,6 +739,43 @@ mod tests {
     }
 
     /// `bytes` with byte `i` set to `v` and the CRC fixed up: reaches the field checks.
+    /// The default config with the key 00 01 … 0F (its CRC computed bit by bit apart from this
+    /// crate).
+    const KEYED_BYTES: [u8; 36] = [
+        0xC5, 1, 36, // magic, version, length
+        0, 1, 4, // anchor, id 1, 4 anchors
+        0, 0, 0, 0, // (0, 0)
+        62, 0, // slot 62 ms
+        3, // sink channel
+        0x32, 0x33, // PAN 0x3332
+        0x82, 1, 12, // a key follows; channels
+        0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, // the key
+        0xF4, 0xD9, // CRC
+    ];
+
+    #[test]
+    fn keyed_golden_bytes() {
+        let keyed = Config {
+            key: Some(NetworkKey(core::array::from_fn(|i| i as u8))),
+            ..Config::DEFAULT
+        };
+        let mut buf = [0; MAX_LEN];
+        assert_eq!(keyed.to_bytes(&mut buf), Ok(36));
+        assert_eq!(buf[..36], KEYED_BYTES);
+        assert_eq!(Config::from_bytes(&KEYED_BYTES), Ok(keyed));
+        assert_eq!(stored(&KEYED_BYTES, Role::Anchor), Stored::Valid(keyed));
+        // The same key parsed as the tools take it; its Debug does not show it.
+        let parsed = NetworkKey::parse("000102030405060708090a0B0c0D0e0F");
+        assert_eq!(parsed, keyed.key);
+        assert_eq!(std::format!("{:?}", keyed.key), "Some(NetworkKey(..))");
+        // Every single-byte change of the key is a bad CRC.
+        for at in 18..34 {
+            let mut b = KEYED_BYTES;
+            b[at] ^= 0x5A;
+            assert_eq!(Config::from_bytes(&b), Err(Error::BadCrc));
+        }
+    }
+
     fn patched(i: usize, v: u8) -> [u8; 20] {
         let mut b = golden();
         b[i] = v;
@@ -683,21 +808,36 @@ mod tests {
     /// on success, and `None` only checks.
     #[test]
     fn read_into_is_from_bytes_then_the_role() {
-        for i in 0..18 {
+        // The default config and the keyed one, each byte but the CRC.
+        let keyed = |i: usize, v: u8| {
+            let mut b = KEYED_BYTES;
+            b[i] = v;
+            let crc = crc16(&b[..34]);
+            b[34..].copy_from_slice(&crc.to_be_bytes());
+            b
+        };
+        let blocks = (0..18)
+            .map(|i| (i, false))
+            .chain((0..34).map(|i| (i, true)));
+        for (i, with_key) in blocks {
             for v in 0..=255u8 {
-                let b = patched(i, v);
-                let want = Config::from_bytes(&b);
+                let b: &[u8] = if with_key {
+                    &keyed(i, v)
+                } else {
+                    &patched(i, v)
+                };
+                let want = Config::from_bytes(b);
                 for role in Role::ALL {
                     let sentinel = Config::default_for(Role::Sink);
                     let mut out = sentinel;
-                    let code = read_into(&b, role, Some(&mut out));
+                    let code = read_into(b, role, Some(&mut out));
                     let expect = match want {
                         Ok(c) if c.role == role => 0,
                         Ok(_) => WRONG_ROLE,
                         Err(e) => e.code(),
                     };
                     assert_eq!(code, expect, "byte {i} = {v} {role:?}");
-                    assert_eq!(read_into(&b, role, None), expect);
+                    assert_eq!(read_into(b, role, None), expect);
                     if code == 0 {
                         assert_eq!(Ok(out), want);
                     } else {
@@ -756,7 +896,7 @@ mod tests {
         #![proptest_config(proptest::prelude::ProptestConfig::with_cases(20_000))]
         #[test]
         fn read_into_is_from_bytes_on_fuzz(
-            mut v in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..26),
+            mut v in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..42),
             fix in 0u8..4,
             small in proptest::collection::vec(0u8..20, 16),
         ) {
@@ -773,7 +913,11 @@ mod tests {
                         }
                     }
                     v[3] %= 4;
-                    v[15] = (len - 18) as u8;
+                    v[15] = if len > 18 + KEY_LEN {
+                        (len - 18 - KEY_LEN) as u8 | KEY_FLAG
+                    } else {
+                        (len - 18) as u8
+                    };
                 }
                 let crc = crc16(&v[..len - 2]);
                 v[len - 2..len].copy_from_slice(&crc.to_be_bytes());
@@ -828,7 +972,13 @@ mod tests {
             Config::from_bytes(&patched(1, 2)),
             Err(Error::BadVersion { found: 2 })
         );
-        assert_eq!(Config::from_bytes(&patched(2, 23)), Err(Error::BadLength));
+        assert_eq!(Config::from_bytes(&patched(2, 39)), Err(Error::BadLength));
+        // A length that claims a key the block does not have.
+        assert_eq!(Config::from_bytes(&patched(2, 23)), Err(Error::TooShort));
+        assert_eq!(
+            Config::from_bytes(&patched(15, 0x82)),
+            Err(Error::BadLength)
+        );
         assert_eq!(Config::from_bytes(&patched(15, 3)), Err(Error::BadLength));
         assert_eq!(Config::from_bytes(&patched(3, 3)), field(Field::Role));
         assert_eq!(
@@ -878,6 +1028,7 @@ mod tests {
                 ("HOPLOC_CHANNELS", "5, 9,12"),
                 ("HOPLOC_SINK_CHANNEL", "4"),
                 ("HOPLOC_PAN", "0x1234"),
+                ("HOPLOC_KEY", " 000102030405060708090a0b0c0d0eFF "),
             ]),
         )
         .unwrap();
@@ -892,8 +1043,12 @@ mod tests {
                 channels: ChannelList::new(&[5, 9, 12]).unwrap(),
                 sink_channel: 4,
                 pan_id: 0x1234,
+                key: Some(NetworkKey([
+                    0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 0xFF
+                ])),
             }
         );
+        assert_eq!(c.size(), 18 + 3 + KEY_LEN);
         let sink = from_env(Role::Sink, env(&[("HOPLOC_PAN", "13106")])).unwrap();
         assert_eq!(sink.pan_id, 0x3332);
         assert_eq!(sink.role, Role::Sink);
@@ -924,6 +1079,11 @@ mod tests {
             ("HOPLOC_PAN", "65535"),
             ("HOPLOC_PAN", "0x10000"),
             ("HOPLOC_PAN", "3332h"),
+            ("HOPLOC_KEY", "0001"),
+            ("HOPLOC_KEY", "000102030405060708090a0b0c0d0e0f00"),
+            ("HOPLOC_KEY", "000102030405060708090a0b0c0d0eXY"),
+            ("HOPLOC_KEY", "+00102030405060708090a0b0c0d0e0f"),
+            ("HOPLOC_KEY", "é0102030405060708090a0b0c0d0e0"),
         ] {
             if v.is_empty() {
                 continue; // empty = unset

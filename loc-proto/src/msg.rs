@@ -1,20 +1,29 @@
 //! The binary messages nodes send each other over the radio: [`Beacon`] (anchor → everyone) and
 //! [`Report`] (agent → sink). Each is the whole RF payload of one XBee TX16/RX16 frame.
 //!
-//! Every message starts with the same 4-byte header; multi-byte integers are little endian
-//! (the AVR's own order). There is no CRC: the 802.15.4 MAC's FCS and the XBee's frame checksum
-//! already cover the payload; a payload with a wrong magic, version, kind or length is dropped
-//! (and counted by the node), never trusted. Decoders never panic on any input, and a decoded
-//! message re-encodes to exactly the bytes it came from.
+//! Every message starts with the same 4-byte header and ends with a CRC; multi-byte integers are
+//! little endian (the AVR's own order), but for the CRC. A message with a wrong magic, version,
+//! length, CRC or kind, or with a field out of its range, is dropped (and counted by the node),
+//! never trusted. Decoders never panic on any input, and a decoded message re-encodes to
+//! exactly the bytes it came from.
+//!
+//! The CRC is the message's own check: the 802.15.4 MAC's FCS and the XBee's frame checksum
+//! guard the bytes on the air and on the UART, but not what the radio makes of them. With
+//! encryption on (a network key), a radio holding another key decrypts a packet into other
+//! bytes of the same length and passes them on as a good frame; the CRC rejects them (a
+//! random payload passes the magic, version and length bytes and the CRC-16 together about
+//! once in 2⁴⁰).
 //!
 //! | byte | field |
 //! |---|---|
 //! | 0 | magic [`MAGIC`] (0xB5) |
-//! | 1 | version [`VERSION`] (1) |
+//! | 1 | version [`VERSION`] (2) |
 //! | 2 | kind: 1 beacon, 2 report |
-//! | 3 | length of the whole message in bytes, header included |
+//! | 3 | length of the whole message in bytes, header and CRC included |
+//! | … | the kind's fields, below |
+//! | last 2 | CRC-16/CCITT-FALSE ([`crate::error::crc16`]) of every byte before it, big endian (so that the CRC of the whole message is 0) |
 //!
-//! **Beacon** (kind 1), 13 + R bytes (17 with R = 4 relayed anchors, 21 at most):
+//! **Beacon** (kind 1), 15 + R bytes (19 with R = 4 relayed anchors, 23 at most):
 //!
 //! | byte | field |
 //! |---|---|
@@ -39,26 +48,33 @@
 //! | then 2 | if bits 7 and 6: the window of relay rows sent: its first row *s* and its length *k* (rows numbered *r* = *c*·N + *i* for anchor *i* + 1 on channel number *c*, so 0 ≤ *s* < C·N, 0 ≤ *k* < C·N); the rows *s*, *s* + 1, … *s* + *k* − 1 (modulo C·N) follow, in that order |
 //! | then (N−1) per row | if bit 7: per row, anchor *i*'s: per other anchor *j* ≠ *i* (ascending), the RSSI *i* relayed having measured from *j* (0 = not heard or not relayed); the diagonal is not sent. Without bit 6, every row in order *r* = 0 … C·N − 1: the relay matrix |
 //!
-//! Size: 9 + C + 4N + C·N without relay rows; 9 + C + 4N + C·N² with all of them (the relay
-//! matrix); 11 + C + 4N + C·N + k·(N−1) with a window of k rows. 4 anchors × 2 channels:
-//! **59 bytes** (35 without relay). The RF payload limit of 100 bytes ([`MAX_PAYLOAD`]) admits
-//! the whole matrix up to N×C = 4×4 (93 bytes), 5×2 (81), 7×1 (87); beyond, an agent sends as
-//! many rows as fit and a different set in each superframe ([`Report::fit_relay`]), so that every
-//! row reaches the sink every few superframes: with 8 anchors × 4 channels, 3 of the 32 rows
-//! (100 bytes), each row at least every 11 superframes. Every configuration's report fits one
-//! packet.
+//! Size, CRC included: 11 + C + 4N + C·N without relay rows; 11 + C + 4N + C·N² with all of
+//! them (the relay matrix); 13 + C + 4N + C·N + k·(N−1) with a window of k rows. 4 anchors × 2
+//! channels: **61 bytes** (37 without relay). Every message fits 95 bytes ([`MAX_MESSAGE`]),
+//! the radio's payload limit with encryption on, so that a network runs the same with or without
+//! a key. That admits the whole matrix up to N×C = 4×4 (95 bytes), 5×2 (83), 7×1 (89); beyond,
+//! an agent sends as many rows as fit and a different set in each superframe
+//! ([`Report::fit_relay`]), so that every row reaches the sink every few superframes: with 8
+//! anchors × 4 channels, 2 of the 32 rows (95 bytes), each row every 16 superframes. Every
+//! configuration's report fits one packet.
 //! [`Report::encode`] returns [`Error::TooLarge`] for a report that does not fit.
 
-use crate::error::{Error, Field};
+use crate::error::{crc16, Error, Field};
 
 /// The first byte of every hoploc radio message.
 pub const MAGIC: u8 = 0xB5;
 /// The message format version this build writes and reads.
-pub const VERSION: u8 = 1;
+pub const VERSION: u8 = 2;
 /// Bytes of the common header (magic, version, kind, length).
 pub const HEADER_LEN: usize = 4;
+/// Bytes of the CRC that ends every message.
+pub const CRC_LEN: usize = 2;
 /// The largest RF payload of an XBee 802.15.4 TX frame.
 pub const MAX_PAYLOAD: usize = 100;
+/// The largest hoploc message: the XBee S1's RF payload limit with encryption on (`EE` = 1;
+/// [`MAX_PAYLOAD`] without). Every message fits it, so a network runs the same with or without
+/// a network key.
+pub const MAX_MESSAGE: usize = 95;
 /// The most anchors a network has, and the most channels in a channel list: what the estimator
 /// (loc-core) takes, so that every report it can be sent, it can locate.
 pub use loc_core::{MAX_ANCHORS, MAX_CHANNELS};
@@ -218,11 +234,19 @@ impl<'a> Writer<'a> {
         self.u16(p.x as u16);
         self.u16(p.y as u16);
     }
+    /// Ends a message: its CRC ([`crc16`] of every byte before it, big endian); returns the
+    /// message's length.
+    fn end_message(mut self) -> usize {
+        let [hi, lo] = self.buf.get(..self.at).map_or(0, crc16).to_be_bytes();
+        self.u8(hi);
+        self.u8(lo);
+        self.at
+    }
 }
 
-/// Checks `size` against the radio payload and the buffer, and writes the header.
+/// Checks `size` (CRC included) against [`MAX_MESSAGE`] and the buffer, and writes the header.
 fn start(buf: &mut [u8], kind: u8, size: usize) -> Result<Writer<'_>, Error> {
-    if size > MAX_PAYLOAD {
+    if size > MAX_MESSAGE {
         return Err(Error::TooLarge { size: size as u16 });
     }
     if buf.len() < size {
@@ -236,8 +260,19 @@ fn start(buf: &mut [u8], kind: u8, size: usize) -> Result<Writer<'_>, Error> {
     Ok(w)
 }
 
-/// Checks magic, version and length of a message and returns its kind byte and a reader
-/// positioned after the header.
+/// Rewrites the CRC of the message in `msg` (its last [`CRC_LEN`] bytes) to match the bytes
+/// before it: for tests and tools that edit a message's fields and want the decoders to see
+/// the edit rather than a bad CRC. Shorter than the CRC: left as it is.
+pub fn seal(msg: &mut [u8]) {
+    if let Some(end) = msg.len().checked_sub(CRC_LEN) {
+        let [hi, lo] = crc16(&msg[..end]).to_be_bytes();
+        msg[end] = hi;
+        msg[end + 1] = lo;
+    }
+}
+
+/// Checks magic, version, length and CRC of a message and returns its kind byte and a reader
+/// of its body (after the header, before the CRC).
 fn open(buf: &[u8]) -> Result<(u8, Reader<'_>), Error> {
     let [magic, version, kind, len, ..] = *buf else {
         return Err(Error::TooShort);
@@ -252,10 +287,13 @@ fn open(buf: &[u8]) -> Result<(u8, Reader<'_>), Error> {
     if buf.len() < len {
         return Err(Error::TooShort);
     }
-    if buf.len() > len || len < HEADER_LEN {
+    if buf.len() > len || len < HEADER_LEN + CRC_LEN {
         return Err(Error::BadLength);
     }
-    let mut r = Reader::new(buf);
+    if crc16(buf) != 0 {
+        return Err(Error::BadCrc);
+    }
+    let mut r = Reader::new(&buf[..len - CRC_LEN]);
     r.at = HEADER_LEN;
     Ok((kind, r))
 }
@@ -290,7 +328,7 @@ pub struct Beacon {
 
 impl Beacon {
     /// Bytes of a beacon without relay entries.
-    pub const BASE_LEN: usize = 13;
+    pub const BASE_LEN: usize = 15;
     /// The longest beacon (8 relay entries).
     pub const MAX_LEN: usize = Self::BASE_LEN + MAX_ANCHORS;
 
@@ -326,7 +364,7 @@ impl Beacon {
         for &r in &self.relay {
             w.u8(r);
         }
-        Ok(w.at)
+        Ok(w.end_message())
     }
 
     /// Reads a beacon that is all of `buf`.
@@ -412,10 +450,10 @@ impl Report {
     /// without relay rows.
     pub const fn wire_size(anchors: usize, channels: usize, relay: bool) -> usize {
         let per_channel = if relay { anchors * anchors } else { anchors };
-        9 + channels + 4 * anchors + channels * per_channel
+        9 + channels + 4 * anchors + channels * per_channel + CRC_LEN
     }
 
-    /// The encoded size of this report (may exceed [`MAX_PAYLOAD`]: then it cannot be sent).
+    /// The encoded size of this report (may exceed [`MAX_MESSAGE`]: then it is not sent).
     pub const fn size(&self) -> usize {
         let (n, c) = (self.anchors as usize, self.channels.len());
         match (self.has_relay, self.relay_window) {
@@ -425,10 +463,10 @@ impl Report {
     }
 
     /// The largest report of `anchors` × `channels` an agent sends (with as many relay rows as
-    /// fit, [`Report::fit_relay`]): at most [`MAX_PAYLOAD`].
+    /// fit, [`Report::fit_relay`]): at most [`MAX_MESSAGE`].
     pub const fn max_size(anchors: usize, channels: usize) -> usize {
         let full = Self::wire_size(anchors, channels, true);
-        if full <= MAX_PAYLOAD {
+        if full <= MAX_MESSAGE {
             return full;
         }
         let rows = Self::relay_rows_that_fit(anchors, channels);
@@ -441,14 +479,14 @@ impl Report {
 
     /// The most relay rows a report of `anchors` × `channels` can carry in one packet.
     pub const fn relay_rows_that_fit(anchors: usize, channels: usize) -> usize {
-        if Self::wire_size(anchors, channels, true) <= MAX_PAYLOAD {
+        if Self::wire_size(anchors, channels, true) <= MAX_MESSAGE {
             return anchors * channels;
         }
         let base = Self::wire_size(anchors, channels, false) + 2;
-        if base >= MAX_PAYLOAD || anchors < 2 {
+        if base >= MAX_MESSAGE || anchors < 2 {
             return 0;
         }
-        (MAX_PAYLOAD - base) / (anchors - 1)
+        (MAX_MESSAGE - base) / (anchors - 1)
     }
 
     /// Whether relay row `row` (`c·N + i`) is sent.
@@ -461,13 +499,13 @@ impl Report {
         }
     }
 
-    /// Makes the report fit one packet ([`MAX_PAYLOAD`]): when the relay matrix does not fit,
+    /// Makes the report fit one packet ([`MAX_MESSAGE`]): when the relay matrix does not fit,
     /// keeps a window of as many of its rows as fit ([`Report::relay_rows_that_fit`]), the one
     /// after the previous sequence number's (rows wrapping around), so that successive reports
     /// carry every row in turn; the other rows' bytes are cleared. A report that fits, or one
     /// without relay, is left as it is.
     pub fn fit_relay(&mut self) {
-        if !self.has_relay || self.size() <= MAX_PAYLOAD {
+        if !self.has_relay || self.size() <= MAX_MESSAGE {
             return;
         }
         let (n, c) = (self.n(), self.channels.len());
@@ -556,7 +594,7 @@ impl Report {
                 }
             }
         }
-        Ok(w.at)
+        Ok(w.end_message())
     }
 
     /// Reads a report that is all of `buf`.
@@ -633,24 +671,25 @@ enum Layout {
     Short,
 }
 
-/// A report's layout from its N, C and flags `cf` (all checked but the window). In 16 bits
-/// (N ≤ 8, C ≤ 4).
-fn relay_size(buf: &[u8], n: u8, c: u8, cf: u8) -> Layout {
+/// A report's layout from its N, C and flags `cf` (all checked but the window) and its `body`
+/// (the message without its CRC); the size counts the CRC. In 16 bits (N ≤ 8, C ≤ 4).
+fn relay_size(body: &[u8], n: u8, c: u8, cf: u8) -> Layout {
     let base = (9 + c + 4 * n + c * n) as u16;
     let total = c * n;
+    let crc = CRC_LEN as u16;
     if cf & RELAY_FLAG == 0 {
-        return Layout::Size(base, (0, 0));
+        return Layout::Size(base + crc, (0, 0));
     }
     if cf & ROWS_FLAG == 0 {
-        return Layout::Size(base + total as u16 * (n - 1) as u16, (0, total));
+        return Layout::Size(base + total as u16 * (n - 1) as u16 + crc, (0, total));
     }
-    let Some(&[s, k]) = buf.get(base as usize..base as usize + 2) else {
+    let Some(&[s, k]) = body.get(base as usize..base as usize + 2) else {
         return Layout::Short;
     };
     if s >= total || k >= total {
         return Layout::BadWindow;
     }
-    Layout::Size(base + 2 + k as u16 * (n - 1) as u16, (s, k))
+    Layout::Size(base + 2 + k as u16 * (n - 1) as u16 + crc, (s, k))
 }
 
 /// Whether `chans` are testbed channels (1…16), none twice: a bit each for the duplicates.
@@ -714,8 +753,9 @@ impl<'a> ReportView<'a> {
         if kind != KIND_REPORT {
             return Err(Error::BadKind { found: kind });
         }
-        // Byte by byte as `Report::body` reads them: running out is `BadLength`.
-        let &[agent, s0, s1, anchors, cf] = buf.get(4..9).ok_or(Error::BadLength)? else {
+        // Byte by byte as `Report::body` reads them, up to the CRC: running out is `BadLength`.
+        let body = &buf[..buf.len() - CRC_LEN];
+        let &[agent, s0, s1, anchors, cf] = body.get(4..9).ok_or(Error::BadLength)? else {
             return Err(Error::BadLength);
         };
         if cf & !(RELAY_FLAG | ROWS_FLAG | 0x07) != 0 || cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG
@@ -729,7 +769,7 @@ impl<'a> ReportView<'a> {
         // `ChannelList::new`'s checks in its order (the count is checked), with a bit per
         // channel for the duplicates: less AVR flash than its nested loops.
         let mut seen = 0u16;
-        for &ch in buf.get(9..9 + c).ok_or(Error::BadLength)? {
+        for &ch in body.get(9..9 + c).ok_or(Error::BadLength)? {
             if !(1..=MAX_CHANNEL).contains(&ch) {
                 return Err(bad(Field::Channel));
             }
@@ -749,7 +789,7 @@ impl<'a> ReportView<'a> {
         // Every field left is a byte string of fixed length (the masks giving the relay
         // rows'): too few or too many bytes is all that can be wrong with them, but for a mask
         // naming an anchor the report does not have.
-        let (size, win) = match relay_size(buf, anchors, c as u8, cf) {
+        let (size, win) = match relay_size(body, anchors, c as u8, cf) {
             Layout::Size(size, win) => (size, win),
             Layout::BadWindow => return Err(bad(Field::RelayRows)),
             Layout::Short => return Err(Error::BadLength),
@@ -776,20 +816,23 @@ impl<'a> ReportView<'a> {
     #[inline(never)]
     pub fn accept(buf: &'a [u8]) -> Result<ReportView<'a>, NotReport> {
         use NotReport::{Corrupt, Foreign};
-        let &[magic, version, kind, len, ref body @ ..] = buf else {
+        let &[magic, version, kind, len, ..] = buf else {
             return Err(Corrupt);
         };
         if magic != MAGIC || version != VERSION {
             return Err(Foreign);
         }
-        // `open`: the length byte is checked (TooShort, BadLength) before the kind.
-        if len as usize != buf.len() {
+        // `open`: the length byte is checked (TooShort, BadLength), then the CRC, before the
+        // kind.
+        if len as usize != buf.len() || crc16(buf) != 0 {
             return Err(Corrupt);
         }
         if kind != KIND_REPORT {
             return Err(Foreign);
         }
-        let &[agent, s0, s1, anchors, cf, ref channels @ ..] = body else {
+        // (The length is at least the header's, and the CRC's by the CRC check.)
+        let body = &buf[..buf.len() - CRC_LEN];
+        let &[_, _, _, _, agent, s0, s1, anchors, cf, ref channels @ ..] = body else {
             return Err(Corrupt);
         };
         let c = cf & 0x07;
@@ -802,7 +845,7 @@ impl<'a> ReportView<'a> {
         {
             return Err(Corrupt);
         }
-        let Layout::Size(size, win) = relay_size(buf, anchors, c, cf) else {
+        let Layout::Size(size, win) = relay_size(body, anchors, c, cf) else {
             return Err(Corrupt);
         };
         if len as u16 != size {
@@ -949,18 +992,20 @@ mod tests {
         }
     }
 
-    const BEACON: [u8; 17] = [
-        0xB5, 1, 1, 17, // header
+    /// (The CRCs computed bit by bit apart from this crate.)
+    const BEACON: [u8; 19] = [
+        0xB5, 2, 1, 19, // header
         2, 0x02, 0x01, 12, // anchor, seq, channel
         0x2C, 0x01, 0xFB, 0xFF, // x 300, y -5
         4, 61, 0, 70, 0, // relay
+        0x0E, 0x63, // CRC
     ];
 
     #[test]
     fn beacon_golden_bytes() {
         let mut buf = [0; 32];
-        assert_eq!(beacon().encode(&mut buf), Ok(17));
-        assert_eq!(buf[..17], BEACON);
+        assert_eq!(beacon().encode(&mut buf), Ok(19));
+        assert_eq!(buf[..19], BEACON);
         assert_eq!(Beacon::decode(&BEACON), Ok(beacon()));
         assert_eq!(decode_any(&BEACON), Ok(Message::Beacon(beacon())));
     }
@@ -977,20 +1022,21 @@ mod tests {
     }
 
     #[rustfmt::skip]
-    const REPORT: [u8; 59] = [
-        0xB5, 1, 2, 59, // header
+    const REPORT: [u8; 61] = [
+        0xB5, 2, 2, 61, // header
         7, 0xEF, 0xBE, 4, 0x82, 1, 12, // agent, seq, N, C | relay, channels
         0, 0, 0, 0,  0xF4, 0x01, 0, 0,  0, 0, 0, 0,  0, 0, 0x90, 0x01, // positions
         40, 50, 0, 60,  0, 0, 77, 0, // beacon RSSI per channel
         55, 0, 0,  0, 0, 0,  0, 0, 0,  0, 0, 0, // relay, channel 1 (diagonal omitted)
         0, 0, 0,  0, 0, 0,  0, 0, 0,  0, 0, 66, // relay, channel 12
+        0x0D, 0x7E, // CRC
     ];
 
     #[test]
     fn report_golden_bytes() {
         let mut buf = [0; MAX_PAYLOAD];
-        assert_eq!(report().encode(&mut buf), Ok(59));
-        assert_eq!(buf[..59], REPORT);
+        assert_eq!(report().encode(&mut buf), Ok(61));
+        assert_eq!(buf[..61], REPORT);
         assert_eq!(Report::decode(&REPORT), Ok(report()));
         assert_eq!(decode_any(&REPORT), Ok(Message::Report(report())));
     }
@@ -1009,7 +1055,7 @@ mod tests {
                 for seq in 0..total.div_ceil(keep) as u16 {
                     let mut r = Report::new(1, seq, n, list);
                     r.fit_relay();
-                    assert!(r.size() <= MAX_PAYLOAD, "{n}×{c}: {} bytes", r.size());
+                    assert!(r.size() <= MAX_MESSAGE, "{n}×{c}: {} bytes", r.size());
                     assert!(r.has_relay);
                     for (row, s) in seen[..total].iter_mut().enumerate() {
                         *s |= r.sends_row(row);
@@ -1018,10 +1064,10 @@ mod tests {
                 assert!(seen[..total].iter().all(|&s| s), "{n}×{c}");
             }
         }
-        // The documented case: 8 × 4, three rows, 100 bytes.
+        // The documented case: 8 × 4, two rows, 95 bytes.
         let mut r = Report::new(1, 0, 8, ChannelList::new(&[1, 2, 3, 4]).unwrap());
         r.fit_relay();
-        assert_eq!((Report::relay_rows_that_fit(8, 4), r.size()), (3, 100));
+        assert_eq!((Report::relay_rows_that_fit(8, 4), r.size()), (2, 95));
     }
 
     /// The window is checked as the rest of a report: the rows flag only with the relay flag,
@@ -1040,7 +1086,7 @@ mod tests {
         }
         let mut buf = [0; 128];
         let n = r.encode(&mut buf).unwrap();
-        assert_eq!(n, 9 + 2 + 16 + 8 + 2 + 3 * 3);
+        assert_eq!(n, 9 + 2 + 16 + 8 + 2 + 3 * 3 + CRC_LEN);
         assert_eq!(Report::decode(&buf[..n]), Ok(r));
         let view = ReportView::parse(&buf[..n]).unwrap();
         assert_eq!(ReportView::accept(&buf[..n]), Ok(view));
@@ -1056,6 +1102,7 @@ mod tests {
         let wrong = |edit: &dyn Fn(&mut [u8]), want: Error| {
             let mut b = buf;
             edit(&mut b);
+            seal(&mut b[..n]);
             assert_eq!(Report::decode(&b[..n]), Err(want));
             assert_eq!(ReportView::parse(&b[..n]), Err(want));
             assert_eq!(ReportView::accept(&b[..n]), Err(NotReport::Corrupt));
@@ -1067,60 +1114,96 @@ mod tests {
 
     #[test]
     fn documented_sizes() {
-        assert_eq!(Report::wire_size(4, 2, true), 59);
-        assert_eq!(Report::wire_size(4, 2, false), 35);
-        assert_eq!(Report::wire_size(4, 4, true), 93);
-        assert_eq!(Report::wire_size(5, 2, true), 81);
-        assert_eq!(Report::wire_size(7, 1, true), 87);
-        assert_eq!(Report::wire_size(8, 1, true), 106);
-        assert_eq!(Report::wire_size(8, 4, false), 77);
-        assert!(Report::wire_size(5, 3, true) > MAX_PAYLOAD);
-        assert!(Report::wire_size(6, 2, true) > MAX_PAYLOAD);
-        assert_eq!(Beacon::MAX_LEN, 21);
+        assert_eq!(Report::wire_size(4, 2, true), 61);
+        assert_eq!(Report::wire_size(4, 2, false), 37);
+        assert_eq!(Report::wire_size(4, 4, true), 95);
+        assert_eq!(Report::wire_size(5, 2, true), 83);
+        assert_eq!(Report::wire_size(7, 1, true), 89);
+        assert_eq!(Report::wire_size(8, 1, true), 108);
+        assert_eq!(Report::wire_size(8, 4, false), 79);
+        assert!(Report::wire_size(5, 3, true) > MAX_MESSAGE);
+        assert!(Report::wire_size(6, 2, true) > MAX_MESSAGE);
+        assert_eq!(Beacon::MAX_LEN, 23);
     }
 
     #[test]
     fn too_large_and_small_buffers() {
         let mut r = Report::new(1, 0, 8, ChannelList::new(&[1]).unwrap());
         let mut buf = [0; 128];
-        assert_eq!(r.encode(&mut buf), Err(Error::TooLarge { size: 106 }));
+        assert_eq!(r.encode(&mut buf), Err(Error::TooLarge { size: 108 }));
         r.has_relay = false;
-        assert_eq!(r.encode(&mut buf), Ok(50));
+        assert_eq!(r.encode(&mut buf), Ok(52));
         assert_eq!(
-            r.encode(&mut buf[..49]),
-            Err(Error::BufferTooSmall { need: 50 })
+            r.encode(&mut buf[..51]),
+            Err(Error::BufferTooSmall { need: 52 })
         );
         assert_eq!(
             beacon().encode(&mut buf[..3]),
-            Err(Error::BufferTooSmall { need: 17 })
+            Err(Error::BufferTooSmall { need: 19 })
         );
+        // 95 bytes is the most, whatever the radio's own limit.
+        let mut r = Report::new(1, 0, 4, ChannelList::new(&[1, 2, 3, 4]).unwrap());
+        assert_eq!(r.encode(&mut buf), Ok(MAX_MESSAGE));
+        r.anchors = 5;
+        assert_eq!(r.encode(&mut buf), Err(Error::TooLarge { size: 135 }));
     }
 
     #[test]
     fn header_errors() {
         assert_eq!(decode_any(&[]), Err(Error::TooShort));
         assert_eq!(decode_any(&BEACON[..3]), Err(Error::TooShort));
-        assert_eq!(decode_any(&BEACON[..16]), Err(Error::TooShort));
+        assert_eq!(decode_any(&BEACON[..18]), Err(Error::TooShort));
         let mut b = BEACON;
         b[0] = 0x7E;
         assert_eq!(decode_any(&b), Err(Error::BadMagic));
         let mut b = BEACON;
-        b[1] = 2;
-        assert_eq!(decode_any(&b), Err(Error::BadVersion { found: 2 }));
+        b[1] = 1;
+        assert_eq!(decode_any(&b), Err(Error::BadVersion { found: 1 }));
+        // A field changed without its CRC: a bad CRC, whatever the field.
         let mut b = BEACON;
         b[2] = 9;
+        assert_eq!(decode_any(&b), Err(Error::BadCrc));
+        seal(&mut b);
         assert_eq!(decode_any(&b), Err(Error::BadKind { found: 9 }));
         assert_eq!(Report::decode(&BEACON), Err(Error::BadKind { found: 1 }));
-        let mut long = [0; 18];
-        long[..17].copy_from_slice(&BEACON);
+        let mut long = [0; 20];
+        long[..19].copy_from_slice(&BEACON);
         assert_eq!(decode_any(&long), Err(Error::BadLength));
-        long[3] = 18; // says 18, but the fields are 17
+        long[3] = 20; // says 20, but the fields and the CRC are 19
+        seal(&mut long);
         assert_eq!(decode_any(&long), Err(Error::BadLength));
+        // Too short for a CRC after the header.
+        for len in 0..HEADER_LEN + CRC_LEN {
+            let mut m = [MAGIC, VERSION, KIND_BEACON, len as u8, 0, 0];
+            seal(&mut m[..len]);
+            assert!(decode_any(&m[..len]).is_err());
+        }
+        // Every single-bit error and every byte changed is a bad CRC.
+        for at in 0..BEACON.len() {
+            for bit in 0..8 {
+                let mut b = BEACON;
+                b[at] ^= 1 << bit;
+                assert!(decode_any(&b).is_err(), "{at} {bit}");
+            }
+            for v in 0..=255u8 {
+                let mut b = BEACON;
+                b[at] = v;
+                if v != BEACON[at] && (4..BEACON.len()).contains(&at) {
+                    assert_eq!(decode_any(&b), Err(Error::BadCrc), "{at} {v}");
+                }
+            }
+        }
     }
 
     #[test]
     fn field_errors() {
         let field = |f| Err(Error::BadValue { field: f });
+        // Each edit with its CRC made to match.
+        let decode_any = |m: &[u8]| {
+            let mut m = m.to_vec();
+            seal(&mut m);
+            decode_any(&m)
+        };
         let mut b = BEACON;
         b[4] = 9;
         assert_eq!(decode_any(&b), field(Field::AnchorId));
@@ -1176,8 +1259,17 @@ mod tests {
         );
     }
 
+    /// [`accept_is_parse`] on `v` as it is and with its CRC made to match.
+    fn accept_is_parse_sealed(v: &[u8]) {
+        accept_is_parse(v);
+        let mut v = v.to_vec();
+        seal(&mut v);
+        accept_is_parse(&v);
+    }
+
     /// Every byte of the golden report at every value (with the length byte as it is and
-    /// made to match), every pair of the header and count bytes, every cut and extension.
+    /// made to match), every pair of the header and count bytes, every cut and extension;
+    /// each with its CRC as it is and made to match.
     #[test]
     fn accept_counts_what_parse_rejects() {
         accept_is_parse(&REPORT);
@@ -1186,7 +1278,7 @@ mod tests {
             for b in 0..=255u8 {
                 let mut r = REPORT;
                 r[at] = b;
-                accept_is_parse(&r);
+                accept_is_parse_sealed(&r);
             }
         }
         for a in 0..9 {
@@ -1195,17 +1287,18 @@ mod tests {
                     let mut r = REPORT;
                     r[a] = x;
                     r[b] = y;
+                    seal(&mut r);
                     accept_is_parse(&r);
                 }
             }
         }
         let mut long = [0u8; 300];
-        long[..59].copy_from_slice(&REPORT);
+        long[..REPORT.len()].copy_from_slice(&REPORT);
         for n in 0..long.len() {
-            accept_is_parse(&long[..n]);
+            accept_is_parse_sealed(&long[..n]);
             let mut v = long;
             v[3] = n as u8;
-            accept_is_parse(&v[..n]);
+            accept_is_parse_sealed(&v[..n]);
         }
     }
 
@@ -1224,11 +1317,13 @@ mod tests {
             edits in proptest::collection::vec((0usize..120, proptest::prelude::any::<u8>()), 0..3),
             honest in proptest::prelude::any::<bool>(),
             clean_flags in proptest::prelude::any::<bool>(),
+            sealed in proptest::prelude::any::<bool>(),
         ) {
             let cf = if clean_flags { cf & (RELAY_FLAG | 0x07) } else { cf };
             let c = (cf & 0x07) as usize;
             let size = (9 + chans.len() + 4 * n as usize
-                + c * if cf & RELAY_FLAG != 0 { n as usize * n as usize } else { n as usize })
+                + c * if cf & RELAY_FLAG != 0 { n as usize * n as usize } else { n as usize }
+                + CRC_LEN)
                 .min(body.len());
             let mut v = body[..size].to_vec();
             let head = [MAGIC, VERSION, KIND_REPORT, size as u8, agent, 1, 2, n, cf];
@@ -1243,6 +1338,9 @@ mod tests {
             if honest && v.len() > 3 {
                 v[3] = v.len() as u8;
             }
+            if sealed {
+                seal(&mut v);
+            }
             accept_is_parse(&v);
         }
     }
@@ -1255,12 +1353,13 @@ mod tests {
             r.has_relay = relay;
             let mut buf = [0; 256];
             let len = r.size();
-            assert_eq!(r.encode(&mut buf).is_ok(), len <= MAX_PAYLOAD);
-            if len > MAX_PAYLOAD {
-                // The decoder takes it all the same (8 × 3 with relay: 236 bytes).
+            assert_eq!(r.encode(&mut buf).is_ok(), len <= MAX_MESSAGE);
+            if len > MAX_MESSAGE {
+                // The decoder takes it all the same (8 × 3 with relay: 238 bytes).
                 buf[..8].copy_from_slice(&[MAGIC, VERSION, KIND_REPORT, len as u8, 9, 7, 0, n]);
                 buf[8] = c as u8 | RELAY_FLAG;
                 buf[9..9 + c].copy_from_slice(&[16, 3, 1, 9][..c]);
+                seal(&mut buf[..len]);
             }
             accept_is_parse(&buf[..len]);
             let v = ReportView::accept(&buf[..len]).unwrap();

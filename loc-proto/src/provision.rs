@@ -1,13 +1,13 @@
 //! The provisioning frame: how the host (`hoploc provision`) writes a node's [`Config`] over the
 //! USB serial in the first seconds after reset, and the node's one-line binary answer.
 //!
-//! Frame, L + 7 bytes (27 for a two-channel config, 29 at most):
+//! Frame, L + 7 bytes (27 for a two-channel config, 45 at most: four channels and a key):
 //!
 //! | byte | field |
 //! |---|---|
 //! | 0–2 | start delimiter `HLP` (0x48 0x4C 0x50): not 0x7E, so the radio ignores it, and upper case, which no hoploc text line starts with |
 //! | 3 | frame version [`VERSION`] (1) |
-//! | 4 | L, the length of the config block (19…22) |
+//! | 4 | L, the length of the config block (19…38) |
 //! | 5 … 4+L | the config exactly as stored in EEPROM ([`crate::config`], with its own magic, version, length and CRC) |
 //! | 5+L, 6+L | CRC-16/CCITT-FALSE ([`crate::error::crc16`]) of bytes 3 … 4+L, big endian |
 //!
@@ -157,7 +157,7 @@ pub fn answer(outcome: Result<Config, Error>, role: Role) -> (Reply, Option<Conf
 
 /// The parser's buffer: a whole frame, rounded up to a power of two so that an index masked
 /// with `BUF - 1` needs no bounds check (on AVR each is a compare and a branch to the panic path).
-const BUF: usize = 32;
+const BUF: usize = 64;
 const _: () = assert!(MAX_FRAME <= BUF && 5 + MAX_LEN <= BUF && BUF.is_power_of_two());
 
 /// The byte at `i` of `b` (masked into the buffer; callers stay below `MAX_FRAME`).
@@ -166,7 +166,7 @@ fn at(b: &[u8; BUF], i: u8) -> u8 {
     b[i as usize & (BUF - 1)]
 }
 
-/// Finds provisioning frames in a byte stream, one byte at a time, in a 29-byte buffer.
+/// Finds provisioning frames in a byte stream, one byte at a time, in a buffer of one frame.
 #[derive(Clone, Debug)]
 pub struct ProvisionParser {
     buf: [u8; BUF],

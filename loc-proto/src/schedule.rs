@@ -210,13 +210,13 @@ pub const GUARD_US: u32 = 3_000;
 pub const SYNC_ERROR_US: u32 = 1_000;
 /// Report sub-slots per superframe: agents 1…`REPORT_SUBSLOTS` report, one sub-slot each.
 pub const REPORT_SUBSLOTS: u8 = 2;
-/// The shortest report sub-slot, µs: a 4-anchor × 2-channel report (59 B) takes ≈ 12 ms over the
-/// agent's UART and ≈ 2.8 ms on air, after the sink-channel switch. Larger reports get longer
+/// The shortest report sub-slot, µs: a 4-anchor × 2-channel report (61 B) takes ≈ 12 ms over the
+/// agent's UART and ≈ 2.9 ms on air, after the sink-channel switch. Larger reports get longer
 /// sub-slots ([`report_slot_us`]).
 pub const MIN_REPORT_SLOT_US: u32 = 20_000;
 /// What a report sub-slot leaves after the guard and the report's way to the sink's MCU
 /// ([`packet_latency_us`]): the margin the shortest sub-slot has for a 4 × 2 report.
-const REPORT_MARGIN_US: u32 = 2_000;
+const REPORT_MARGIN_US: u32 = 1_500;
 /// One byte on the 57600-baud 8N1 UART between MCU and radio (10 bit times), ns.
 pub const UART_BYTE_NS: u32 = 173_611;
 /// From the end of a packet on air to the first byte of its RX frame on the receiving radio's
@@ -637,19 +637,19 @@ mod tests {
         assert_eq!(s.agents(), REPORT_SUBSLOTS);
         // Short slots: report sub-slots stay long enough for a report.
         let fast = Config {
-            slot_ms: 16,
+            slot_ms: 17,
             ..Config::DEFAULT
         };
         let s = Schedule::for_config(&fast).unwrap();
         assert_eq!(s.guard_us(), GUARD_US);
-        assert_eq!(s.report_at_us(1), Some(8 * 16_000 + GUARD_US));
-        assert_eq!(s.superframe_us(), 8 * 16_000 + 2 * MIN_REPORT_SLOT_US);
+        assert_eq!(s.report_at_us(1), Some(8 * 17_000 + GUARD_US));
+        assert_eq!(s.superframe_us(), 8 * 17_000 + 2 * MIN_REPORT_SLOT_US);
         // The guard is at most a quarter of a slot.
         assert_eq!(guard_us(10_000), 2_500);
     }
 
     /// A slot holds its guard, a beacon's way into the receivers, whole, and the sync error:
-    /// 16 ms with 3 or 4 anchors, 17 with 5 to 7, 18 with 8; and a config with a shorter slot
+    /// 17 ms with 3 to 5 anchors, 18 with 6 or 7, 19 with 8; and a config with a shorter slot
     /// is refused.
     #[test]
     fn a_slot_must_hold_a_beacon() {
@@ -657,9 +657,9 @@ mod tests {
         for anchors in 3..=8u8 {
             let min = min_slot_ms(anchors);
             let want = match anchors {
-                3 | 4 => 16,
-                5..=7 => 17,
-                _ => 18,
+                3..=5 => 17,
+                6 | 7 => 18,
+                _ => 19,
             };
             assert_eq!(min, want, "{anchors}");
             // The whole RX frame: the TX frame's first byte to the RX frame's last, the UART's
@@ -738,13 +738,13 @@ mod tests {
 
     #[test]
     fn the_beacon_latency_adds_up() {
-        // 4 anchors: 17-byte payload, 26-byte frame + the RX frame's delimiter = 27 bytes of
-        // UART (4 687 µs), 1 472 µs on air, 200 µs in the receiving radio.
+        // 4 anchors: 19-byte payload, 28-byte frame + the RX frame's delimiter = 29 bytes of
+        // UART (5 034 µs), 1 536 µs on air, 200 µs in the receiving radio.
         assert_eq!(
             beacon_latency_us(4),
-            27 * 173_611 / 1000 + 928 + 32 * 17 + 200
+            29 * 173_611 / 1000 + 928 + 32 * 19 + 200
         );
-        assert_eq!(beacon_latency_us(4), 6_359);
+        assert_eq!(beacon_latency_us(4), 6_770);
         // Each more relayed anchor: one more byte on the UART and on air.
         assert_eq!(beacon_latency_us(5) - beacon_latency_us(4), 173 + 32 + 1);
     }

@@ -18,10 +18,10 @@
 //! | `hoploc sink fix 2 417 mle 281 600 282 -4126 4 1 *66` | agent, sequence, estimator (`mle`: thesis MLE, `mmse`: windowed MMSE), x and y (cm), α × 100, P0 × 100 (dBm), anchors used, flags |
 //! | `hoploc sink nofix 2 418 2 *5F` | agent, sequence, usable anchors (fewer than 3) |
 //! | `hoploc sink status 61 1203 240 3 1 17 480 *DB` | uptime (s), frames, reports, drops, checksum errors, foreign frames, estimates |
-//! | `hoploc sink report B50102…5354 *FE` | the report message as received, in upper-case hex ([`RawReport`]) |
+//! | `hoploc sink report B50202…7166 *20` | the report message as received, in upper-case hex ([`RawReport`]) |
 //!
 //! The whole `report` line of that example (agent 2, report 418, four anchors, channels 1 and 12):
-//! `hoploc sink report B501023B02A2010482010C00000000E8030000E803E8030000E8033C3D3E3F3D3E3F404748494A4C4D4E4F515253544748494A4C4D4E4F51525354 *FE`.
+//! `hoploc sink report B502023D02A2010482010C00000000E8030000E803E8030000E8033C3D3E3F3D3E3F404748494A4C4D4E4F515253544748494A4C4D4E4F515253547166 *20`.
 //! The `report` line comes before the report's `fix` or `nofix` line(s). It carries the agent's
 //! measurements ([`crate::msg::Report`]: RSSI per anchor and channel, anchor positions,
 //! anchor-to-anchor relays), so `hoploc replay` can run every host estimator on a recorded log.

@@ -5,8 +5,8 @@
 use loc_proto::config::{self, Config};
 use loc_proto::error::crc16;
 use loc_proto::msg::{
-    decode_any, Beacon, ChannelList, Message, Position, Relay, Report, ReportView, MAX_ANCHORS,
-    MAX_CHANNELS, MAX_PAYLOAD,
+    decode_any, seal, Beacon, ChannelList, Message, Position, Relay, Report, ReportView,
+    MAX_ANCHORS, MAX_CHANNELS, MAX_MESSAGE, MAX_PAYLOAD, VERSION,
 };
 use loc_proto::provision::{self, ProvisionParser, MAX_FRAME};
 use loc_proto::{Error, Role};
@@ -100,9 +100,10 @@ fn config() -> impl Strategy<Value = Config> {
         channels(),
         1..=16u8,
         0..0xFFFFu16,
+        proptest::option::of(any::<[u8; 16]>().prop_map(config::NetworkKey)),
     )
         .prop_map(
-            |(role, id, anchors, position, slot_ms, channels, sink_channel, pan_id)| Config {
+            |(role, id, anchors, position, slot_ms, channels, sink_channel, pan_id, key)| Config {
                 // A slot that holds the network's beacons.
                 slot_ms: slot_ms.max(loc_proto::schedule::min_slot_ms(anchors)),
                 role,
@@ -116,6 +117,7 @@ fn config() -> impl Strategy<Value = Config> {
                 channels,
                 sink_channel,
                 pan_id,
+                key,
             },
         )
 }
@@ -132,9 +134,12 @@ fn bytes_like(prefix: &'static [u8], max: usize) -> impl Strategy<Value = Vec<u8
                     v[i] = p;
                 }
             }
-            // Often make the length byte honest.
+            // Often make the length byte honest, and a message's CRC.
             if k >= 3 && v.len() > 3 && v[0] == 0xB5 && v[3] & 1 == 0 {
                 v[3] = v.len() as u8;
+            }
+            if k >= 2 && v.first() == Some(&0xB5) && v.len() % 3 != 0 {
+                seal(&mut v);
             }
             v
         })
@@ -186,7 +191,7 @@ proptest! {
         // 8 anchors with relay, past the radio payload (the decoder still takes it with up to 3
         // channels; 4 do not fit the length byte).
         let n = Report::wire_size(8, r.channels.len(), true);
-        buf[..4].copy_from_slice(&[0xB5, 1, 2, n.min(255) as u8]);
+        buf[..4].copy_from_slice(&[0xB5, VERSION, 2, n.min(255) as u8]);
         buf[4] = r.agent;
         buf[5..7].copy_from_slice(&r.seq.to_le_bytes());
         buf[7] = 8;
@@ -197,13 +202,14 @@ proptest! {
         for (k, b) in buf[9 + r.channels.len()..n.min(255)].iter_mut().enumerate() {
             *b = (k as u8).wrapping_mul(37) ^ r.seq as u8;
         }
+        seal(&mut buf[..n.min(255)]);
         view_is_decode(&buf[..n.min(255)])?;
     }
 
     #[test]
     fn report_views_take_any_bytes_as_decode_does(
         v in prop_oneof![
-            bytes_like(&[0xB5, 1, 2], 110),
+            bytes_like(&[0xB5, VERSION, 2], 110),
             proptest::collection::vec(any::<u8>(), 0..110),
         ]
     ) {
@@ -229,13 +235,13 @@ proptest! {
         let mut buf = [0; 256];
         match r.encode(&mut buf) {
             Ok(n) => {
-                prop_assert!(n <= MAX_PAYLOAD);
+                prop_assert!(n <= MAX_MESSAGE);
                 prop_assert_eq!(n, r.size());
                 prop_assert_eq!(Report::decode(&buf[..n]), Ok(r));
                 prop_assert_eq!(decode_any(&buf[..n]), Ok(Message::Report(r)));
             }
             Err(e) => {
-                prop_assert!(r.size() > MAX_PAYLOAD);
+                prop_assert!(r.size() > MAX_MESSAGE);
                 prop_assert_eq!(e, Error::TooLarge { size: r.size() as u16 });
             }
         }
@@ -259,7 +265,7 @@ proptest! {
         }
         let before = r;
         r.fit_relay();
-        prop_assert!(r.size() <= MAX_PAYLOAD, "{} bytes", r.size());
+        prop_assert!(r.size() <= MAX_MESSAGE, "{} bytes", r.size());
         let (n, c) = (r.anchors as usize, r.channels.len());
         let kept = (0..n * c).filter(|&row| r.sends_row(row)).count();
         let fit = Report::relay_rows_that_fit(n, c);
@@ -306,8 +312,8 @@ proptest! {
     #[test]
     fn any_bytes_decode_without_panic_and_reencode_exactly(
         v in prop_oneof![
-            bytes_like(&[0xB5, 1, 1], 24),
-            bytes_like(&[0xB5, 1, 2], 110),
+            bytes_like(&[0xB5, VERSION, 1], 26),
+            bytes_like(&[0xB5, VERSION, 2], 110),
             proptest::collection::vec(any::<u8>(), 0..110),
         ]
     ) {
@@ -382,14 +388,14 @@ proptest! {
 fn largest_reports_that_fit() {
     for n in 3..=MAX_ANCHORS {
         for c in 1..=4 {
-            let fits = Report::wire_size(n, c, true) <= MAX_PAYLOAD;
+            let fits = Report::wire_size(n, c, true) <= MAX_MESSAGE;
             assert_eq!(
                 fits,
                 matches!((n, c), (3, _) | (4, _) | (5, 1..=2) | (6, 1) | (7, 1)),
                 "{n}x{c}"
             );
             assert!(
-                Report::wire_size(n, c, false) <= MAX_PAYLOAD,
+                Report::wire_size(n, c, false) <= MAX_MESSAGE,
                 "{n}x{c} without relay"
             );
         }
@@ -407,12 +413,14 @@ fn report_views_check_channels_as_decode_does() {
         for b in 0..=255u8 {
             buf[9] = a;
             buf[10] = b;
+            seal(&mut buf[..n]);
             view_is_decode(&buf[..n]).unwrap();
         }
     }
     buf[9..11].copy_from_slice(&[3, 4]);
     for cf in 0..=255u8 {
         buf[8] = cf;
+        seal(&mut buf[..n]);
         view_is_decode(&buf[..n]).unwrap();
     }
 }

@@ -408,7 +408,8 @@ pub mod random {
 
     /// A frame that is no good message for a receiver, from a good one (`valid`): random bytes,
     /// cut short, one byte too long, a wrong magic, version, kind or length byte, or a header
-    /// field changed (which may still decode: the tests decide with the receiver's decoder).
+    /// field changed (which may still decode: the tests decide with the receiver's decoder); half
+    /// of them with a CRC that matches.
     pub fn garbage(rng: &mut Rng, valid: &[u8]) -> Vec<u8> {
         let mut v = valid.to_vec();
         match rng.below(8) {
@@ -428,6 +429,11 @@ pub mod random {
                 v[i] = rng.pick(&[0, 1, 2, 3, 5, 8, 9, 0x80, 0xFF, any]);
             }
             _ => v.push(rng.byte()),
+        }
+        // Half the time with the CRC made to match the edit, so that the checks behind it see
+        // the edited fields.
+        if rng.below(2) == 0 {
+            loc_proto::msg::seal(&mut v);
         }
         v
     }
