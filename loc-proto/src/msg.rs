@@ -41,7 +41,7 @@
 //! | 4 | agent id (1…255) |
 //! | 5–6 | superframe sequence (u16) |
 //! | 7 | N |
-//! | 8 | C in bits 0–2; bit 7 set: relay rows follow; bit 6 set (with bit 7): only a window of them (other bits 0) |
+//! | 8 | C in bits 0–2; bits 3–5: the agent's reports since its last one whose transmission failed (0…7, saturating: its radio found the channel busy, or the sink's radio did not acknowledge); bit 7 set: relay rows follow; bit 6 set (with bit 7): only a window of them |
 //! | 9 … 8+C | the C testbed channels (1…16, distinct) |
 //! | then 4·N | per anchor *i* = 1…N: position x, y (i16, cm; 0, 0 if never heard) |
 //! | then C·N | per channel, per anchor: the RSSI byte of its beacon (−dBm, 0 = not heard) |
@@ -90,6 +90,10 @@ pub const KIND_REPORT: u8 = 2;
 const RELAY_FLAG: u8 = 0x80;
 /// The report flag (with [`RELAY_FLAG`]): only a window of the rows.
 const ROWS_FLAG: u8 = 0x40;
+/// The report bits of [`Report::failed`].
+const FAILED_BITS: u8 = 0x38;
+/// The most [`Report::failed`] counts.
+pub const MAX_FAILED: u8 = 7;
 
 /// A position in cm.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -428,6 +432,10 @@ pub struct Report {
     /// `relay[c][i][j]`: what anchor `i + 1` relayed on channel `channels[c]` as the RSSI it
     /// measured from anchor `j + 1` (0 = not heard, no beacon from `i + 1`, or a row not sent).
     pub relay: [[[u8; MAX_ANCHORS]; MAX_ANCHORS]; MAX_CHANNELS],
+    /// The agent's reports since its last one whose transmission failed (0…[`MAX_FAILED`],
+    /// saturating): its radio found the channel busy (CCA failure) or the sink's radio did not
+    /// acknowledge. What tells a sink that reports are being lost on the way to it.
+    pub failed: u8,
 }
 
 impl Report {
@@ -443,6 +451,7 @@ impl Report {
             has_relay: true,
             relay_window: None,
             relay: [[[0; MAX_ANCHORS]; MAX_ANCHORS]; MAX_CHANNELS],
+            failed: 0,
         }
     }
 
@@ -542,6 +551,9 @@ impl Report {
                 return Err(bad(Field::RelayRows));
             }
         }
+        if self.failed > MAX_FAILED {
+            return Err(bad(Field::Flags));
+        }
         // `ChannelList` is valid by construction.
         Ok(())
     }
@@ -563,6 +575,7 @@ impl Report {
         w.u16(self.seq);
         w.u8(self.anchors);
         w.u8(c as u8
+            | self.failed << 3
             | if self.has_relay { RELAY_FLAG } else { 0 }
             | if some_rows { ROWS_FLAG } else { 0 });
         for &ch in self.channels.as_slice() {
@@ -610,7 +623,8 @@ impl Report {
         let seq = r.u16()?;
         let anchors = r.u8()?;
         let cf = r.u8()?;
-        if cf & !(RELAY_FLAG | ROWS_FLAG | 0x07) != 0 || cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG
+        if cf & !(RELAY_FLAG | ROWS_FLAG | FAILED_BITS | 0x07) != 0
+            || cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG
         {
             return Err(bad(Field::Flags));
         }
@@ -625,6 +639,7 @@ impl Report {
         let mut rep = Report::new(agent, seq, anchors, ChannelList::new(&list[..c])?);
         rep.validate()?;
         rep.has_relay = cf & RELAY_FLAG != 0;
+        rep.failed = (cf & FAILED_BITS) >> 3;
         let n = rep.n();
         for p in &mut rep.positions[..n] {
             *p = r.position()?;
@@ -758,7 +773,8 @@ impl<'a> ReportView<'a> {
         let &[agent, s0, s1, anchors, cf] = body.get(4..9).ok_or(Error::BadLength)? else {
             return Err(Error::BadLength);
         };
-        if cf & !(RELAY_FLAG | ROWS_FLAG | 0x07) != 0 || cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG
+        if cf & !(RELAY_FLAG | ROWS_FLAG | FAILED_BITS | 0x07) != 0
+            || cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG
         {
             return Err(bad(Field::Flags));
         }
@@ -836,7 +852,7 @@ impl<'a> ReportView<'a> {
             return Err(Corrupt);
         };
         let c = cf & 0x07;
-        if cf & !(RELAY_FLAG | ROWS_FLAG | 0x07) != 0
+        if cf & !(RELAY_FLAG | ROWS_FLAG | FAILED_BITS | 0x07) != 0
             || cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG
             || !(1..=MAX_CHANNELS as u8).contains(&c)
             || !channels.get(..c as usize).is_some_and(distinct_channels)
@@ -894,6 +910,11 @@ impl<'a> ReportView<'a> {
     /// Whether relay rows were sent.
     pub fn has_relay(&self) -> bool {
         self.has_relay
+    }
+
+    /// The agent's failed transmissions before this report ([`Report::failed`]).
+    pub fn failed(&self) -> u8 {
+        (self.at(8) & FAILED_BITS) >> 3
     }
 
     /// Offset of anchor 0's position.
@@ -1110,6 +1131,28 @@ mod tests {
         wrong(&|b| b[8] &= !RELAY_FLAG, bad(Field::Flags));
         wrong(&|b| b[at] = 8, bad(Field::RelayRows));
         wrong(&|b| b[at + 1] = 8, bad(Field::RelayRows));
+    }
+
+    /// The failed-transmission count rides in the count byte: every value round trips and the
+    /// view reads it; past 7 it is refused.
+    #[test]
+    fn failed_transmissions_are_counted_in_the_report() {
+        let mut buf = [0; MAX_PAYLOAD];
+        for failed in 0..=MAX_FAILED {
+            let r = Report { failed, ..report() };
+            let n = r.encode(&mut buf).unwrap();
+            assert_eq!(n, REPORT.len());
+            assert_eq!(buf[8], 0x82 | failed << 3);
+            assert_eq!(Report::decode(&buf[..n]), Ok(r));
+            let view = ReportView::parse(&buf[..n]).unwrap();
+            assert_eq!(view.failed(), failed);
+            assert_eq!(ReportView::accept(&buf[..n]), Ok(view));
+        }
+        let r = Report {
+            failed: MAX_FAILED + 1,
+            ..report()
+        };
+        assert_eq!(r.encode(&mut buf), Err(bad(Field::Flags)));
     }
 
     #[test]

@@ -51,7 +51,7 @@ fn beacon() -> impl Strategy<Value = Beacon> {
 #[allow(clippy::needless_range_loop)] // three parallel index sets read clearer as ranges
 fn report() -> impl Strategy<Value = Report> {
     (
-        (1..=255u8, any::<u16>(), 3..=8u8, channels()),
+        (1..=255u8, any::<u16>(), 3..=8u8, channels(), 0..=7u8),
         // No relay rows, all of them, or a window of them.
         prop_oneof![
             Just(None),
@@ -62,8 +62,9 @@ fn report() -> impl Strategy<Value = Report> {
         any::<[[u8; 8]; 4]>(),
         any::<[[[u8; 8]; 8]; 4]>(),
     )
-        .prop_map(|((agent, seq, n, ch), rows, pos, rssi, relay)| {
+        .prop_map(|((agent, seq, n, ch, failed), rows, pos, rssi, relay)| {
             let mut r = Report::new(agent, seq, n, ch);
+            r.failed = failed;
             r.has_relay = rows.is_some();
             let (n, c) = (n as usize, ch.len());
             if let Some(Some((s, k))) = rows {
@@ -158,6 +159,7 @@ fn view_is_decode(v: &[u8]) -> Result<(), TestCaseError> {
             prop_assert_eq!(view.anchors(), r.anchors as usize);
             prop_assert_eq!(view.channels(), r.channels.len());
             prop_assert_eq!(view.has_relay(), r.has_relay);
+            prop_assert_eq!(view.failed(), r.failed);
             let (n, c) = (view.anchors(), view.channels());
             for i in 0..n {
                 prop_assert_eq!(view.position(i), r.positions[i]);
