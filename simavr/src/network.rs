@@ -463,6 +463,8 @@ impl Network {
                 cfg.gt_ms = saved.gt();
                 cfg.ct = saved.ct();
                 cfg.ni = String::from_utf8_lossy(saved.ni()).into_owned();
+                cfg.ee = saved.ee();
+                cfg.ky = saved.ky();
                 let mut fresh_radio = XBee::new(cfg);
                 if let Some((rate, seed)) = noise {
                     fresh_radio.set_line_errors(rate, seed);

@@ -23,14 +23,16 @@
 //!
 //! * **Registers** ([`Registers`]): `CH ID DH DL MY RR RN MM NT NO CE SC SD A1 A2 EE PL CA SM ST
 //!   SP DP BD NB RO AP PR IU IT IC IR RP CT GT CC` with the S1 ranges and factory defaults,
-//!   `NI` (≤ 20 printable characters), read-only `SH SL VR HV DB EC EA AI`, and `WR RE AC FR
-//!   CN`. Queries answer big endian in the register's width (`BD` 4 bytes, `CH` 1, `MY` 2…);
-//!   unknown commands answer status 2 (invalid command), out-of-range values 3 (invalid
-//!   parameter; `CH` follows [`Model`]: S1 0x0B…0x1A, S1 Pro 0x0C…0x17), sets of read-only
-//!   registers 1 (error). There is an active set and a persisted set: `WR` copies active to
-//!   persisted, a power cycle ([`XBee::reset`]) or `FR` restores the persisted set, `RE`
-//!   loads factory defaults into the active set. Registers without modelled behaviour (sleep,
-//!   I/O, encryption, MAC mode) are stored and answered only.
+//!   `NI` (≤ 20 printable characters), the write-only AES key `KY` (up to 16 bytes, shorter
+//!   values right-aligned like any hex value; a query answers OK and no value, never the key),
+//!   read-only `SH SL VR HV DB EC EA AI`, and `WR RE AC FR CN`. Queries answer big endian in
+//!   the register's width (`BD` 4 bytes, `CH` 1, `MY` 2…); unknown commands answer status 2
+//!   (invalid command), out-of-range values 3 (invalid parameter; `CH` follows [`Model`]: S1
+//!   0x0B…0x1A, S1 Pro 0x0C…0x17), sets of read-only registers 1 (error). There is an active
+//!   set and a persisted set: `WR` copies active to persisted, a power cycle ([`XBee::reset`])
+//!   or `FR` restores the persisted set, `RE` loads factory defaults into the active set
+//!   (`EE` 0, `KY` 0 among them). Registers without modelled behaviour (sleep, I/O, MAC mode)
+//!   are stored and answered only.
 //! * **API mode** (`AP`=1, 2): frames decoded with [`xbee_api::Decoder`] in the current mode. 0x08
 //!   AT command → 0x88 response with the same frame id ([`XBeeConfig::at_latency_ms`], default 1
 //!   ms, after the frame's end; none for frame id 0) and the change applied at once: `CH`, `AP`

@@ -778,6 +778,149 @@ fn wr_and_power_cycle_restore_the_written_values() {
     assert_eq!(h.core.persisted().ap(), 2);
 }
 
+// ---- encryption: EE and KY ----
+
+/// A key with bytes API mode 2 escapes (0x7E, 0x7D, 0x11, 0x13).
+const KEY: [u8; 16] = [
+    0x7E, 0x7D, 0x11, 0x13, 0x00, 0x01, 0x02, 0x03, 0xC0, 0xFF, 0xEE, 0x42, 0x99, 0x88, 0x77, 0x66,
+];
+
+/// Sends AT command `cmd` with `param` in an 0x08 frame with frame id `id`; returns the
+/// response's frame data.
+fn at(h: &mut Host, mode: Mode, id: u8, cmd: &[u8; 2], param: &[u8]) -> Vec<u8> {
+    h.take();
+    let mut d = vec![0x08, id, cmd[0], cmd[1]];
+    d.extend_from_slice(param);
+    h.frame(&d, mode);
+    h.run_ms(5.0);
+    let f = frames(&h.take_bytes(), mode);
+    assert_eq!(f.len(), 1, "{f:x?}");
+    f[0].clone()
+}
+
+#[test]
+fn ee_takes_0_or_1_and_ky_up_to_16_bytes_that_a_query_never_answers() {
+    for mode in MODES {
+        let mut h = Host::new(XBeeConfig::api(mode.ap()));
+        // EE: factory 0; 0 and 1 taken, anything else status 3 (invalid parameter).
+        assert_eq!(at(&mut h, mode, 1, b"EE", &[]), [0x88, 1, b'E', b'E', 0, 0]);
+        assert_eq!(at(&mut h, mode, 2, b"EE", &[1]), [0x88, 2, b'E', b'E', 0]);
+        assert_eq!(at(&mut h, mode, 3, b"EE", &[]), [0x88, 3, b'E', b'E', 0, 1]);
+        assert_eq!(at(&mut h, mode, 4, b"EE", &[2]), [0x88, 4, b'E', b'E', 3]);
+        assert_eq!(
+            at(&mut h, mode, 5, b"EE", &[0, 0, 1, 0]),
+            [0x88, 5, b'E', b'E', 3]
+        );
+        assert!(h.core.registers().ee(), "a refused value changes nothing");
+        // KY: 16 bytes taken; the query answers OK without a value.
+        assert_eq!(at(&mut h, mode, 6, b"KY", &KEY), [0x88, 6, b'K', b'Y', 0]);
+        assert_eq!(h.core.registers().ky(), KEY);
+        assert_eq!(at(&mut h, mode, 7, b"KY", &[]), [0x88, 7, b'K', b'Y', 0]);
+        // 17 bytes: refused, unless the first is a leading zero.
+        let mut long = vec![0x01];
+        long.extend_from_slice(&[0x55; 16]);
+        assert_eq!(at(&mut h, mode, 8, b"KY", &long), [0x88, 8, b'K', b'Y', 3]);
+        assert_eq!(h.core.registers().ky(), KEY);
+        long[0] = 0;
+        assert_eq!(at(&mut h, mode, 9, b"KY", &long), [0x88, 9, b'K', b'Y', 0]);
+        assert_eq!(h.core.registers().ky(), [0x55; 16]);
+        // Shorter values are right-aligned, as the radio takes any hex value.
+        assert_eq!(
+            at(&mut h, mode, 10, b"KY", &[0x12, 0x34]),
+            [0x88, 10, b'K', b'Y', 0]
+        );
+        let mut short = [0; 16];
+        short[14..].copy_from_slice(&[0x12, 0x34]);
+        assert_eq!(h.core.registers().ky(), short);
+        // A queued KY (0x09) applies with the next 0x08, like any register.
+        h.frame(&[0x09, 11, b'K', b'Y', 0x77], mode);
+        h.run_ms(5.0);
+        assert_eq!(h.core.registers().ky(), short, "queued, not applied");
+        at(&mut h, mode, 12, b"AC", &[]);
+        let mut k77 = [0; 16];
+        k77[15] = 0x77;
+        assert_eq!(h.core.registers().ky(), k77);
+        // The key stays out of the registers' Debug output too.
+        let shown = format!("{:?}", h.core.registers());
+        assert!(shown.contains("\"KY\": \"(set)\""), "{shown}");
+        assert!(!shown.contains("77"), "{shown}");
+    }
+}
+
+#[test]
+fn ee_and_ky_in_command_mode() {
+    let mut h = transparent(50);
+    enter_command_mode(&mut h);
+    let ask = |h: &mut Host, line: &[u8]| {
+        h.send(line);
+        h.run_ms(10.0);
+        String::from_utf8(h.take_bytes()).unwrap()
+    };
+    assert_eq!(ask(&mut h, b"ATEE\r"), "0\r");
+    assert_eq!(ask(&mut h, b"ATEE1\r"), "OK\r");
+    assert_eq!(ask(&mut h, b"ATEE\r"), "1\r");
+    assert_eq!(ask(&mut h, b"ATEE2\r"), "ERROR\r");
+    assert_eq!(ask(&mut h, b"ATKY\r"), "OK\r", "no key, not even 0");
+    assert_eq!(
+        ask(&mut h, b"ATKY 0x7e7d1113 00010203 C0FFEE42 99887766\r"),
+        "OK\r"
+    );
+    assert_eq!(h.core.registers().ky(), KEY);
+    assert_eq!(ask(&mut h, b"ATKY\r"), "OK\r");
+    // An odd number of digits is a number like any other: right-aligned.
+    assert_eq!(ask(&mut h, b"ATKY123\r"), "OK\r");
+    let mut k = [0; 16];
+    k[14..].copy_from_slice(&[0x01, 0x23]);
+    assert_eq!(h.core.registers().ky(), k);
+    // 33 significant digits, or not hex: refused, the key stays. Leading zeros do not count.
+    let f32 = "F".repeat(32);
+    assert_eq!(ask(&mut h, format!("ATKY1{f32}\r").as_bytes()), "ERROR\r");
+    assert_eq!(ask(&mut h, b"ATKY12G4\r"), "ERROR\r");
+    assert_eq!(h.core.registers().ky(), k);
+    assert_eq!(ask(&mut h, format!("ATKY000{f32}\r").as_bytes()), "OK\r");
+    assert_eq!(h.core.registers().ky(), [0xFF; 16]);
+    // Several per line, as the others.
+    assert_eq!(ask(&mut h, b"ATKY1,EE0,KY\r"), "OK\rOK\rOK\r");
+    assert!(!h.core.registers().ee());
+}
+
+#[test]
+fn wr_re_and_fr_keep_or_reset_ee_and_ky_like_the_other_registers() {
+    let mut h = Host::new(XBeeConfig::api(2));
+    let m = Mode::Escaped;
+    at(&mut h, m, 1, b"EE", &[1]);
+    at(&mut h, m, 2, b"KY", &KEY);
+    at(&mut h, m, 3, b"WR", &[]);
+    at(&mut h, m, 4, b"KY", &[0x01]);
+    at(&mut h, m, 5, b"EE", &[0]);
+    assert!(h.core.persisted().ee());
+    assert_eq!(h.core.persisted().ky(), KEY);
+    assert_eq!(h.core.registers().ky()[15], 0x01);
+    // A power cycle restores what WR wrote.
+    let t = h.t + ms(1.0);
+    h.core.reset(t);
+    h.run_to(t + ms(10.0));
+    assert!(h.core.registers().ee());
+    assert_eq!(h.core.registers().ky(), KEY);
+    // RE: factory defaults, EE 0 and KY 0 (the persisted set keeps the key until a WR).
+    at(&mut h, m, 6, b"RE", &[]);
+    assert!(!h.core.registers().ee());
+    assert_eq!(h.core.registers().ky(), [0; 16]);
+    assert_eq!(h.core.persisted().ky(), KEY);
+    // FR: back to the persisted set (RE set AP 0, so this is the last API exchange).
+    let mut h = Host::new(XBeeConfig {
+        ee: true,
+        ky: KEY,
+        ..XBeeConfig::api(2)
+    });
+    at(&mut h, m, 1, b"EE", &[0]);
+    at(&mut h, m, 2, b"KY", &[0x02]);
+    at(&mut h, m, 3, b"FR", &[]);
+    h.run_ms(20.0);
+    assert!(h.core.registers().ee());
+    assert_eq!(h.core.registers().ky(), KEY);
+}
+
 // ---- the xbee-api driver against the model ----
 
 /// The model behind an in-memory serial port and clock: every read or clock look advances

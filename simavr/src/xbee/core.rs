@@ -7,7 +7,7 @@ use xbee_api::{
     MAX_ENCODED, MAX_RF_PAYLOAD, START,
 };
 
-use super::regs::{self, baud_of_bd, Model, Registers, NI_MAX, READ_ONLY};
+use super::regs::{self, baud_of_bd, Model, Registers, KEY_LEN, NI_MAX, READ_ONLY};
 use crate::avr::{ms_to_cycles, UartByte, F_CPU};
 use crate::radio::SeenFrame;
 
@@ -72,6 +72,10 @@ pub struct XBeeConfig {
     pub ct: u16,
     /// `NI`.
     pub ni: String,
+    /// `EE`: AES encryption on.
+    pub ee: bool,
+    /// `KY`: the AES-128 key.
+    pub ky: [u8; KEY_LEN],
     /// `VR`, firmware version.
     pub vr: u16,
     /// `HV`, hardware version.
@@ -102,6 +106,8 @@ impl Default for XBeeConfig {
             gt_ms: 1000,
             ct: 0x64,
             ni: String::new(),
+            ee: false,
+            ky: [0; KEY_LEN],
             vr: 0x10EF,
             hv: 0x180B,
             power_up_ms: 5.0,
@@ -134,6 +140,8 @@ impl XBeeConfig {
         r.set_unchecked(*b"GT", u32::from(self.gt_ms.max(1)));
         r.set_unchecked(*b"CT", u32::from(self.ct));
         r.set_ni(self.ni.as_bytes());
+        r.set_unchecked(*b"EE", u32::from(self.ee));
+        r.set_ky(self.ky);
         r
     }
 }
@@ -354,6 +362,42 @@ impl Param<'_> {
                 .skip_while(|&c| c == b' ')
                 .collect::<Vec<_>>(),
         }
+    }
+
+    /// A 128-bit value (`KY`), if well formed: up to 16 bytes (API) or 32 hex digits (command
+    /// mode; optional `0x`, spaces ignored) after leading zeros, right-aligned as a number.
+    fn key(&self) -> Option<[u8; KEY_LEN]> {
+        let bytes: Vec<u8> = match *self {
+            Param::Binary(b) => b.to_vec(),
+            Param::Text(t) => {
+                let s: Vec<u8> = t.iter().copied().filter(|&c| c != b' ').collect();
+                let s = match s.as_slice() {
+                    [b'0', b'x' | b'X', rest @ ..] => rest,
+                    other => other,
+                };
+                if s.is_empty() || !s.iter().all(u8::is_ascii_hexdigit) {
+                    return None;
+                }
+                // Hex digits to bytes from the right: an odd count leaves a high nibble of 0.
+                let digits: Vec<u8> = s
+                    .iter()
+                    .map(|&c| (c as char).to_digit(16).unwrap_or(0) as u8)
+                    .collect();
+                let mut bytes: Vec<u8> = digits
+                    .rchunks(2)
+                    .map(|p| p.iter().fold(0u8, |v, &d| (v << 4) | d))
+                    .collect();
+                bytes.reverse();
+                bytes
+            }
+        };
+        let first = bytes.iter().position(|&x| x != 0).unwrap_or(bytes.len());
+        let sig = &bytes[first..];
+        (sig.len() <= KEY_LEN).then(|| {
+            let mut key = [0; KEY_LEN];
+            key[KEY_LEN - sig.len()..].copy_from_slice(sig);
+            key
+        })
     }
 
     /// The number, if well formed (≤ 32 bits).
@@ -1167,6 +1211,10 @@ impl XBeeCore {
         if cmd == *b"NI" {
             return Ok(AtValue::Str(self.active.ni().to_vec()));
         }
+        if cmd == *b"KY" {
+            // Write-only: a query answers OK and never the key.
+            return Ok(AtValue::None);
+        }
         if let Some(s) = regs::spec(cmd) {
             let v = self.active.get(cmd).unwrap_or(s.default);
             return Ok(AtValue::Num(u64::from(v), s.width));
@@ -1194,6 +1242,12 @@ impl XBeeCore {
             }
             return Ok(s);
         }
+        if cmd == *b"KY" {
+            return param
+                .key()
+                .map(|k| k.to_vec())
+                .ok_or(AtStatus::INVALID_PARAMETER);
+        }
         if READ_ONLY.iter().any(|r| r.0 == cmd) {
             return Err(AtStatus::ERROR);
         }
@@ -1215,6 +1269,10 @@ impl XBeeCore {
     fn set(&mut self, cmd: [u8; 2], v: &[u8]) {
         if cmd == *b"NI" {
             self.active.set_ni(v);
+        } else if cmd == *b"KY" {
+            let mut key = [0; KEY_LEN];
+            key.copy_from_slice(v);
+            self.active.set_ky(key);
         } else {
             let n = v.iter().fold(0u32, |a, &b| (a << 8) | u32::from(b));
             self.active.set_unchecked(cmd, n);
