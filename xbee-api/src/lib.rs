@@ -40,6 +40,9 @@ pub const XOFF: u8 = 0x13;
 pub const MAX_FRAME_DATA: usize = 111;
 /// Largest RF payload of one 802.15.4 packet.
 pub const MAX_RF_PAYLOAD: usize = 100;
+/// Largest RF payload of one packet with AES encryption on (`EE`=1): the 802.15.4 auxiliary
+/// security header takes 5 bytes of the packet, and the S1 refuses anything longer.
+pub const MAX_RF_PAYLOAD_ENCRYPTED: usize = 95;
 /// Worst-case encoded size of a frame on the wire (every byte after the start escaped).
 pub const MAX_ENCODED: usize = 1 + 2 * (2 + MAX_FRAME_DATA + 1);
 
