@@ -13,7 +13,7 @@ use simavr::xbee::{
     XBeeConfig, XBeeCore, SECURITY_HEADER_BYTES,
 };
 use simavr::{ms_to_cycles, Avr, UartByte};
-use xbee_api::driver::{BringUp, BringUpConfig, Clock, Radio, SetBaud};
+use xbee_api::driver::{BringUp, BringUpConfig, Clock, Encryption, Radio, SetBaud};
 use xbee_api::{Decoder, Mode};
 
 fn ms(x: f64) -> u64 {
@@ -1272,6 +1272,7 @@ fn driver_bring_up_configures_a_factory_radio() {
         channel: Some(0x0B),
         guard_ms: 150,
         timeout_ms: 200,
+        ..BringUpConfig::new()
     };
     let how = radio.bring_up(&cfg).expect("bring-up");
     assert_eq!(how, BringUp::Configured { baud: 9600 });
@@ -1321,6 +1322,46 @@ fn driver_bring_up_of_a_radio_in_ap1_at_57600() {
         BringUp::Configured { baud: 57_600 }
     );
     assert_eq!(sim.borrow().core.mode(), Some(Mode::Escaped));
+}
+
+#[test]
+fn driver_bring_up_sets_the_models_key_and_ee() {
+    let (sim, mut radio) = driver_on(XBeeConfig {
+        gt_ms: 100,
+        ..XBeeConfig::api(2)
+    });
+    let cfg = BringUpConfig {
+        channel: Some(0x0D),
+        encryption: Encryption::Key(KEY),
+        guard_ms: 150,
+        timeout_ms: 200,
+        ..BringUpConfig::new()
+    };
+    assert_eq!(radio.bring_up(&cfg).unwrap(), BringUp::AlreadyApi);
+    {
+        let s = sim.borrow();
+        assert!(s.core.registers().ee());
+        assert_eq!(s.core.registers().ky(), KEY);
+        assert!(!s.core.persisted().ee(), "not written");
+    }
+    // Encrypted from now on: 95 bytes go, 96 are refused (no TX status: the wait times out).
+    radio.send_tx16(0xFFFF, &[0x55; 95]).unwrap();
+    radio.wait_tx_status(100, |_| {}).unwrap();
+    radio.send_tx16(0xFFFF, &[0x55; 96]).unwrap();
+    assert_eq!(
+        radio.wait_tx_status(100, |_| {}),
+        Err(xbee_api::driver::Error::TxStatusTimeout)
+    );
+    let txs = sim.borrow_mut().core.take_transmissions_with_security();
+    assert_eq!(txs.len(), 1);
+    assert!(matches!(txs[0].1, Security::Encrypted { key: KEY, .. }));
+    // Off again.
+    let off = BringUpConfig {
+        encryption: Encryption::Off,
+        ..cfg
+    };
+    assert_eq!(radio.bring_up(&off).unwrap(), BringUp::AlreadyApi);
+    assert!(!sim.borrow().core.registers().ee());
 }
 
 // ---- on an Avr, with the C fixture ----

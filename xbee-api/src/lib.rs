@@ -6,7 +6,8 @@
 //! * [`Frame`]: borrowed, zero-copy views of every 802.15.4 frame type; unknown types come out as
 //!   [`Frame::Unknown`]. [`Frame::encode`] writes a frame into a caller's buffer.
 //! * [`driver`]: a radio driver generic over the `embedded-hal-nb` serial traits and a small
-//!   [`driver::Clock`], with AT commands, channel switching and radio bring-up.
+//!   [`driver::Clock`], with AT commands, channel switching and radio bring-up (optionally with
+//!   AES-128 encryption, [`driver::Encryption`]).
 //!
 //! The crate is `no_std`, has no `unsafe`, and is fuzzed (see the crate README).
 #![no_std]
