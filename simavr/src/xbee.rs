@@ -70,7 +70,8 @@
 //!   like (57600 on the radio vs. `UBRR0`=34 with U2X: 0.8 % apart).
 //! * **Reception** ([`XBee::deliver`]): passed on only if powered up, on the packet's channel,
 //!   same PAN (or broadcast PAN), addressed to `MY`/`SH:SL` or broadcast, not overlapping the
-//!   radio's own transmissions (half duplex), not in command mode: as RX16 (0x81, 16-bit
+//!   radio's own transmissions (half duplex), not in command mode, with the sender's `EE`
+//!   (see *Encryption*): as RX16 (0x81, 16-bit
 //!   source) or RX64 (0x80) with the RSSI byte and options (0x02 address broadcast, 0x04 PAN
 //!   broadcast) [`XBeeConfig::rx_latency_ms`] after the packet's end; `DB` keeps the RSSI.
 //! * **Encryption** (`EE`=1 with the key `KY`; both take effect at once, like `MY`): the S1's
