@@ -42,8 +42,9 @@
 //! network guarantees it: nothing starts sooner than it is handed over).
 //!
 //! What the medium does *not* decide is left to the receiving radio ([`crate::XBeeCore`]): it
-//! drops packets on another channel than its own, of another PAN or address, or arriving while
-//! it transmits (half duplex) or is in command mode.
+//! drops packets on another channel than its own, of another PAN or address, encrypted at one
+//! end only, or arriving while it transmits (half duplex) or is in command mode. The medium
+//! carries each packet's [`Security`] to it.
 //!
 //! # Randomness
 //!
@@ -57,7 +58,7 @@ use rand_xoshiro::rand_core::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 use crate::avr::cycles_to_ms;
-use crate::xbee::Transmission;
+use crate::xbee::{Security, Transmission};
 
 /// An antenna kind and its gain pattern over azimuth (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -204,6 +205,8 @@ pub struct Resolved {
     pub from: RadioId,
     /// The packet (cycles in the medium's time base).
     pub tx: Transmission,
+    /// How it was encrypted.
+    pub security: Security,
     /// True if another packet on its channel overlapped it.
     pub collided: bool,
     /// One entry per listening node other than the sender, in id order.
@@ -215,6 +218,7 @@ struct Pending {
     seq: u64,
     from: RadioId,
     tx: Transmission,
+    security: Security,
 }
 
 /// The medium: nodes and the packets on air (see the module docs).
@@ -230,7 +234,7 @@ pub struct Medium {
 }
 
 /// SplitMix64's finaliser.
-fn splitmix(mut z: u64) -> u64 {
+pub(crate) fn splitmix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
@@ -358,13 +362,23 @@ impl Medium {
         level_dbm.round().clamp(-200.0, 0.0) as i16
     }
 
-    /// A packet `from` put on air (its cycles in the medium's time base); returns its sequence
-    /// number. Packets must be handed over no later than they start, and before any packet
-    /// they overlap is resolved.
+    /// A packet `from` put on air in the clear (its cycles in the medium's time base); returns
+    /// its sequence number. Packets must be handed over no later than they start, and before
+    /// any packet they overlap is resolved.
     pub fn transmit(&mut self, from: RadioId, tx: Transmission) -> u64 {
+        self.transmit_secured(from, tx, Security::Clear)
+    }
+
+    /// [`Medium::transmit`] of a packet sent as `security` says.
+    pub fn transmit_secured(&mut self, from: RadioId, tx: Transmission, security: Security) -> u64 {
         let seq = self.seq;
         self.seq += 1;
-        self.pending.push(Pending { seq, from, tx });
+        self.pending.push(Pending {
+            seq,
+            from,
+            tx,
+            security,
+        });
         seq
     }
 
@@ -433,6 +447,7 @@ impl Medium {
                 seq: p.seq,
                 from: p.from,
                 tx: p.tx.clone(),
+                security: p.security,
                 collided,
                 receptions,
             });

@@ -109,7 +109,9 @@ impl Default for NetworkConfig {
 pub enum Outcome {
     /// Its radio passed it to the host (an RX frame).
     Delivered,
-    /// Heard, but its radio dropped it: another channel, PAN or address.
+    /// Heard, but its radio dropped it: another channel, PAN or address, or encrypted at one
+    /// end only (the two radios' `EE` differ; the receiver counts those apart, in
+    /// [`crate::xbee::XBeeStats::encryption_mismatch`]).
     Filtered,
     /// Heard, but its radio lost it: it was transmitting (half duplex) or in command mode.
     Busy,
@@ -463,6 +465,8 @@ impl Network {
                 cfg.gt_ms = saved.gt();
                 cfg.ct = saved.ct();
                 cfg.ni = String::from_utf8_lossy(saved.ni()).into_owned();
+                cfg.ee = saved.ee();
+                cfg.ky = saved.ky();
                 let mut fresh_radio = XBee::new(cfg);
                 if let Some((rate, seed)) = noise {
                     fresh_radio.set_line_errors(rate, seed);
@@ -600,10 +604,10 @@ impl Network {
                 continue;
             }
             let offset = node.offset;
-            for mut tx in node.core_mut().take_transmissions() {
+            for (mut tx, security) in node.core_mut().take_transmissions_with_security() {
                 tx.start_cycle += offset;
                 tx.end_cycle += offset;
-                self.medium.transmit(id, tx);
+                self.medium.transmit_secured(id, tx, security);
             }
         }
         if self.medium.next_end().is_none_or(|e| e > now) {
@@ -623,7 +627,8 @@ impl Network {
                             let at = r.tx.end_cycle.saturating_sub(node.offset);
                             let core = node.core_mut();
                             let before = core.stats();
-                            core.deliver(RxPacket::from_transmission(&r.tx, rx.rssi_dbm), at);
+                            let packet = RxPacket::from_transmission(&r.tx, rx.rssi_dbm);
+                            core.deliver_secured(packet, r.security, at);
                             core.advance(core.now().max(at));
                             let after = core.stats();
                             if after.rx_delivered > before.rx_delivered {
@@ -850,6 +855,66 @@ mod tests {
         send(&mut net, a, b"y");
         net.run_for_ms(5.0);
         assert_eq!(net.log()[1].delivered().collect::<Vec<_>>(), [(b, -40)]);
+    }
+
+    /// An encrypted broadcast: delivered unchanged with the same key, garbled with another,
+    /// filtered where `EE` differs (counted by the receiver); on air 5 bytes longer. The same
+    /// run gives the same bytes, whatever the number of threads.
+    #[test]
+    fn encryption_decides_who_understands_a_packet() {
+        const KEY: [u8; 16] = [0xA5; 16];
+        let run = |threads: usize| {
+            let mut net = noise_free(threads);
+            let keys = [Some(KEY), Some(KEY), Some([0x5A; 16]), None];
+            let ids: Vec<NodeId> = (0u16..)
+                .zip(keys)
+                .map(|(i, key)| {
+                    let mut spec = NodeSpec::new(format!("r{i}"), NodeRadio::at(f64::from(i), 0.0));
+                    spec.xbee.my = i + 1;
+                    spec.xbee.sh_sl = 0x0013_A200_0000_0000 + u64::from(i);
+                    spec.xbee.ee = key.is_some();
+                    spec.xbee.ky = key.unwrap_or_default();
+                    net.add_host_radio(spec)
+                })
+                .collect();
+            net.run_for_ms(10.0);
+            for &id in &ids {
+                frames_out(&mut net, id);
+            }
+            let start = send(&mut net, ids[0], b"secret beacon");
+            net.run_for_ms(10.0);
+            let out: Vec<_> = ids[1..]
+                .iter()
+                .map(|&id| frames_out(&mut net, id))
+                .collect();
+            (net.take_log(), out, start, ids, net)
+        };
+        let (log, out, start, ids, net) = run(1);
+        assert_eq!(log.len(), 1);
+        let r = &log[0];
+        assert_eq!(r.tx.end_cycle, start + time_on_air_cycles(13 + 5));
+        assert_eq!(
+            r.tx.payload, b"secret beacon",
+            "the log keeps the plaintext"
+        );
+        let outcomes: Vec<Outcome> = r.receivers.iter().map(|x| x.outcome).collect();
+        assert_eq!(
+            outcomes,
+            [Outcome::Delivered, Outcome::Delivered, Outcome::Filtered]
+        );
+        assert_eq!(out[0].len(), 1);
+        assert!(out[0][0].1.ends_with(b"secret beacon"));
+        assert_eq!(out[1].len(), 1);
+        let garbled = &out[1][0].1;
+        assert_eq!(garbled.len(), out[0][0].1.len());
+        assert_ne!(garbled[5..], out[0][0].1[5..]);
+        assert!(out[2].is_empty());
+        let stats = |id: NodeId| net.core(id).stats();
+        assert_eq!(stats(ids[2]).rx_wrong_key, 1);
+        assert_eq!(stats(ids[3]).encryption_mismatch, 1);
+        assert_eq!(stats(ids[3]).rx_filtered, 0);
+        let (log2, out2, ..) = run(2);
+        assert_eq!((log2, out2), (log, out));
     }
 
     /// Many radios sending at seeded pseudo-random times (collisions included), with shadowing

@@ -13,9 +13,10 @@
 //!   core's next event, feeds it the firmware's UART output, queues its output on the
 //!   firmware's RX line at the cycles it asks for, and keeps the firmware's text lines.
 //!
-//! A radio medium plugs in by draining [`XBee::take_transmissions`] of every node and calling
-//! [`XBee::deliver`] on the receivers with an [`RxPacket`] (e.g.
-//! [`RxPacket::from_transmission`]) at the transmission's end cycle.
+//! A radio medium plugs in by draining [`XBeeCore::take_transmissions_with_security`] of every
+//! node and calling [`XBeeCore::deliver_secured`] on the receivers with an [`RxPacket`] (e.g.
+//! [`RxPacket::from_transmission`]) and the packet's [`Security`] at the transmission's end
+//! cycle.
 //! [`crate::network::Network`] does exactly that, with [`crate::medium::Medium`] deciding who
 //! hears what.
 //!
@@ -23,14 +24,16 @@
 //!
 //! * **Registers** ([`Registers`]): `CH ID DH DL MY RR RN MM NT NO CE SC SD A1 A2 EE PL CA SM ST
 //!   SP DP BD NB RO AP PR IU IT IC IR RP CT GT CC` with the S1 ranges and factory defaults,
-//!   `NI` (≤ 20 printable characters), read-only `SH SL VR HV DB EC EA AI`, and `WR RE AC FR
-//!   CN`. Queries answer big endian in the register's width (`BD` 4 bytes, `CH` 1, `MY` 2…);
-//!   unknown commands answer status 2 (invalid command), out-of-range values 3 (invalid
-//!   parameter; `CH` follows [`Model`]: S1 0x0B…0x1A, S1 Pro 0x0C…0x17), sets of read-only
-//!   registers 1 (error). There is an active set and a persisted set: `WR` copies active to
-//!   persisted, a power cycle ([`XBee::reset`]) or `FR` restores the persisted set, `RE`
-//!   loads factory defaults into the active set. Registers without modelled behaviour (sleep,
-//!   I/O, encryption, MAC mode) are stored and answered only.
+//!   `NI` (≤ 20 printable characters), the write-only AES key `KY` (up to 16 bytes, shorter
+//!   values right-aligned like any hex value; a query answers OK and no value, never the key),
+//!   read-only `SH SL VR HV DB EC EA AI`, and `WR RE AC FR CN`. Queries answer big endian in
+//!   the register's width (`BD` 4 bytes, `CH` 1, `MY` 2…); unknown commands answer status 2
+//!   (invalid command), out-of-range values 3 (invalid parameter; `CH` follows [`Model`]: S1
+//!   0x0B…0x1A, S1 Pro 0x0C…0x17), sets of read-only registers 1 (error). There is an active
+//!   set and a persisted set: `WR` copies active to persisted, a power cycle ([`XBee::reset`])
+//!   or `FR` restores the persisted set, `RE` loads factory defaults into the active set
+//!   (`EE` 0, `KY` 0 among them). Registers without modelled behaviour (sleep, I/O, MAC mode)
+//!   are stored and answered only.
 //! * **API mode** (`AP`=1, 2): frames decoded with [`xbee_api::Decoder`] in the current mode. 0x08
 //!   AT command → 0x88 response with the same frame id ([`XBeeConfig::at_latency_ms`], default 1
 //!   ms, after the frame's end; none for frame id 0) and the change applied at once: `CH`, `AP`
@@ -39,11 +42,13 @@
 //!   (0x01) / TX64 (0x00) → a [`Transmission`] on air for [`time_on_air_ms`] (the best case of the
 //!   XBee's figures, after an optional CSMA backoff [`Csma`]; transmissions queue behind each
 //!   other) and, for a frame id ≠ 0, a 0x89 TX status SUCCESS when it is off the air. Payloads over
-//!   100 bytes are refused: no transmission, no status (counted in [`XBeeStats::oversize_tx`]).
+//!   100 bytes (95 with encryption) are refused: no transmission, no status (counted in
+//!   [`XBeeStats::oversize_tx`]).
 //!   Modem status 0x8A (hardware reset) goes out [`XBeeConfig::power_up_ms`] (default 5 ms) after
 //!   power-up; host bytes before then are lost.
 //! * **Transparent mode** (`AP`=0): host bytes are RF payload to `DH:DL`, sent after `RO`
-//!   character times of silence or at 100 bytes; received payloads go to the host bare.
+//!   character times of silence or at 100 bytes (95 with encryption); received payloads go to
+//!   the host bare.
 //! * **Command mode**: `GT` of silence, three `CC` characters (`+`), each within `GT` of the
 //!   previous, `GT` of silence → `OK\r`. Works in API mode too, as on the 802.15.4 firmware
 //!   (the bring-up of the `xbee-api` driver relies on it). Any other byte (or garbage from a
@@ -65,16 +70,32 @@
 //!   like (57600 on the radio vs. `UBRR0`=34 with U2X: 0.8 % apart).
 //! * **Reception** ([`XBee::deliver`]): passed on only if powered up, on the packet's channel,
 //!   same PAN (or broadcast PAN), addressed to `MY`/`SH:SL` or broadcast, not overlapping the
-//!   radio's own transmissions (half duplex), not in command mode: as RX16 (0x81, 16-bit
+//!   radio's own transmissions (half duplex), not in command mode, with the sender's `EE`
+//!   (see *Encryption*): as RX16 (0x81, 16-bit
 //!   source) or RX64 (0x80) with the RSSI byte and options (0x02 address broadcast, 0x04 PAN
 //!   broadcast) [`XBeeConfig::rx_latency_ms`] after the packet's end; `DB` keeps the RSSI.
+//! * **Encryption** (`EE`=1 with the key `KY`; both take effect at once, like `MY`): the S1's
+//!   AES-128 encryption without integrity check (802.15.4 security level 4). A packet sent with
+//!   it carries [`Security::Encrypted`] (the sender's key, serial and frame counter) beside its
+//!   [`Transmission`] ([`XBeeCore::take_transmissions_with_security`]), is on air for the time
+//!   of its payload plus the [`SECURITY_HEADER_BYTES`] (5) of the auxiliary security header
+//!   (0.16 ms more), and its payload may be at most 95 bytes. A receiver whose `EE` differs
+//!   from the sender's passes nothing on ([`XBeeStats::encryption_mismatch`]); one with
+//!   another key passes the packet on with its payload garbled: the same length, bytes that
+//!   look random, the same for the same keys, payload, sender and frame counter (so seeded runs
+//!   reproduce; [`XBeeStats::rx_wrong_key`]); the same key, or no encryption at both ends,
+//!   passes it on unchanged. In transparent mode too. A medium delivers with
+//!   [`XBeeCore::deliver_secured`] ([`XBeeCore::deliver`] is a packet sent in the clear).
 //!
 //! # Not modelled
 //!
 //! ACKs, retries and NO_ACK/CCA-failure statuses (every transmission succeeds until a medium
 //! says otherwise), sleep, I/O sampling and remote AT (0x17 frames are counted as unsupported),
-//! encryption, association, `ND`/`AS`, non-standard `BD` rates, hardware flow control, framing
-//! error flags on the AVR side (simavr has none: garbage arrives as ordinary bytes).
+//! association, `ND`/`AS`, non-standard `BD` rates, hardware flow control, framing error flags
+//! on the AVR side (simavr has none: garbage arrives as ordinary bytes). Of encryption: the
+//! cipher itself (a hash stands in for AES, so the garbled bytes are not a real radio's), and,
+//! as on the real S1, which has neither, no integrity check (CCM* MIC) and no frame-counter
+//! replay check.
 
 pub mod core;
 pub mod regs;
@@ -89,10 +110,10 @@ use crate::avr::{ms_to_cycles, Avr, State, UartByte};
 use crate::radio::{LineSplitter, SeenFrame, TextLine};
 
 pub use self::core::{
-    byte_cycles, encode_frame, time_on_air_ms, Address, Csma, RxPacket, Transmission, XBeeConfig,
-    XBeeCore, XBeeStats, BIT_TIMES_PER_BYTE,
+    byte_cycles, encode_frame, time_on_air_ms, Address, Csma, RxPacket, Security, Transmission,
+    XBeeConfig, XBeeCore, XBeeStats, BIT_TIMES_PER_BYTE, SECURITY_HEADER_BYTES,
 };
-pub use self::regs::{baud_of_bd, Model, Registers, BAUD_RATES};
+pub use self::regs::{baud_of_bd, Model, Registers, BAUD_RATES, KEY_LEN};
 
 /// Splits the firmware's raw UART output into text lines, skipping API frames.
 #[derive(Debug)]
@@ -294,9 +315,21 @@ impl XBee {
         self.core.take_transmissions()
     }
 
+    /// Takes the packets the radio put on air so far with how each was encrypted (see
+    /// [`XBeeCore::take_transmissions_with_security`]).
+    pub fn take_transmissions_with_security(&mut self) -> Vec<(Transmission, Security)> {
+        self.core.take_transmissions_with_security()
+    }
+
     /// A packet arriving at cycle `at` (see [`XBeeCore::deliver`]).
     pub fn deliver(&mut self, packet: RxPacket, at: u64) {
         self.core.deliver(packet, at);
+    }
+
+    /// A packet sent as `security` says arriving at cycle `at` (see
+    /// [`XBeeCore::deliver_secured`]).
+    pub fn deliver_secured(&mut self, packet: RxPacket, security: Security, at: u64) {
+        self.core.deliver_secured(packet, security, at);
     }
 
     /// The counters.

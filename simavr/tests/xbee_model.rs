@@ -9,11 +9,11 @@ use std::rc::Rc;
 
 use embedded_hal_nb::serial::{ErrorKind, ErrorType, Read, Write};
 use simavr::xbee::{
-    byte_cycles, encode_frame, time_on_air_ms, Address, Csma, Model, RxPacket, XBee, XBeeConfig,
-    XBeeCore,
+    byte_cycles, encode_frame, time_on_air_ms, Address, Csma, Model, RxPacket, Security, XBee,
+    XBeeConfig, XBeeCore, SECURITY_HEADER_BYTES,
 };
 use simavr::{ms_to_cycles, Avr, UartByte};
-use xbee_api::driver::{BringUp, BringUpConfig, Clock, Radio, SetBaud};
+use xbee_api::driver::{BringUp, BringUpConfig, Clock, Encryption, Radio, SetBaud};
 use xbee_api::{Decoder, Mode};
 
 fn ms(x: f64) -> u64 {
@@ -778,6 +778,398 @@ fn wr_and_power_cycle_restore_the_written_values() {
     assert_eq!(h.core.persisted().ap(), 2);
 }
 
+// ---- encryption: EE and KY ----
+
+/// A key with bytes API mode 2 escapes (0x7E, 0x7D, 0x11, 0x13).
+const KEY: [u8; 16] = [
+    0x7E, 0x7D, 0x11, 0x13, 0x00, 0x01, 0x02, 0x03, 0xC0, 0xFF, 0xEE, 0x42, 0x99, 0x88, 0x77, 0x66,
+];
+
+/// Sends AT command `cmd` with `param` in an 0x08 frame with frame id `id`; returns the
+/// response's frame data.
+fn at(h: &mut Host, mode: Mode, id: u8, cmd: &[u8; 2], param: &[u8]) -> Vec<u8> {
+    h.take();
+    let mut d = vec![0x08, id, cmd[0], cmd[1]];
+    d.extend_from_slice(param);
+    h.frame(&d, mode);
+    h.run_ms(5.0);
+    let f = frames(&h.take_bytes(), mode);
+    assert_eq!(f.len(), 1, "{f:x?}");
+    f[0].clone()
+}
+
+#[test]
+fn ee_takes_0_or_1_and_ky_up_to_16_bytes_that_a_query_never_answers() {
+    for mode in MODES {
+        let mut h = Host::new(XBeeConfig::api(mode.ap()));
+        // EE: factory 0; 0 and 1 taken, anything else status 3 (invalid parameter).
+        assert_eq!(at(&mut h, mode, 1, b"EE", &[]), [0x88, 1, b'E', b'E', 0, 0]);
+        assert_eq!(at(&mut h, mode, 2, b"EE", &[1]), [0x88, 2, b'E', b'E', 0]);
+        assert_eq!(at(&mut h, mode, 3, b"EE", &[]), [0x88, 3, b'E', b'E', 0, 1]);
+        assert_eq!(at(&mut h, mode, 4, b"EE", &[2]), [0x88, 4, b'E', b'E', 3]);
+        assert_eq!(
+            at(&mut h, mode, 5, b"EE", &[0, 0, 1, 0]),
+            [0x88, 5, b'E', b'E', 3]
+        );
+        assert!(h.core.registers().ee(), "a refused value changes nothing");
+        // KY: 16 bytes taken; the query answers OK without a value.
+        assert_eq!(at(&mut h, mode, 6, b"KY", &KEY), [0x88, 6, b'K', b'Y', 0]);
+        assert_eq!(h.core.registers().ky(), KEY);
+        assert_eq!(at(&mut h, mode, 7, b"KY", &[]), [0x88, 7, b'K', b'Y', 0]);
+        // 17 bytes: refused, unless the first is a leading zero.
+        let mut long = vec![0x01];
+        long.extend_from_slice(&[0x55; 16]);
+        assert_eq!(at(&mut h, mode, 8, b"KY", &long), [0x88, 8, b'K', b'Y', 3]);
+        assert_eq!(h.core.registers().ky(), KEY);
+        long[0] = 0;
+        assert_eq!(at(&mut h, mode, 9, b"KY", &long), [0x88, 9, b'K', b'Y', 0]);
+        assert_eq!(h.core.registers().ky(), [0x55; 16]);
+        // Shorter values are right-aligned, as the radio takes any hex value.
+        assert_eq!(
+            at(&mut h, mode, 10, b"KY", &[0x12, 0x34]),
+            [0x88, 10, b'K', b'Y', 0]
+        );
+        let mut short = [0; 16];
+        short[14..].copy_from_slice(&[0x12, 0x34]);
+        assert_eq!(h.core.registers().ky(), short);
+        // A queued KY (0x09) applies with the next 0x08, like any register.
+        h.frame(&[0x09, 11, b'K', b'Y', 0x77], mode);
+        h.run_ms(5.0);
+        assert_eq!(h.core.registers().ky(), short, "queued, not applied");
+        at(&mut h, mode, 12, b"AC", &[]);
+        let mut k77 = [0; 16];
+        k77[15] = 0x77;
+        assert_eq!(h.core.registers().ky(), k77);
+        // The key stays out of the registers' Debug output too.
+        let shown = format!("{:?}", h.core.registers());
+        assert!(shown.contains("\"KY\": \"(set)\""), "{shown}");
+        assert!(!shown.contains("77"), "{shown}");
+    }
+}
+
+#[test]
+fn ee_and_ky_in_command_mode() {
+    let mut h = transparent(50);
+    enter_command_mode(&mut h);
+    let ask = |h: &mut Host, line: &[u8]| {
+        h.send(line);
+        h.run_ms(10.0);
+        String::from_utf8(h.take_bytes()).unwrap()
+    };
+    assert_eq!(ask(&mut h, b"ATEE\r"), "0\r");
+    assert_eq!(ask(&mut h, b"ATEE1\r"), "OK\r");
+    assert_eq!(ask(&mut h, b"ATEE\r"), "1\r");
+    assert_eq!(ask(&mut h, b"ATEE2\r"), "ERROR\r");
+    assert_eq!(ask(&mut h, b"ATKY\r"), "OK\r", "no key, not even 0");
+    assert_eq!(
+        ask(&mut h, b"ATKY 0x7e7d1113 00010203 C0FFEE42 99887766\r"),
+        "OK\r"
+    );
+    assert_eq!(h.core.registers().ky(), KEY);
+    assert_eq!(ask(&mut h, b"ATKY\r"), "OK\r");
+    // An odd number of digits is a number like any other: right-aligned.
+    assert_eq!(ask(&mut h, b"ATKY123\r"), "OK\r");
+    let mut k = [0; 16];
+    k[14..].copy_from_slice(&[0x01, 0x23]);
+    assert_eq!(h.core.registers().ky(), k);
+    // 33 significant digits, or not hex: refused, the key stays. Leading zeros do not count.
+    let f32 = "F".repeat(32);
+    assert_eq!(ask(&mut h, format!("ATKY1{f32}\r").as_bytes()), "ERROR\r");
+    assert_eq!(ask(&mut h, b"ATKY12G4\r"), "ERROR\r");
+    assert_eq!(h.core.registers().ky(), k);
+    assert_eq!(ask(&mut h, format!("ATKY000{f32}\r").as_bytes()), "OK\r");
+    assert_eq!(h.core.registers().ky(), [0xFF; 16]);
+    // Several per line, as the others.
+    assert_eq!(ask(&mut h, b"ATKY1,EE0,KY\r"), "OK\rOK\rOK\r");
+    assert!(!h.core.registers().ee());
+}
+
+#[test]
+fn wr_re_and_fr_keep_or_reset_ee_and_ky_like_the_other_registers() {
+    let mut h = Host::new(XBeeConfig::api(2));
+    let m = Mode::Escaped;
+    at(&mut h, m, 1, b"EE", &[1]);
+    at(&mut h, m, 2, b"KY", &KEY);
+    at(&mut h, m, 3, b"WR", &[]);
+    at(&mut h, m, 4, b"KY", &[0x01]);
+    at(&mut h, m, 5, b"EE", &[0]);
+    assert!(h.core.persisted().ee());
+    assert_eq!(h.core.persisted().ky(), KEY);
+    assert_eq!(h.core.registers().ky()[15], 0x01);
+    // A power cycle restores what WR wrote.
+    let t = h.t + ms(1.0);
+    h.core.reset(t);
+    h.run_to(t + ms(10.0));
+    assert!(h.core.registers().ee());
+    assert_eq!(h.core.registers().ky(), KEY);
+    // RE: factory defaults, EE 0 and KY 0 (the persisted set keeps the key until a WR).
+    at(&mut h, m, 6, b"RE", &[]);
+    assert!(!h.core.registers().ee());
+    assert_eq!(h.core.registers().ky(), [0; 16]);
+    assert_eq!(h.core.persisted().ky(), KEY);
+    // FR: back to the persisted set (RE set AP 0, so this is the last API exchange).
+    let mut h = Host::new(XBeeConfig {
+        ee: true,
+        ky: KEY,
+        ..XBeeConfig::api(2)
+    });
+    at(&mut h, m, 1, b"EE", &[0]);
+    at(&mut h, m, 2, b"KY", &[0x02]);
+    at(&mut h, m, 3, b"FR", &[]);
+    h.run_ms(20.0);
+    assert!(h.core.registers().ee());
+    assert_eq!(h.core.registers().ky(), KEY);
+}
+
+/// A radio in API mode 2 with encryption as given (`None`: `EE`=0).
+fn secured(key: Option<[u8; 16]>, sh_sl: u64) -> Host {
+    Host::new(XBeeConfig {
+        ee: key.is_some(),
+        ky: key.unwrap_or_default(),
+        sh_sl,
+        ..XBeeConfig::api(2)
+    })
+}
+
+/// A TX16 broadcast request of `payload` with frame id `id`.
+fn tx16(id: u8, payload: &[u8]) -> Vec<u8> {
+    let mut d = vec![0x01, id, 0xFF, 0xFF, 0x00];
+    d.extend_from_slice(payload);
+    d
+}
+
+#[test]
+fn encryption_limits_payloads_to_95_bytes_and_adds_5_bytes_of_air_time() {
+    for (key, limit) in [(None, 100), (Some(KEY), 95)] {
+        let mut h = secured(key, 0x0013_A200_0000_0001);
+        h.take();
+        assert_eq!(h.core.max_payload(), limit);
+        let end = h.frame(&tx16(1, &vec![0x55; limit]), Mode::Escaped);
+        // One byte over: refused exactly like 101 bytes without encryption.
+        h.frame(&tx16(2, &vec![0x55; limit + 1]), Mode::Escaped);
+        h.run_ms(20.0);
+        let out = h.take();
+        assert_eq!(frames(&bytes(&out), Mode::Escaped), [vec![0x89, 1, 0x00]]);
+        assert_eq!(h.core.stats().oversize_tx, 1);
+        assert_eq!(h.core.stats().transmissions, 1);
+        let txs = h.core.take_transmissions_with_security();
+        assert_eq!(txs.len(), 1);
+        let (tx, security) = &txs[0];
+        assert_eq!(tx.payload.len(), limit);
+        // Either way the packet is 100 bytes long on air: 95 of payload + 5 of header.
+        let toa = ms(time_on_air_ms(100));
+        assert_eq!((tx.start_cycle, tx.end_cycle), (end, end + toa));
+        assert_eq!(out[0].cycle, end + toa, "TX status when off the air");
+        match key {
+            None => assert_eq!(*security, Security::Clear),
+            Some(k) => assert_eq!(
+                *security,
+                Security::Encrypted {
+                    key: k,
+                    source64: 0x0013_A200_0000_0001,
+                    counter: 0
+                }
+            ),
+        }
+    }
+    // A short encrypted packet: 10 bytes of payload are on air as 15, 1.408 ms.
+    let mut h = secured(Some(KEY), 1);
+    let end = h.frame(&tx16(0, b"0123456789"), Mode::Escaped);
+    h.frame(&tx16(0, b"x"), Mode::Escaped);
+    h.run_ms(10.0);
+    assert_eq!(SECURITY_HEADER_BYTES, 5);
+    let txs = h.core.take_transmissions_with_security();
+    assert_eq!(txs[0].0.end_cycle - end, ms(1.408));
+    assert_eq!(
+        txs[0].0.end_cycle - txs[0].0.start_cycle,
+        ms(time_on_air_ms(15))
+    );
+    // The frame counter numbers the encrypted packets.
+    let counters: Vec<_> = txs
+        .iter()
+        .map(|(_, s)| match s {
+            Security::Encrypted { counter, .. } => *counter,
+            Security::Clear => u32::MAX,
+        })
+        .collect();
+    assert_eq!(counters, [0, 1]);
+    // Transparent mode packetizes at 95 bytes with encryption.
+    let mut h = Host::new(XBeeConfig {
+        bd: 6,
+        ee: true,
+        ..XBeeConfig::default()
+    });
+    h.send(&[b'z'; 250]);
+    h.run_ms(10.0);
+    let lens: Vec<usize> = h
+        .core
+        .take_transmissions()
+        .iter()
+        .map(|t| t.payload.len())
+        .collect();
+    assert_eq!(lens, [95, 95, 60]);
+}
+
+/// What a receiver with encryption `rx` outputs (RX16 frame data, or bare bytes in transparent
+/// mode) of `payload` sent by a radio with encryption `tx`, and its counters.
+fn receive(
+    tx: Option<[u8; 16]>,
+    rx: Option<[u8; 16]>,
+    ap: u8,
+    payload: &[u8],
+) -> (Vec<Vec<u8>>, simavr::xbee::XBeeStats) {
+    let mut sender = secured(tx, 0x0013_A200_0000_0001);
+    sender.frame(&tx16(0, payload), Mode::Escaped);
+    sender.run_ms(10.0);
+    let mut receiver = Host::new(XBeeConfig {
+        ap,
+        ee: rx.is_some(),
+        ky: rx.unwrap_or_default(),
+        ..XBeeConfig::api(2)
+    });
+    receiver.take();
+    for (t, security) in sender.core.take_transmissions_with_security() {
+        let packet = RxPacket::from_transmission(&t, -50);
+        receiver.core.deliver_secured(packet, security, t.end_cycle);
+    }
+    receiver.run_ms(20.0);
+    let out = receiver.take_bytes();
+    let got = match ap {
+        0 if out.is_empty() => vec![],
+        0 => vec![out],
+        _ => frames(&out, Mode::Escaped),
+    };
+    (got, receiver.core.stats())
+}
+
+#[test]
+fn a_receiver_hears_an_encrypted_packet_only_with_ee_set_and_the_same_key() {
+    let other: [u8; 16] = core::array::from_fn(|i| i as u8);
+    let payload: Vec<u8> = (0..40u8).map(|i| b'a' + i % 26).collect();
+    let mut rx16 = vec![0x81, 0x00, 0x00, 50, 0x02];
+    rx16.extend_from_slice(&payload);
+    for ap in [2, 0] {
+        let clear = if ap == 0 {
+            payload.clone()
+        } else {
+            rx16.clone()
+        };
+        // No encryption at either end, or the same key: unchanged.
+        for (tx, rx) in [(None, None), (Some(KEY), Some(KEY))] {
+            let (got, stats) = receive(tx, rx, ap, &payload);
+            assert_eq!(
+                got,
+                std::slice::from_ref(&clear),
+                "{tx:?} → {rx:?}, AP={ap}"
+            );
+            assert_eq!((stats.rx_delivered, stats.rx_wrong_key), (1, 0));
+        }
+        // Encrypted at one end only: nothing, counted.
+        for (tx, rx) in [(None, Some(KEY)), (Some(KEY), None)] {
+            let (got, stats) = receive(tx, rx, ap, &payload);
+            assert!(got.is_empty(), "{tx:?} → {rx:?}, AP={ap}: {got:x?}");
+            assert_eq!((stats.rx_delivered, stats.encryption_mismatch), (0, 1));
+            assert_eq!((stats.rx_filtered, stats.rx_lost), (0, 0));
+        }
+        // Other keys: the packet comes out, its payload garbled to the same length.
+        let (got, stats) = receive(Some(KEY), Some(other), ap, &payload);
+        assert_eq!(got.len(), 1);
+        assert_eq!((stats.rx_delivered, stats.rx_wrong_key), (1, 1));
+        let garbled = &got[0];
+        assert_eq!(garbled.len(), clear.len());
+        let body = &garbled[garbled.len() - payload.len()..];
+        assert_eq!(
+            garbled[..garbled.len() - payload.len()],
+            clear[..clear.len() - payload.len()],
+            "the header (source, RSSI, options) as usual"
+        );
+        let same = body.iter().zip(&payload).filter(|(a, b)| a == b).count();
+        assert!(same <= 3, "{same} of 40 bytes unchanged: {body:x?}");
+        // Looks random: spread over the byte range, not just letters.
+        assert!(
+            body.iter().any(|&b| b >= 0x80) && body.iter().any(|&b| b < 0x40),
+            "{body:x?}"
+        );
+        // The same inputs give the same bytes; another key or payload other ones.
+        assert_eq!(receive(Some(KEY), Some(other), ap, &payload).0, got);
+        assert_ne!(receive(Some(KEY), Some([0x33; 16]), ap, &payload).0, got);
+        assert_ne!(receive(Some([0x33; 16]), Some(other), ap, &payload).0, got);
+        let mut changed = payload.clone();
+        changed[0] ^= 1;
+        let got2 = receive(Some(KEY), Some(other), ap, &changed).0;
+        assert_ne!(got2, got);
+        // CTR-like: a payload byte changed changes that one output byte.
+        let at = got[0].len() - payload.len();
+        assert_ne!(got2[0][at], got[0][at]);
+        assert_eq!(
+            (&got2[0][..at], &got2[0][at + 1..]),
+            (&got[0][..at], &got[0][at + 1..])
+        );
+    }
+    // Empty payloads stay empty.
+    let (got, _) = receive(Some(KEY), Some(other), 2, b"");
+    assert_eq!(got, [vec![0x81, 0x00, 0x00, 50, 0x02]]);
+}
+
+#[test]
+fn the_frame_counter_makes_each_packet_garble_differently_and_restarts_at_power_up() {
+    let other = [0x33; 16];
+    let mut sender = secured(Some(KEY), 7);
+    for _ in 0..2 {
+        sender.frame(&tx16(0, &[0u8; 16]), Mode::Escaped);
+        sender.run_ms(5.0);
+    }
+    let t = sender.t;
+    sender.core.reset(t);
+    sender.run_ms(10.0);
+    sender.frame(&tx16(0, &[0u8; 16]), Mode::Escaped);
+    sender.run_ms(5.0);
+    let mut receiver = secured(Some(other), 8);
+    receiver.take();
+    let txs = sender.core.take_transmissions_with_security();
+    assert_eq!(txs.len(), 3);
+    for (t, security) in txs {
+        let at = t.end_cycle.max(receiver.t);
+        receiver
+            .core
+            .deliver_secured(RxPacket::from_transmission(&t, -40), security, at);
+        receiver.run_to(at + ms(5.0));
+    }
+    let got = frames(&receiver.take_bytes(), Mode::Escaped);
+    assert_eq!(got.len(), 3);
+    assert_ne!(got[0], got[1], "counters 0 and 1");
+    assert_eq!(got[0], got[2], "counter 0 again after the power cycle");
+}
+
+#[test]
+fn a_revived_firmware_node_comes_back_with_the_ee_and_ky_its_radio_wrote() {
+    use simavr::{Medium, MediumConfig, Network, NodeRadio, NodeSpec};
+    let mut net = Network::new(Medium::new(MediumConfig::noise_free()));
+    let spec = NodeSpec::new("n", NodeRadio::at(0.0, 0.0));
+    let id = net.add_node(common::fixture("xbee_model"), spec).unwrap();
+    // Past the fixture's own exchange; then EE, KY and WR on its radio's line.
+    net.run_for_ms(50.0);
+    let mut line = Vec::new();
+    for d in [
+        &b"\x08\x00EE\x01"[..],
+        &[&b"\x08\x00KY"[..], &KEY].concat(),
+        b"\x08\x00WR",
+    ] {
+        line.extend(encode_frame(d, Mode::Escaped));
+    }
+    let now = net.cycle() - net.offset(id);
+    net.core_mut(id).rx_bytes(now, &line);
+    net.run_for_ms(10.0);
+    assert_eq!(net.core(id).persisted().ky(), KEY);
+    net.kill(id);
+    net.run_for_ms(1.0);
+    net.revive(id).unwrap();
+    net.run_for_ms(10.0);
+    let r = net.core(id).registers();
+    assert!(r.ee());
+    assert_eq!(r.ky(), KEY);
+}
+
 // ---- the xbee-api driver against the model ----
 
 /// The model behind an in-memory serial port and clock: every read or clock look advances
@@ -880,6 +1272,7 @@ fn driver_bring_up_configures_a_factory_radio() {
         channel: Some(0x0B),
         guard_ms: 150,
         timeout_ms: 200,
+        ..BringUpConfig::new()
     };
     let how = radio.bring_up(&cfg).expect("bring-up");
     assert_eq!(how, BringUp::Configured { baud: 9600 });
@@ -929,6 +1322,46 @@ fn driver_bring_up_of_a_radio_in_ap1_at_57600() {
         BringUp::Configured { baud: 57_600 }
     );
     assert_eq!(sim.borrow().core.mode(), Some(Mode::Escaped));
+}
+
+#[test]
+fn driver_bring_up_sets_the_models_key_and_ee() {
+    let (sim, mut radio) = driver_on(XBeeConfig {
+        gt_ms: 100,
+        ..XBeeConfig::api(2)
+    });
+    let cfg = BringUpConfig {
+        channel: Some(0x0D),
+        encryption: Encryption::Key(KEY),
+        guard_ms: 150,
+        timeout_ms: 200,
+        ..BringUpConfig::new()
+    };
+    assert_eq!(radio.bring_up(&cfg).unwrap(), BringUp::AlreadyApi);
+    {
+        let s = sim.borrow();
+        assert!(s.core.registers().ee());
+        assert_eq!(s.core.registers().ky(), KEY);
+        assert!(!s.core.persisted().ee(), "not written");
+    }
+    // Encrypted from now on: 95 bytes go, 96 are refused (no TX status: the wait times out).
+    radio.send_tx16(0xFFFF, &[0x55; 95]).unwrap();
+    radio.wait_tx_status(100, |_| {}).unwrap();
+    radio.send_tx16(0xFFFF, &[0x55; 96]).unwrap();
+    assert_eq!(
+        radio.wait_tx_status(100, |_| {}),
+        Err(xbee_api::driver::Error::TxStatusTimeout)
+    );
+    let txs = sim.borrow_mut().core.take_transmissions_with_security();
+    assert_eq!(txs.len(), 1);
+    assert!(matches!(txs[0].1, Security::Encrypted { key: KEY, .. }));
+    // Off again.
+    let off = BringUpConfig {
+        encryption: Encryption::Off,
+        ..cfg
+    };
+    assert_eq!(radio.bring_up(&off).unwrap(), BringUp::AlreadyApi);
+    assert!(!sim.borrow().core.registers().ee());
 }
 
 // ---- on an Avr, with the C fixture ----

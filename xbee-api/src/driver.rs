@@ -374,6 +374,22 @@ pub struct RadioConfig {
     pub ap: u8,
 }
 
+/// What [`Radio::bring_up`] does with the radio's AES-128 encryption (`EE`, `KY`). With
+/// encryption on, only radios with the same key understand each other: one whose `EE` differs
+/// hears nothing, one with another key gets garbled payloads; and a packet carries at most
+/// [`crate::MAX_RF_PAYLOAD_ENCRYPTED`] (95) bytes, not [`MAX_RF_PAYLOAD`] (100).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Encryption {
+    /// Leaves `EE` and `KY` as they are.
+    #[default]
+    Leave,
+    /// Turns encryption off: `EE`=0, read back.
+    Off,
+    /// Sets the key `KY` (which the radio never reads back), then turns encryption on: `EE`=1,
+    /// read back.
+    Key([u8; 16]),
+}
+
 /// What [`Radio::bring_up`] should leave the radio with, and how patient to be.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct BringUpConfig {
@@ -384,6 +400,8 @@ pub struct BringUpConfig {
     /// `CH` to set, if any: 0x0B…0x1A on the S1; channel 0x0B does not exist on the S1 Pro
     /// (0x0C…0x17), which answers it with an error.
     pub channel: Option<u8>,
+    /// Encryption (`EE`, `KY`) to set, after `MY`, `ID` and `CH`.
+    pub encryption: Encryption,
     /// Silence before and after `+++`. Must exceed the radio's `GT` (default 1000 ms).
     /// (16 bits: bring-up's waits are timed in 16-bit arithmetic, half the AVR code.)
     pub guard_ms: u16,
@@ -393,12 +411,14 @@ pub struct BringUpConfig {
 }
 
 impl BringUpConfig {
-    /// Sets nothing; guard time 1100 ms (the radio's default `GT` is 1000 ms), 500 ms timeouts.
+    /// Sets nothing (encryption: [`Encryption::Leave`]); guard time 1100 ms (the radio's
+    /// default `GT` is 1000 ms), 500 ms timeouts.
     pub const fn new() -> Self {
         BringUpConfig {
             my: None,
             pan_id: None,
             channel: None,
+            encryption: Encryption::Leave,
             guard_ms: 1100,
             timeout_ms: 500,
         }
@@ -1077,7 +1097,11 @@ where
     M: ApiMode,
 {
     /// Radio bring-up: makes sure the radio talks API mode [`Radio::mode`] at 57600 baud, then
-    /// sets `MY`, `ID` and `CH` as `config` asks and reads them back.
+    /// sets `MY`, `ID` and `CH` as `config` asks and reads them back, then encryption
+    /// ([`BringUpConfig::encryption`]): [`Encryption::Off`] sets `EE`=0 and reads it back,
+    /// [`Encryption::Key`] sets `KY` (write-only: no read back) and then `EE`=1, read back. None
+    /// of these is written to the radio's non-volatile memory (`WR`): bring-up sets them at every
+    /// boot.
     ///
     /// 1. At 57600, query `AP` in API mode. If the radio answers with our mode: done
     ///    ([`BringUp::AlreadyApi`]), the usual case, taking milliseconds.
@@ -1119,17 +1143,26 @@ where
                 baud: self.configure_in_command_mode(cfg)?,
             };
         }
-        // The three registers as data through one loop: one copy of the set-and-read-back.
-        for i in 0..3u8 {
+        // The four registers as data through one loop: one copy of the set-and-read-back.
+        for i in 0..4u8 {
             let (command, value) = match i {
                 0 => (*b"MY", cfg.my),
                 1 => (*b"ID", cfg.pan_id),
-                _ => (*b"CH", cfg.channel.map(u16::from)),
+                2 => (*b"CH", cfg.channel.map(u16::from)),
+                // `KY` cannot be read back: it is only set, before `EE`=1.
+                _ => match cfg.encryption {
+                    Encryption::Leave => continue,
+                    Encryption::Off => (*b"EE", Some(0)),
+                    Encryption::Key(ref key) => {
+                        self.at_dyn(*b"KY", key, cfg.timeout_ms, None, None)?;
+                        (*b"EE", Some(1))
+                    }
+                },
             };
             let Some(value) = value else { continue };
-            // `CH` is one byte, `MY` and `ID` two.
+            // `CH` and `EE` are one byte, `MY` and `ID` two.
             let bytes = value.to_be_bytes();
-            let param = if i == 2 { &bytes[1..] } else { &bytes[..] };
+            let param = if i >= 2 { &bytes[1..] } else { &bytes[..] };
             self.at_dyn(command, param, cfg.timeout_ms, None, None)?;
             // Read back: the value `at_dyn` returns must be what was set.
             if self.at_dyn(command, &[], cfg.timeout_ms, None, None)? != Some(value) {

@@ -6,7 +6,8 @@
 //! * [`Frame`]: borrowed, zero-copy views of every 802.15.4 frame type; unknown types come out as
 //!   [`Frame::Unknown`]. [`Frame::encode`] writes a frame into a caller's buffer.
 //! * [`driver`]: a radio driver generic over the `embedded-hal-nb` serial traits and a small
-//!   [`driver::Clock`], with AT commands, channel switching and radio bring-up.
+//!   [`driver::Clock`], with AT commands, channel switching and radio bring-up (optionally with
+//!   AES-128 encryption, [`driver::Encryption`]).
 //!
 //! The crate is `no_std`, has no `unsafe`, and is fuzzed (see the crate README).
 #![no_std]
@@ -40,6 +41,9 @@ pub const XOFF: u8 = 0x13;
 pub const MAX_FRAME_DATA: usize = 111;
 /// Largest RF payload of one 802.15.4 packet.
 pub const MAX_RF_PAYLOAD: usize = 100;
+/// Largest RF payload of one packet with AES encryption on (`EE`=1): the 802.15.4 auxiliary
+/// security header takes 5 bytes of the packet, and the S1 refuses anything longer.
+pub const MAX_RF_PAYLOAD_ENCRYPTED: usize = 95;
 /// Worst-case encoded size of a frame on the wire (every byte after the start escaped).
 pub const MAX_ENCODED: usize = 1 + 2 * (2 + MAX_FRAME_DATA + 1);
 

@@ -5,7 +5,7 @@
 mod common;
 
 use common::{at_resp, data, enc, setup, Reply};
-use xbee_api::driver::{BringUp, BringUpConfig, Error, RadioConfig, BAUD_RATES};
+use xbee_api::driver::{BringUp, BringUpConfig, Encryption, Error, RadioConfig, BAUD_RATES};
 use xbee_api::{AtStatus, DecodeError, Frame, Mode, Rssi, TxStatus};
 
 const MODES: [Mode; 2] = [Mode::Api, Mode::Escaped];
@@ -691,6 +691,142 @@ fn bring_up_reports_a_setting_that_does_not_stick() {
     assert_eq!(
         radio.bring_up(&cfg),
         Err(Error::Unexpected { command: *b"CH" })
+    );
+}
+
+/// A key with bytes API mode 2 escapes.
+const KEY: [u8; 16] = [
+    0x7E, 0x7D, 0x11, 0x13, 0x00, 0x01, 0x02, 0x03, 0xC0, 0xFF, 0xEE, 0x42, 0x99, 0x88, 0x77, 0x66,
+];
+
+#[test]
+fn bring_up_leaves_encryption_alone_by_default() {
+    assert_eq!(BringUpConfig::new().encryption, Encryption::Leave);
+    assert_eq!(BringUpConfig::default().encryption, Encryption::Leave);
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().ee = 1;
+    let cfg = BringUpConfig {
+        channel: Some(0x0E),
+        ..fast()
+    };
+    assert_eq!(radio.bring_up(&cfg), Ok(BringUp::AlreadyApi));
+    let m = m.borrow();
+    assert_eq!(
+        m.host_frames(),
+        ["ATAP id=1 []", "ATCH id=2 [0E]", "ATCH id=3 []"]
+    );
+    assert_eq!((m.ee, &m.ky), (1, &None));
+}
+
+#[test]
+fn bring_up_turns_encryption_off_and_reads_ee_back() {
+    for mode in MODES {
+        let (m, mut radio) = setup(ap_of(mode), 57600, mode);
+        m.borrow_mut().ee = 1;
+        let cfg = BringUpConfig {
+            my: Some(0x0003),
+            encryption: Encryption::Off,
+            ..fast()
+        };
+        assert_eq!(radio.bring_up(&cfg), Ok(BringUp::AlreadyApi));
+        let m = m.borrow();
+        assert_eq!(
+            m.host_frames(),
+            [
+                "ATAP id=1 []",
+                "ATMY id=2 [00, 03]",
+                "ATMY id=3 []",
+                "ATEE id=4 [00]",
+                "ATEE id=5 []",
+            ]
+        );
+        assert_eq!((m.ee, &m.ky), (0, &None), "no key sent");
+    }
+}
+
+#[test]
+fn bring_up_sets_the_key_then_turns_encryption_on_after_my_id_ch() {
+    for mode in MODES {
+        let (m, mut radio) = setup(ap_of(mode), 57600, mode);
+        let cfg = BringUpConfig {
+            my: Some(0x0003),
+            pan_id: Some(0x1234),
+            channel: Some(0x0E),
+            encryption: Encryption::Key(KEY),
+            ..fast()
+        };
+        assert_eq!(radio.bring_up(&cfg), Ok(BringUp::AlreadyApi));
+        let m = m.borrow();
+        // KY is write-only: set, never queried.
+        assert_eq!(
+            m.host_frames(),
+            [
+                "ATAP id=1 []",
+                "ATMY id=2 [00, 03]",
+                "ATMY id=3 []",
+                "ATID id=4 [12, 34]",
+                "ATID id=5 []",
+                "ATCH id=6 [0E]",
+                "ATCH id=7 []",
+                &format!("ATKY id=8 {KEY:02X?}"),
+                "ATEE id=9 [01]",
+                "ATEE id=10 []",
+            ]
+        );
+        assert_eq!((m.ee, m.ky.as_deref()), (1, Some(&KEY[..])));
+        // The escaped key bytes on the wire decode to the key (the model decoded them).
+        assert_eq!(m.frames[7][4..], KEY);
+    }
+}
+
+#[test]
+fn bring_up_reports_an_ee_that_does_not_stick() {
+    for (encryption, reads) in [(Encryption::Off, 1), (Encryption::Key(KEY), 0)] {
+        let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+        m.borrow_mut().ee_reads = Some(reads);
+        let cfg = BringUpConfig {
+            encryption,
+            ..fast()
+        };
+        assert_eq!(
+            radio.bring_up(&cfg),
+            Err(Error::Unexpected { command: *b"EE" }),
+            "{encryption:?}"
+        );
+    }
+}
+
+#[test]
+fn bring_up_stops_at_a_rejected_key_before_ee() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().ky_status = Some(AtStatus::INVALID_PARAMETER);
+    let cfg = BringUpConfig {
+        encryption: Encryption::Key(KEY),
+        ..fast()
+    };
+    assert_eq!(
+        radio.bring_up(&cfg),
+        Err(Error::At {
+            command: *b"KY",
+            status: AtStatus::INVALID_PARAMETER
+        })
+    );
+    let m = m.borrow();
+    assert_eq!(
+        m.host_frames().last().unwrap(),
+        &format!("ATKY id=2 {KEY:02X?}")
+    );
+    assert_eq!((m.ee, &m.ky), (0, &None), "EE never set");
+    // A radio that does not know KY at all (status 2) is an error too.
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().ky_status = Some(AtStatus::INVALID_COMMAND);
+    assert_eq!(
+        radio.bring_up(&cfg).map_err(|e| e.code()),
+        Err(Error::At {
+            command: *b"KY",
+            status: AtStatus::INVALID_COMMAND
+        }
+        .code())
     );
 }
 

@@ -4,11 +4,12 @@
 
 use xbee_api::{
     encode_raw, AtStatus, DecodeError, Decoder, Frame, Mode, ModemStatus, Rssi, TxStatus,
-    MAX_ENCODED, MAX_RF_PAYLOAD, START,
+    MAX_ENCODED, MAX_RF_PAYLOAD, MAX_RF_PAYLOAD_ENCRYPTED, START,
 };
 
-use super::regs::{self, baud_of_bd, Model, Registers, NI_MAX, READ_ONLY};
+use super::regs::{self, baud_of_bd, Model, Registers, KEY_LEN, NI_MAX, READ_ONLY};
 use crate::avr::{ms_to_cycles, UartByte, F_CPU};
+use crate::medium::splitmix;
 use crate::radio::SeenFrame;
 
 /// Bit times per 8N1 byte as simavr counts them (it adds a parity bit even when parity is off):
@@ -24,10 +25,19 @@ pub fn byte_cycles(baud: u32) -> u64 {
 }
 
 /// Best-case time on air of a packet with a `k`-byte RF payload (`docs/design.md`, section 2):
-/// 0.928 + 0.032·k ms.
+/// 0.928 + 0.032·k ms. An encrypted packet is on air for `k` +
+/// [`SECURITY_HEADER_BYTES`] bytes.
 pub fn time_on_air_ms(k: usize) -> f64 {
     0.928 + 0.032 * k as f64
 }
+
+/// Bytes AES encryption (`EE`=1) adds to every packet on air: the 802.15.4 auxiliary security
+/// header of security level 4 (encryption without integrity check, the only level the S1 has),
+/// a 4-byte frame counter among them. It is why the RF payload limit drops from 100 to 95 bytes
+/// ([`MAX_RF_PAYLOAD_ENCRYPTED`]), and it makes an encrypted packet 0.16 ms longer on air.
+pub const SECURITY_HEADER_BYTES: usize = 5;
+
+const _: () = assert!(MAX_RF_PAYLOAD_ENCRYPTED + SECURITY_HEADER_BYTES == MAX_RF_PAYLOAD);
 
 /// One 802.15.4 backoff period (20 symbols of 16 µs).
 const BACKOFF_MS: f64 = 0.32;
@@ -72,6 +82,10 @@ pub struct XBeeConfig {
     pub ct: u16,
     /// `NI`.
     pub ni: String,
+    /// `EE`: AES encryption on.
+    pub ee: bool,
+    /// `KY`: the AES-128 key.
+    pub ky: [u8; KEY_LEN],
     /// `VR`, firmware version.
     pub vr: u16,
     /// `HV`, hardware version.
@@ -102,6 +116,8 @@ impl Default for XBeeConfig {
             gt_ms: 1000,
             ct: 0x64,
             ni: String::new(),
+            ee: false,
+            ky: [0; KEY_LEN],
             vr: 0x10EF,
             hv: 0x180B,
             power_up_ms: 5.0,
@@ -134,6 +150,8 @@ impl XBeeConfig {
         r.set_unchecked(*b"GT", u32::from(self.gt_ms.max(1)));
         r.set_unchecked(*b"CT", u32::from(self.ct));
         r.set_ni(self.ni.as_bytes());
+        r.set_unchecked(*b"EE", u32::from(self.ee));
+        r.set_ky(self.ky);
         r
     }
 }
@@ -154,6 +172,52 @@ impl Address {
     }
 }
 
+/// How a packet went on air: in the clear (`EE`=0) or encrypted (`EE`=1) with the sender's key.
+/// A radio medium hands it to the receivers with the packet ([`XBeeCore::deliver_secured`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Security {
+    /// `EE`=0.
+    #[default]
+    Clear,
+    /// `EE`=1.
+    Encrypted {
+        /// The sender's `KY`.
+        key: [u8; KEY_LEN],
+        /// The sender's 64-bit serial (`SH:SL`): with `counter`, the packet's nonce.
+        source64: u64,
+        /// The sender's frame counter: its encrypted packets since it powered up.
+        counter: u32,
+    },
+}
+
+impl Security {
+    /// The bytes it adds on air: [`SECURITY_HEADER_BYTES`] when encrypted, else 0.
+    pub fn overhead(self) -> usize {
+        match self {
+            Security::Clear => 0,
+            Security::Encrypted { .. } => SECURITY_HEADER_BYTES,
+        }
+    }
+}
+
+/// XORs `buf` with the keystream of `key` for the packet `source64`/`counter`: what AES-CTR
+/// (802.15.4 security level 4) does with the key's block cipher, here with a SplitMix64 hash of
+/// the key, the nonce and the block index in place of AES (the bytes differ from a real radio's;
+/// what matters is that they are the same for the same inputs and look random). Applying it
+/// twice with the same key gives the payload back, so a receiver with another key turns the
+/// ciphertext into the payload XOR both keystreams: garbage of the payload's length.
+fn keystream_xor(buf: &mut [u8], key: &[u8; KEY_LEN], source64: u64, counter: u32) {
+    let word = |b: &[u8]| b.iter().fold(0u64, |v, &x| (v << 8) | u64::from(x));
+    let k = splitmix(splitmix(word(&key[..8])) ^ word(&key[8..]));
+    let nonce = splitmix(splitmix(k ^ source64) ^ u64::from(counter));
+    for (i, block) in buf.chunks_mut(8).enumerate() {
+        let ks = splitmix(nonce ^ i as u64).to_le_bytes();
+        for (b, s) in block.iter_mut().zip(ks) {
+            *b ^= s;
+        }
+    }
+}
+
 /// A packet the radio put on air, for a radio medium to deliver.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Transmission {
@@ -169,11 +233,12 @@ pub struct Transmission {
     pub dest: Address,
     /// TX options (0x01 no ACK, 0x04 broadcast PAN).
     pub options: u8,
-    /// RF payload (≤ 100 bytes).
+    /// RF payload (≤ 100 bytes, ≤ 95 encrypted), as the sender's host gave it (the plaintext).
     pub payload: Vec<u8>,
     /// First cycle on air.
     pub start_cycle: u64,
-    /// Cycle it is off the air ([`time_on_air_ms`] after the start).
+    /// Cycle it is off the air ([`time_on_air_ms`] after the start, of the payload and, when
+    /// encrypted, [`SECURITY_HEADER_BYTES`]).
     pub end_cycle: u64,
     /// Frame id of the API request (0: none, or transparent mode).
     pub frame_id: u8,
@@ -263,7 +328,8 @@ pub struct XBeeStats {
     pub garbled_out: u32,
     /// Host bytes lost while the radio was powering up.
     pub dropped_powering_up: u32,
-    /// TX requests refused for a payload over 100 bytes.
+    /// TX requests refused for a payload over [`XBeeCore::max_payload`] (100 bytes, 95 with
+    /// encryption).
     pub oversize_tx: u32,
     /// Packets put on air.
     pub transmissions: u32,
@@ -274,6 +340,12 @@ pub struct XBeeStats {
     /// Packets for this radio that it lost (arrived while it was transmitting, or in command
     /// mode).
     pub rx_lost: u32,
+    /// Packets for this radio that it did not pass on because its `EE` differs from the
+    /// sender's (encrypted at one end only).
+    pub encryption_mismatch: u32,
+    /// Packets passed to the host garbled: both ends encrypt, with different keys (also in
+    /// `rx_delivered`; the model knows it, a real radio cannot tell).
+    pub rx_wrong_key: u32,
 }
 
 #[derive(Debug)]
@@ -295,7 +367,7 @@ enum Event {
     /// `FR`: reset after the response.
     SoftReset,
     /// A packet arrives.
-    Deliver(RxPacket),
+    Deliver(RxPacket, Security),
 }
 
 /// What an AT command answered: OK with a value (empty for sets), or an error.
@@ -354,6 +426,42 @@ impl Param<'_> {
                 .skip_while(|&c| c == b' ')
                 .collect::<Vec<_>>(),
         }
+    }
+
+    /// A 128-bit value (`KY`), if well formed: up to 16 bytes (API) or 32 hex digits (command
+    /// mode; optional `0x`, spaces ignored) after leading zeros, right-aligned as a number.
+    fn key(&self) -> Option<[u8; KEY_LEN]> {
+        let bytes: Vec<u8> = match *self {
+            Param::Binary(b) => b.to_vec(),
+            Param::Text(t) => {
+                let s: Vec<u8> = t.iter().copied().filter(|&c| c != b' ').collect();
+                let s = match s.as_slice() {
+                    [b'0', b'x' | b'X', rest @ ..] => rest,
+                    other => other,
+                };
+                if s.is_empty() || !s.iter().all(u8::is_ascii_hexdigit) {
+                    return None;
+                }
+                // Hex digits to bytes from the right: an odd count leaves a high nibble of 0.
+                let digits: Vec<u8> = s
+                    .iter()
+                    .map(|&c| (c as char).to_digit(16).unwrap_or(0) as u8)
+                    .collect();
+                let mut bytes: Vec<u8> = digits
+                    .rchunks(2)
+                    .map(|p| p.iter().fold(0u8, |v, &d| (v << 4) | d))
+                    .collect();
+                bytes.reverse();
+                bytes
+            }
+        };
+        let first = bytes.iter().position(|&x| x != 0).unwrap_or(bytes.len());
+        let sig = &bytes[first..];
+        (sig.len() <= KEY_LEN).then(|| {
+            let mut key = [0; KEY_LEN];
+            key[KEY_LEN - sig.len()..].copy_from_slice(sig);
+            key
+        })
     }
 
     /// The number, if well formed (≤ 32 bits).
@@ -433,6 +541,10 @@ pub struct XBeeCore {
     garble_out: Garbler,
     outbox: Vec<UartByte>,
     transmissions: Vec<Transmission>,
+    /// How each of `transmissions` went on air.
+    securities: Vec<Security>,
+    /// Encrypted packets sent since power-up (the 802.15.4 frame counter).
+    frame_counter: u32,
     /// On-air intervals of recent transmissions (half duplex: no reception meanwhile).
     on_air: Vec<(u64, u64)>,
     radio_busy_until: u64,
@@ -483,6 +595,8 @@ impl XBeeCore {
             garble_out: Garbler::default(),
             outbox: Vec::new(),
             transmissions: Vec::new(),
+            securities: Vec::new(),
+            frame_counter: 0,
             on_air: Vec::new(),
             radio_busy_until: at,
             frames: Vec::new(),
@@ -517,6 +631,7 @@ impl XBeeCore {
         self.plus_count = 0;
         self.held.clear();
         self.tbuf.clear();
+        self.frame_counter = 0;
         self.last_rx_end = self.now;
         self.uart_baud = self.active.baud();
         self.api = Mode::from_ap(self.active.ap());
@@ -585,7 +700,25 @@ impl XBeeCore {
     }
     /// Takes the packets put on air so far.
     pub fn take_transmissions(&mut self) -> Vec<Transmission> {
+        self.securities.clear();
         std::mem::take(&mut self.transmissions)
+    }
+    /// Takes the packets put on air so far, each with how it was encrypted (what a medium
+    /// passes to [`XBeeCore::deliver_secured`]).
+    pub fn take_transmissions_with_security(&mut self) -> Vec<(Transmission, Security)> {
+        let securities = std::mem::take(&mut self.securities);
+        std::mem::take(&mut self.transmissions)
+            .into_iter()
+            .zip(securities)
+            .collect()
+    }
+    /// The most RF payload a TX request may carry now: 100 bytes, 95 with encryption (`EE`=1).
+    pub fn max_payload(&self) -> usize {
+        if self.active.ee() {
+            MAX_RF_PAYLOAD_ENCRYPTED
+        } else {
+            MAX_RF_PAYLOAD
+        }
     }
     /// The counters.
     pub fn stats(&self) -> XBeeStats {
@@ -655,14 +788,22 @@ impl XBeeCore {
         end
     }
 
-    /// A packet arriving at cycle `at` (its end). It reaches the host only if the radio is
-    /// powered up, on `packet.channel`, in its PAN (or the packet used the broadcast PAN),
-    /// addressed to it or broadcast, not transmitting while it arrived, and not in command
-    /// mode: in API mode as an RX16/RX64 frame with the RSSI byte, in transparent mode as the
-    /// bare payload. `DB` takes its RSSI.
+    /// A packet sent in the clear arriving at cycle `at` (its end): see
+    /// [`XBeeCore::deliver_secured`].
     pub fn deliver(&mut self, packet: RxPacket, at: u64) {
+        self.deliver_secured(packet, Security::Clear, at);
+    }
+
+    /// A packet sent as `security` says arriving at cycle `at` (its end). It reaches the host
+    /// only if the radio is powered up, on `packet.channel`, in its PAN (or the packet used the
+    /// broadcast PAN), addressed to it or broadcast, not transmitting while it arrived, not in
+    /// command mode, and its `EE` is the sender's: in API mode as an RX16/RX64 frame with the
+    /// RSSI byte, in transparent mode as the bare payload. `DB` takes its RSSI. Encrypted with
+    /// another key than this radio's `KY`, the payload comes out garbled (see
+    /// [`XBeeCore::stats`]: `rx_wrong_key`).
+    pub fn deliver_secured(&mut self, packet: RxPacket, security: Security, at: u64) {
         let at = at.max(self.now);
-        self.schedule(at, Event::Deliver(packet));
+        self.schedule(at, Event::Deliver(packet, security));
     }
 
     /// Runs the model's timers up to cycle `now`.
@@ -764,7 +905,7 @@ impl XBeeCore {
                 }
             }
             Event::SoftReset => self.power_up(self.now, ModemStatus::WATCHDOG_RESET),
-            Event::Deliver(p) => self.arrive(p),
+            Event::Deliver(p, security) => self.arrive(p, security),
         }
     }
 
@@ -940,7 +1081,7 @@ impl XBeeCore {
     }
 
     fn api_tx(&mut self, t: u64, frame_id: u8, dest: Address, options: u8, payload: &[u8]) {
-        if payload.len() > MAX_RF_PAYLOAD {
+        if payload.len() > self.max_payload() {
             self.stats.oversize_tx += 1;
             return;
         }
@@ -952,8 +1093,19 @@ impl XBeeCore {
             Csma::Off => 0,
             Csma::Random { .. } => ms_to_cycles(BACKOFF_MS * (self.next_rand() % 8) as f64),
         };
+        let security = if self.active.ee() {
+            let counter = self.frame_counter;
+            self.frame_counter = counter.wrapping_add(1);
+            Security::Encrypted {
+                key: self.active.ky(),
+                source64: self.cfg.sh_sl,
+                counter,
+            }
+        } else {
+            Security::Clear
+        };
         let start = (t + backoff).max(self.radio_busy_until);
-        let end = start + ms_to_cycles(time_on_air_ms(payload.len()));
+        let end = start + ms_to_cycles(time_on_air_ms(payload.len() + security.overhead()));
         self.radio_busy_until = end;
         self.on_air.retain(|&(_, e)| e + ms_to_cycles(50.0) > t);
         self.on_air.push((start, end));
@@ -975,6 +1127,7 @@ impl XBeeCore {
             end_cycle: end,
             frame_id,
         });
+        self.securities.push(security);
         self.stats.transmissions += 1;
         if self.api.is_some() && frame_id != 0 {
             self.schedule(end, Event::TxDone(frame_id));
@@ -990,7 +1143,7 @@ impl XBeeCore {
         x
     }
 
-    fn arrive(&mut self, p: RxPacket) {
+    fn arrive(&mut self, mut p: RxPacket, security: Security) {
         let my = self.active.my();
         let for_me = match p.dest {
             Address::Short(d) => d == 0xFFFF || (d == my && my < 0xFFFE),
@@ -1001,12 +1154,33 @@ impl XBeeCore {
             self.stats.rx_filtered += 1;
             return;
         }
-        let toa = ms_to_cycles(time_on_air_ms(p.payload.len()));
+        let toa = ms_to_cycles(time_on_air_ms(p.payload.len() + security.overhead()));
         let start = self.now.saturating_sub(toa);
         let overlaps = self.on_air.iter().any(|&(s, e)| s < self.now && e > start);
         if overlaps || self.cmd_line.is_some() {
             self.stats.rx_lost += 1;
             return;
+        }
+        match security {
+            Security::Clear if !self.active.ee() => {}
+            Security::Encrypted {
+                key,
+                source64,
+                counter,
+            } if self.active.ee() => {
+                let own = self.active.ky();
+                if key != own {
+                    // Encrypted with the sender's key, decrypted with ours.
+                    keystream_xor(&mut p.payload, &key, source64, counter);
+                    keystream_xor(&mut p.payload, &own, source64, counter);
+                    self.stats.rx_wrong_key += 1;
+                }
+            }
+            // Encrypted at one end only: the radio passes nothing on.
+            _ => {
+                self.stats.encryption_mismatch += 1;
+                return;
+            }
         }
         let rssi = Rssi::from_dbm(p.rssi_dbm);
         self.db = rssi.raw();
@@ -1039,7 +1213,7 @@ impl XBeeCore {
 
     fn transparent_byte(&mut self, t: u64, b: u8) {
         self.tbuf.push(b);
-        if self.tbuf.len() >= MAX_RF_PAYLOAD {
+        if self.tbuf.len() >= self.max_payload() {
             self.flush_transparent();
             return;
         }
@@ -1167,6 +1341,10 @@ impl XBeeCore {
         if cmd == *b"NI" {
             return Ok(AtValue::Str(self.active.ni().to_vec()));
         }
+        if cmd == *b"KY" {
+            // Write-only: a query answers OK and never the key.
+            return Ok(AtValue::None);
+        }
         if let Some(s) = regs::spec(cmd) {
             let v = self.active.get(cmd).unwrap_or(s.default);
             return Ok(AtValue::Num(u64::from(v), s.width));
@@ -1194,6 +1372,12 @@ impl XBeeCore {
             }
             return Ok(s);
         }
+        if cmd == *b"KY" {
+            return param
+                .key()
+                .map(|k| k.to_vec())
+                .ok_or(AtStatus::INVALID_PARAMETER);
+        }
         if READ_ONLY.iter().any(|r| r.0 == cmd) {
             return Err(AtStatus::ERROR);
         }
@@ -1215,6 +1399,10 @@ impl XBeeCore {
     fn set(&mut self, cmd: [u8; 2], v: &[u8]) {
         if cmd == *b"NI" {
             self.active.set_ni(v);
+        } else if cmd == *b"KY" {
+            let mut key = [0; KEY_LEN];
+            key.copy_from_slice(v);
+            self.active.set_ky(key);
         } else {
             let n = v.iter().fold(0u32, |a, &b| (a << 8) | u32::from(b));
             self.active.set_unchecked(cmd, n);

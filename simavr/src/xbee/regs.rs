@@ -71,7 +71,7 @@ pub(crate) const REGISTERS: &[Spec] = &[
     s(b"SD", 1, 0, 0x0F, 4),
     s(b"A1", 1, 0, 0x0F, 0),
     s(b"A2", 1, 0, 0x0F, 0),
-    // Security.
+    // Security (the key `KY` is kept apart: 128 bits, write-only).
     s(b"EE", 1, 0, 1, 0),
     // RF interfacing.
     s(b"PL", 1, 0, 4, 4),
@@ -114,16 +114,21 @@ pub(crate) const READ_ONLY: &[([u8; 2], u8)] = &[
 /// Longest node identifier (`NI`).
 pub const NI_MAX: usize = 20;
 
+/// Length of the AES-128 key `KY`, bytes.
+pub const KEY_LEN: usize = 16;
+
 pub(crate) fn spec(cmd: [u8; 2]) -> Option<&'static Spec> {
     REGISTERS.iter().find(|s| s.cmd == cmd)
 }
 
 /// A set of register values: the active set (what the radio uses) or the persisted set (what
-/// `WR` saved and a power cycle restores). Numeric registers by their two-letter name, plus `NI`.
+/// `WR` saved and a power cycle restores). Numeric registers by their two-letter name, plus `NI`
+/// and the AES key `KY`.
 #[derive(Clone, PartialEq, Eq)]
 pub struct Registers {
     values: BTreeMap<[u8; 2], u32>,
     ni: Vec<u8>,
+    ky: [u8; KEY_LEN],
 }
 
 impl Default for Registers {
@@ -139,16 +144,25 @@ impl fmt::Debug for Registers {
             m.entry(&String::from_utf8_lossy(k), &format_args!("{v:#X}"));
         }
         m.entry(&"NI", &String::from_utf8_lossy(&self.ni));
+        // The key stays out of logs, as the radio keeps it from queries.
+        let ky = if self.ky == [0; KEY_LEN] {
+            "0"
+        } else {
+            "(set)"
+        };
+        m.entry(&"KY", &ky);
         m.finish()
     }
 }
 
 impl Registers {
-    /// Factory defaults (`RE`): transparent mode, 9600 baud, channel 0x0C, PAN 0x3332, MY 0.
+    /// Factory defaults (`RE`): transparent mode, 9600 baud, channel 0x0C, PAN 0x3332, MY 0,
+    /// no encryption (`EE` 0, `KY` 0).
     pub fn factory() -> Registers {
         Registers {
             values: REGISTERS.iter().map(|s| (s.cmd, s.default)).collect(),
             ni: Vec::new(),
+            ky: [0; KEY_LEN],
         }
     }
 
@@ -221,11 +235,22 @@ impl Registers {
     pub fn ce(&self) -> u8 {
         self.num(b"CE") as u8
     }
+    /// `EE`: AES encryption enabled.
+    pub fn ee(&self) -> bool {
+        self.num(b"EE") != 0
+    }
+    /// `KY`: the AES-128 key (the model's view: the radio never answers it to a query).
+    pub fn ky(&self) -> [u8; KEY_LEN] {
+        self.ky
+    }
     /// `NI`: node identifier.
     pub fn ni(&self) -> &[u8] {
         &self.ni
     }
     pub(crate) fn set_ni(&mut self, ni: &[u8]) {
         self.ni = ni.to_vec();
+    }
+    pub(crate) fn set_ky(&mut self, ky: [u8; KEY_LEN]) {
+        self.ky = ky;
     }
 }

@@ -8,7 +8,7 @@ use std::rc::Rc;
 
 use embedded_hal_nb::serial::{ErrorType, Read, Write};
 use libfuzzer_sys::fuzz_target;
-use xbee_api::driver::{BringUpConfig, Clock, Radio, SetBaud};
+use xbee_api::driver::{BringUpConfig, Clock, Encryption, Radio, SetBaud};
 use xbee_api::Mode;
 
 /// Serves the fuzz input as the radio's output; every empty read moves time on by 1 ms.
@@ -99,11 +99,16 @@ fuzz_target!(|input: &[u8]| {
         4 => {
             let _ = radio.read_config(30, |_| frames += 1);
         }
-        _ => {
+        sel => {
             let cfg = BringUpConfig {
                 my: Some(1),
                 pan_id: Some(0x3332),
                 channel: Some(0x0B),
+                encryption: match sel {
+                    5 => Encryption::Leave,
+                    6 => Encryption::Off,
+                    _ => Encryption::Key([0x7E; 16]),
+                },
                 guard_ms: 15,
                 timeout_ms: 20,
             };

@@ -5,7 +5,8 @@
 //!   the crate's own [`Decoder`] ([`Model::frames`]) and logs host and radio frames in order
 //!   ([`Model::log`]);
 //! * answers each frame from its script ([`Model::expect`]) if one is queued, else like a radio
-//!   would (AT queries and sets of `MY`, `ID`, `CH`, `AP`, `BD`, `WR`; TX status for TX requests);
+//!   would (AT queries and sets of `MY`, `ID`, `CH`, `AP`, `BD`, `EE`, `WR`; `KY` sets, its
+//!   queries answered without a value; TX status for TX requests);
 //! * models transparent command mode (guard time, `+++`, `OK\r`, `AT…\r` lines, `CN` applying
 //!   `AP` and `BD`) and baud rates: bytes sent at a rate the other side is not listening at
 //!   arrive as garbage (never `0x7E`, `O`, `K` or `\r`);
@@ -112,6 +113,14 @@ pub struct Model {
     pub my: u16,
     pub id: u16,
     pub ch: u8,
+    /// `EE`: encryption on (1) or off (0).
+    pub ee: u8,
+    /// `KY` as last set (write-only: a query answers no value).
+    pub ky: Option<Vec<u8>>,
+    /// Answers an `EE` query with this value instead of `EE`.
+    pub ee_reads: Option<u8>,
+    /// Answers a `KY` set with this error status (and keeps the old key).
+    pub ky_status: Option<AtStatus>,
     /// Radio guard time (`GT`), ms.
     pub gt: u32,
     /// `WR` count.
@@ -173,6 +182,10 @@ impl Model {
             my: 0,
             id: 0x3332,
             ch: 0x0C,
+            ee: 0,
+            ky: None,
+            ee_reads: None,
+            ky_status: None,
             gt: 20,
             writes: 0,
             dead: false,
@@ -417,6 +430,8 @@ impl Model {
             (b"ID", true) => (AtStatus::OK, self.id.to_be_bytes().to_vec()),
             (b"CH", true) => (AtStatus::OK, vec![self.ch]),
             (b"AP", true) => (AtStatus::OK, vec![self.ap]),
+            (b"EE", true) => (AtStatus::OK, vec![self.ee_reads.unwrap_or(self.ee)]),
+            (b"KY", true) => ok,
             (b"MY", false) if v <= 0xFFFF => {
                 self.my = v as u16;
                 ok
@@ -432,11 +447,22 @@ impl Model {
                 ok
             }
             (b"AP", false) if v <= 2 => ok,
+            (b"EE", false) if v <= 1 => {
+                self.ee = v as u8;
+                ok
+            }
+            (b"KY", false) if p.len() <= 16 => match self.ky_status {
+                Some(status) => (status, vec![]),
+                None => {
+                    self.ky = Some(p.to_vec());
+                    ok
+                }
+            },
             (b"WR", true) => {
                 self.writes += 1;
                 ok
             }
-            (b"MY" | b"ID" | b"CH" | b"AP", false) => bad,
+            (b"MY" | b"ID" | b"CH" | b"AP" | b"EE" | b"KY", false) => bad,
             _ => (AtStatus::INVALID_COMMAND, vec![]),
         }
     }
