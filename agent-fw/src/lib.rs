@@ -20,7 +20,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-use loc_proto::msg::{ChannelList, Position, Report};
+use loc_proto::msg::{ChannelList, Position, Report, MAX_FAILED};
 use loc_proto::schedule::{Schedule, Timeline};
 
 pub use loc_proto::msg::{MAX_ANCHORS, MAX_CHANNELS};
@@ -77,6 +77,9 @@ pub struct Agent {
     next_ev: u8,
     /// A report is out, waiting for its TX status.
     awaiting: bool,
+    /// Reports whose TX status said failed since the last that went out (saturating at
+    /// [`MAX_FAILED`]): carried by the next report ([`Report::failed`]).
+    failed: u8,
     /// What this superframe's beacons said so far: the next report. (There is no copy of the
     /// report being sent: the shell encodes it when asked, and a second `Report` would not fit
     /// the Uno's SRAM budget next to the radio driver.)
@@ -101,6 +104,7 @@ impl Agent {
             tuned: false,
             next_ev: 0,
             awaiting: false,
+            failed: 0,
             cur: Report::new(id, 0, sched.anchors(), channels),
         }
     }
@@ -147,6 +151,11 @@ impl Agent {
         );
     }
 
+    /// Failed transmissions since the last report that went out.
+    pub fn failed(&self) -> u8 {
+        self.failed
+    }
+
     /// What to do at local time `now_us`: call it often (at least once per guard time) and
     /// until it returns `None`.
     pub fn poll(&mut self, now_us: u32) -> Option<Action> {
@@ -183,6 +192,7 @@ impl Agent {
                 // One packet whatever the testbed's size: as many relay rows as fit, others in
                 // the next superframes.
                 self.cur.fit_relay();
+                self.cur.failed = self.failed;
                 return Some(Action::SendReport { seq: self.cur.seq });
             }
         }
@@ -197,12 +207,19 @@ impl Agent {
         self.tl.until_us(now_us, self.event_time(self.next_ev))
     }
 
-    /// The radio reported the report's transmission (`ok` or not): back to the channel list.
-    pub fn on_tx_status(&mut self, _ok: bool) -> Option<Action> {
+    /// The radio reported the report's transmission (`ok` or not: the channel busy, or no
+    /// acknowledgement from the sink's radio), counted for the next report: back to the channel
+    /// list.
+    pub fn on_tx_status(&mut self, ok: bool) -> Option<Action> {
         if !self.awaiting {
             return None;
         }
         self.awaiting = false;
+        self.failed = if ok {
+            0
+        } else {
+            (self.failed + 1).min(MAX_FAILED)
+        };
         Some(Action::Tune(Tune::List(0)))
     }
 

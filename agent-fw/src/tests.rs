@@ -33,9 +33,11 @@ struct Sim {
     agents: Vec<(Agent, Option<Tune>, u32)>,
     /// (delivery time, from, seq, channel).
     air: Vec<(u64, u8, u16, u8)>,
-    /// Agents waiting for a TX status: (due, agent index).
-    status: Vec<(u64, usize)>,
+    /// Agents waiting for a TX status: (due, agent index, the report's seq).
+    status: Vec<(u64, usize, u16)>,
     reports: Vec<Sent>,
+    /// Whether the report of sequence number `seq` goes out (its TX status), per agent index.
+    delivered: fn(usize, u16) -> bool,
 }
 
 impl Sim {
@@ -60,6 +62,7 @@ impl Sim {
             air: Vec::new(),
             status: Vec::new(),
             reports: Vec::new(),
+            delivered: |_, _| true,
         }
     }
 
@@ -102,8 +105,9 @@ impl Sim {
                 .filter(|d| d.0 <= self.t)
                 .collect();
             self.status.retain(|d| d.0 > self.t);
-            for (_, k) in done {
-                if let Some(Action::Tune(to)) = self.agents[k].0.on_tx_status(true) {
+            for (_, k, seq) in done {
+                let ok = (self.delivered)(k, seq);
+                if let Some(Action::Tune(to)) = self.agents[k].0.on_tx_status(ok) {
                     self.agents[k].1 = Some(to);
                 }
             }
@@ -130,7 +134,7 @@ impl Sim {
                                 k + 1
                             );
                             self.reports.push((self.t, k as u8 + 1, seq, *g.report()));
-                            self.status.push((self.t + 2_000, k));
+                            self.status.push((self.t + 2_000, k, seq));
                         }
                     }
                 }
@@ -303,4 +307,31 @@ fn waiting_wait_us_between_polls_misses_nothing() {
         want.push((base + report, Action::SendReport { seq: 5 + k }));
     }
     assert_eq!(got, want);
+}
+
+/// Each report carries the failed transmissions since the last one that went out: counted
+/// from the TX status, back to 0 after a report goes out, at most 7.
+#[test]
+fn failed_transmissions_ride_in_the_next_report() {
+    let mut sim = Sim::new(&[0]);
+    // Reports 10…12 fail, 13 goes out; 20…39 all fail.
+    sim.delivered = |_, seq| !(10..13).contains(&seq) && !(20..40).contains(&seq);
+    sim.run(45 * sched().superframe_us() as u64);
+    let failed: Vec<(u16, u8)> = sim.reports.iter().map(|r| (r.2, r.3.failed)).collect();
+    let of = |seq: u16| failed.iter().find(|f| f.0 == seq).map(|f| f.1);
+    assert_eq!(of(9), Some(0), "{failed:?}");
+    assert_eq!(of(10), Some(0));
+    assert_eq!(of(12), Some(2));
+    assert_eq!(of(13), Some(3));
+    assert_eq!(of(14), Some(0));
+    assert_eq!(of(25), Some(5));
+    assert_eq!(of(28), Some(7));
+    assert_eq!(of(39), Some(7));
+    assert_eq!(of(40), Some(7));
+    assert_eq!(of(41), Some(0));
+    // And it encodes.
+    let mut buf = [0; 100];
+    let last = &sim.reports.iter().find(|r| r.2 == 40).unwrap().3;
+    let n = last.encode(&mut buf).unwrap();
+    assert_eq!(Report::decode(&buf[..n]).map(|r| r.failed), Ok(7));
 }

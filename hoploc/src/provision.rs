@@ -309,7 +309,7 @@ pub struct Args {
     /// Number of anchors N in the network (3…8).
     #[arg(long, default_value_t = Config::DEFAULT.anchors)]
     pub anchors: u8,
-    /// TDMA slot length in ms (up to 10000; at least 17 with 3…5 anchors, 18 with 6 or 7, 19
+    /// TDMA slot length in ms (up to 10000; at least 17 with 3 or 4 anchors, 18 with 5…7, 19
     /// with 8: a slot must hold a beacon).
     #[arg(long, default_value_t = Config::DEFAULT.slot_ms)]
     pub slot_ms: u16,

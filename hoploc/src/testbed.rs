@@ -318,6 +318,11 @@ pub fn add_scenario(
             spec.xbee.ch = loc_proto::xbee_channel(s.timing.sink_channel)
                 .ok_or("the sink channel has no XBee channel")?;
             spec.xbee.id = Config::DEFAULT.pan_id;
+            // Encryption as the sink firmware would set it from its config.
+            if let Some(key) = s.timing.key() {
+                spec.xbee.ee = true;
+                spec.xbee.ky = key.0;
+            }
             net.add_host_radio(spec)
         }
         SinkSource::Firmware => {

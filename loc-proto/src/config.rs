@@ -14,7 +14,7 @@
 //! | 4 | node id (1…255; an anchor's 1…N) |
 //! | 5 | N, the number of anchors (3…8) |
 //! | 6–7, 8–9 | the anchor's position x, y (i16, cm; 0 for other roles by convention) |
-//! | 10–11 | slot length (u16, ms, up to 10000 and at least [`schedule::min_slot_ms`] of N: 17 with 3…5 anchors, 18 with 6 or 7, 19 with 8) |
+//! | 10–11 | slot length (u16, ms, up to 10000 and at least [`schedule::min_slot_ms`] of N: 17 with 3 or 4 anchors, 18 with 5…7, 19 with 8) |
 //! | 12 | sink channel (testbed channel 1…16) |
 //! | 13–14 | PAN id (u16, not 0xFFFF) |
 //! | 15 | C, the number of channels (1…4), in bits 0–6; bit 7 ([`KEY_FLAG`]) set: a network key follows the channels |
@@ -512,7 +512,7 @@ const EXPECT_ID: &str = "a node id 1…255 (an anchor's at most HOPLOC_ANCHORS)"
 const EXPECT_POS: &str = "an integer -32768…32767 (cm)";
 const EXPECT_ANCHORS: &str = "the number of anchors, 3…8";
 const EXPECT_SLOT: &str = "a slot length in ms, up to 10000, that holds a beacon: at least 17 \
-     with 3 to 5 anchors, 18 with 6 or 7, 19 with 8 (loc_proto::schedule::min_slot_ms)";
+     with 3 or 4 anchors, 18 with 5 to 7, 19 with 8 (loc_proto::schedule::min_slot_ms)";
 const EXPECT_CHANNELS: &str =
     "1…4 distinct testbed channels 1…16, comma separated, e.g. 1,12 (the S1 Pro has 2…13 only)";
 const EXPECT_SINK: &str = "a testbed channel 1…16";

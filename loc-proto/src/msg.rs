@@ -70,11 +70,11 @@ pub const HEADER_LEN: usize = 4;
 /// Bytes of the CRC that ends every message.
 pub const CRC_LEN: usize = 2;
 /// The largest RF payload of an XBee 802.15.4 TX frame.
-pub const MAX_PAYLOAD: usize = 100;
+pub const MAX_PAYLOAD: usize = xbee_api::MAX_RF_PAYLOAD;
 /// The largest hoploc message: the XBee S1's RF payload limit with encryption on (`EE` = 1;
 /// [`MAX_PAYLOAD`] without). Every message fits it, so a network runs the same with or without
 /// a network key.
-pub const MAX_MESSAGE: usize = 95;
+pub const MAX_MESSAGE: usize = xbee_api::MAX_RF_PAYLOAD_ENCRYPTED;
 /// The most anchors a network has, and the most channels in a channel list: what the estimator
 /// (loc-core) takes, so that every report it can be sent, it can locate.
 pub use loc_core::{MAX_ANCHORS, MAX_CHANNELS};
@@ -623,9 +623,8 @@ impl Report {
         let seq = r.u16()?;
         let anchors = r.u8()?;
         let cf = r.u8()?;
-        if cf & !(RELAY_FLAG | ROWS_FLAG | FAILED_BITS | 0x07) != 0
-            || cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG
-        {
+        // (Every bit of the byte has a meaning: only the rows flag alone is wrong.)
+        if cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG {
             return Err(bad(Field::Flags));
         }
         let c = (cf & 0x07) as usize;
@@ -773,9 +772,8 @@ impl<'a> ReportView<'a> {
         let &[agent, s0, s1, anchors, cf] = body.get(4..9).ok_or(Error::BadLength)? else {
             return Err(Error::BadLength);
         };
-        if cf & !(RELAY_FLAG | ROWS_FLAG | FAILED_BITS | 0x07) != 0
-            || cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG
-        {
+        // (Every bit of the byte has a meaning: only the rows flag alone is wrong.)
+        if cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG {
             return Err(bad(Field::Flags));
         }
         let c = (cf & 0x07) as usize;
@@ -852,8 +850,8 @@ impl<'a> ReportView<'a> {
             return Err(Corrupt);
         };
         let c = cf & 0x07;
-        if cf & !(RELAY_FLAG | ROWS_FLAG | FAILED_BITS | 0x07) != 0
-            || cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG
+        // (Every bit of the byte has a meaning: only the rows flag alone is wrong.)
+        if cf & (RELAY_FLAG | ROWS_FLAG) == ROWS_FLAG
             || !(1..=MAX_CHANNELS as u8).contains(&c)
             || !channels.get(..c as usize).is_some_and(distinct_channels)
             || agent == 0

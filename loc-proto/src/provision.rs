@@ -168,10 +168,11 @@ fn at(b: &[u8; BUF], i: u8) -> u8 {
 
 /// Finds provisioning frames in a byte stream, one byte at a time, in a buffer of one frame.
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub struct ProvisionParser {
-    buf: [u8; BUF],
     n: u8,
     errors: u16,
+    buf: [u8; BUF],
 }
 
 impl Default for ProvisionParser {

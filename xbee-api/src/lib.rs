@@ -44,6 +44,12 @@ pub const MAX_RF_PAYLOAD: usize = 100;
 /// Largest RF payload of one packet with AES encryption on (`EE`=1): the 802.15.4 auxiliary
 /// security header takes 5 bytes of the packet, and the S1 refuses anything longer.
 pub const MAX_RF_PAYLOAD_ENCRYPTED: usize = 95;
+/// Bytes AES encryption (`EE`=1) adds to every packet on air: the 802.15.4 auxiliary security
+/// header of security level 4 (encryption without integrity check, the only level the S1 has),
+/// a 4-byte frame counter among them. It is why the RF payload limit drops from
+/// [`MAX_RF_PAYLOAD`] to [`MAX_RF_PAYLOAD_ENCRYPTED`], and it makes an encrypted packet 0.16 ms
+/// longer on air.
+pub const SECURITY_HEADER_BYTES: usize = MAX_RF_PAYLOAD - MAX_RF_PAYLOAD_ENCRYPTED;
 /// Worst-case encoded size of a frame on the wire (every byte after the start escaped).
 pub const MAX_ENCODED: usize = 1 + 2 * (2 + MAX_FRAME_DATA + 1);
 

@@ -31,13 +31,7 @@ pub fn time_on_air_ms(k: usize) -> f64 {
     0.928 + 0.032 * k as f64
 }
 
-/// Bytes AES encryption (`EE`=1) adds to every packet on air: the 802.15.4 auxiliary security
-/// header of security level 4 (encryption without integrity check, the only level the S1 has),
-/// a 4-byte frame counter among them. It is why the RF payload limit drops from 100 to 95 bytes
-/// ([`MAX_RF_PAYLOAD_ENCRYPTED`]), and it makes an encrypted packet 0.16 ms longer on air.
-pub const SECURITY_HEADER_BYTES: usize = 5;
-
-const _: () = assert!(MAX_RF_PAYLOAD_ENCRYPTED + SECURITY_HEADER_BYTES == MAX_RF_PAYLOAD);
+pub use xbee_api::SECURITY_HEADER_BYTES;
 
 /// One 802.15.4 backoff period (20 symbols of 16 µs).
 const BACKOFF_MS: f64 = 0.32;
