@@ -731,7 +731,8 @@ pub fn traffic(
             t.beacons += 1;
             match outcome(r, agent) {
                 Some(Outcome::Delivered) => t.beacons_delivered += 1,
-                Some(Outcome::Filtered) => t.beacons_filtered += 1,
+                // A broadcast is never a duplicate.
+                Some(Outcome::Filtered | Outcome::Duplicate) => t.beacons_filtered += 1,
                 Some(Outcome::Busy) => t.beacons_busy += 1,
                 Some(Outcome::TooWeak) => t.beacons_too_weak += 1,
                 Some(Outcome::Collided) => t.beacons_collided += 1,
@@ -809,7 +810,7 @@ fn check_timeline(t: &mut Traffic, beacons: &[LoggedBeacon], sched: &Schedule) {
 mod tests {
     use super::*;
     use simavr::network::RxRecord;
-    use simavr::xbee::{Address, Transmission};
+    use simavr::xbee::{Address, MacFields, Transmission};
 
     const ANCHORS: [NodeId; 4] = [0, 1, 2, 3];
     const AGENT: NodeId = 4;
@@ -862,6 +863,7 @@ mod tests {
                 start_cycle: us(start_us),
                 end_cycle: us(start_us + 1500.0),
                 frame_id: 0,
+                mac: MacFields::default(),
             },
             collided: agent == Some(Outcome::Collided),
             receivers,

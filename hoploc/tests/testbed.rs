@@ -14,6 +14,7 @@ use loc_proto::Role;
 use simavr::medium::Medium;
 use simavr::ms_to_cycles;
 use simavr::network::{Network, NetworkConfig};
+use simavr::xbee::FrameKind;
 
 /// room10 with a noise-free medium and two short stops.
 fn quiet_room10() -> Scenario {
@@ -256,15 +257,18 @@ fn two_testbeds_on_disjoint_channels_share_a_medium() {
             0,
             "{t:?}"
         );
-        totals.push(t.beacons + t.reports);
+        totals.push((t.beacons + t.reports, t.reports));
     }
-    // Every packet after the warm-up is one of the two testbeds'.
-    let after = net
-        .log()
-        .iter()
-        .filter(|r| r.tx.start_cycle >= warmup)
-        .count();
-    assert_eq!(after, totals[0] + totals[1]);
+    // Every packet after the warm-up is one of the two testbeds', and each report's sink
+    // acknowledged it.
+    let after = |kind: FrameKind| {
+        net.log()
+            .iter()
+            .filter(|r| r.tx.start_cycle >= warmup && r.tx.mac.kind == kind)
+            .count()
+    };
+    assert_eq!(after(FrameKind::Data), totals[0].0 + totals[1].0);
+    assert_eq!(after(FrameKind::Ack), totals[0].1 + totals[1].1);
 }
 
 #[test]

@@ -41,6 +41,14 @@
 //! only decide a packet once every transmission that starts before its end is known (the
 //! network guarantees it: nothing starts sooner than it is handed over).
 //!
+//! ACKs are packets like any other (they collide and are collided with).
+//!
+//! **Clear channel assessment** ([`Medium::channel_busy`]): a radio's CCA finds the channel busy
+//! when another node's packet on its channel is on air during it at a level at that radio (the
+//! packet's own draw for that receiver, rounded as above) at or above the radio's threshold;
+//! each packet is compared alone (overlapping packets' energies are not added up), and below
+//! sensitivity counts like any other level.
+//!
 //! What the medium does *not* decide is left to the receiving radio ([`crate::XBeeCore`]): it
 //! drops packets on another channel than its own, of another PAN or address, encrypted at one
 //! end only, or arriving while it transmits (half duplex) or is in command mode. The medium
@@ -363,8 +371,9 @@ impl Medium {
     }
 
     /// A packet `from` put on air in the clear (its cycles in the medium's time base); returns
-    /// its sequence number. Packets must be handed over no later than they start, and before
-    /// any packet they overlap is resolved.
+    /// its sequence number. Packets must be handed over before any packet they overlap is
+    /// resolved (the network hands each over no later than it starts, or, judged by a CCA
+    /// after the fact, before the next packet end).
     pub fn transmit(&mut self, from: RadioId, tx: Transmission) -> u64 {
         self.transmit_secured(from, tx, Security::Clear)
     }
@@ -380,6 +389,29 @@ impl Medium {
             security,
         });
         seq
+    }
+
+    /// Whether a clear channel assessment by `node` on `channel` over cycles `from`…`to` finds
+    /// the channel busy: a packet of another node on that channel is on air during it at a
+    /// level at `node` (with its shadowing draw there, rounded to integer dBm as the radio
+    /// measures) of at least `threshold_dbm`. Packets already resolved ended before; the node's
+    /// own are its radio's business (a radio that transmits finds the channel busy).
+    pub fn channel_busy(
+        &self,
+        node: RadioId,
+        channel: u8,
+        from: u64,
+        to: u64,
+        threshold_dbm: i16,
+    ) -> bool {
+        self.pending
+            .iter()
+            .filter(|p| p.from != node && p.tx.channel == channel)
+            .filter(|p| p.tx.start_cycle < to && p.tx.end_cycle > from)
+            .any(|p| {
+                let level = self.level_dbm(p.seq, p.from, node, channel, p.tx.start_cycle);
+                Self::quantise(level) >= threshold_dbm
+            })
     }
 
     /// The earliest end cycle of the packets not yet resolved.
@@ -469,7 +501,7 @@ impl Medium {
 mod tests {
     use super::*;
     use crate::avr::ms_to_cycles;
-    use crate::xbee::{time_on_air_ms, Address};
+    use crate::xbee::{time_on_air_ms, Address, MacFields};
 
     fn packet(channel: u8, start: u64, len: usize) -> Transmission {
         Transmission {
@@ -483,6 +515,7 @@ mod tests {
             start_cycle: start,
             end_cycle: start + ms_to_cycles(time_on_air_ms(len)),
             frame_id: 0,
+            mac: MacFields::default(),
         }
     }
 

@@ -5,15 +5,29 @@
 //! # Lockstep
 //!
 //! Every node keeps its own simulated clock; [`Network`] advances them together in quanta of at
-//! most [`MAX_QUANTUM`] cycles, the shortest possible time on air (0.928 ms, an empty payload).
-//! After each quantum it takes the packets every radio put on air and hands them to the medium. A
-//! packet is taken no later than the end of the quantum in which its radio accepted it, and it ends
-//! at least one time on air later, so it is always known before any node simulates past its end.
-//! The next quantum boundary is also never later than the end of the earliest packet still on air,
-//! so when the network stops there every packet that starts before that end is known too
-//! (collisions are decided exactly, see [`crate::medium`]) and no receiver has passed it: the
-//! medium's verdicts are delivered at the packet's exact end cycle (an [`Avr`] may end a run one
-//! instruction past its target, so at most a few cycles late).
+//! most [`MAX_QUANTUM`] cycles: the shortest time from a radio's decision to send a packet (its
+//! clear channel assessment, or the request for a radio that does not sense the channel) to the
+//! packet's end, 0.928 ms (the CCA, the turnaround and an empty payload's frame). After each
+//! quantum it takes the packets every radio put on air and hands them to the medium, then
+//! judges the radios' pending CCAs ([`XBeeCore::pending_cca`]) up to the boundary, earliest
+//! first, against the packets on air, handing over each verdict's packet before the next CCA
+//! is judged: a radio defers to one that found the channel clear a moment before it. A packet
+//! is thus known before any node simulates past its end. The next quantum boundary is also
+//! never later than the end of the earliest packet still on air, nor than where a radio's MAC
+//! next needs a verdict it is known to wait for ([`XBeeCore::mac_due`]: a pending CCA's end, an
+//! ACK wait's end). So when the network stops at a packet's end every packet that starts before
+//! that end is known too (collisions are decided exactly, see [`crate::medium`]) and no
+//! receiver has passed it: the medium's verdicts are delivered at the packet's exact end cycle
+//! (an [`Avr`] may end a run one instruction past its target, so at most a few cycles late),
+//! and the ACKs they bring are on the medium before anything can overlap them.
+//!
+//! A CCA of a request that came within the current quantum is judged at the quantum's end,
+//! after its time but with everything it could have detected known: a packet radiates only a
+//! turnaround after the CCA that let it on air, so every packet on air during a CCA was
+//! decided, and its request made, before the CCA began. The radio waits for the verdict
+//! meanwhile (its packet, if any, starts a turnaround after the CCA whatever the radio's clock
+//! says); only a CCA failure whose five assessments all fall in that quantum has its TX status
+//! late, by under 0.3 ms.
 //!
 //! # Threads
 //!
@@ -43,9 +57,11 @@ use std::sync::{Condvar, Mutex};
 use crate::avr::{cycles_to_ms, ms_to_cycles, Avr, Error, State};
 use crate::medium::{Heard, Medium, NodeRadio};
 use crate::radio::TextLine;
-use crate::xbee::{time_on_air_ms, RxPacket, Transmission, XBee, XBeeConfig, XBeeCore};
+use crate::xbee::Security;
+use crate::xbee::{time_on_air_ms, FrameKind, Transmission, XBee, XBeeConfig, XBeeCore, CCA_US};
 
-/// The longest quantum: the shortest time on air (an empty payload), 14 848 cycles.
+/// The longest quantum: the shortest time from a radio's decision to send to its packet's end (a
+/// CCA, the turnaround, an empty payload's frame), 14 848 cycles.
 pub const MAX_QUANTUM: u64 = 14_848;
 
 // The quantum argument above relies on it.
@@ -115,13 +131,17 @@ pub enum Outcome {
     Filtered,
     /// Heard, but its radio lost it: it was transmitting (half duplex) or in command mode.
     Busy,
+    /// Heard and acknowledged, but not passed on: a retry of a packet its radio had passed on
+    /// already (duplicate detection; its ACK had been lost).
+    Duplicate,
     /// Below sensitivity.
     TooWeak,
     /// Lost in a collision.
     Collided,
 }
 
-/// One receiver of a logged packet.
+/// One receiver of a logged packet. For an ACK, [`Outcome::Delivered`] is the radio that waited
+/// for it and took it; [`Outcome::Filtered`] one that did not wait for it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct RxRecord {
     /// The receiver.
@@ -132,7 +152,9 @@ pub struct RxRecord {
     pub outcome: Outcome,
 }
 
-/// A packet that went on air, and its fate.
+/// A packet that went on air, and its fate: a data frame (each transmission of a TX request
+/// apart: [`crate::xbee::MacFields::attempt`] counts them) or an ACK
+/// ([`crate::xbee::MacFields::kind`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct TxRecord {
     /// The medium's sequence number.
@@ -304,7 +326,7 @@ impl Network {
             Body::Firmware { .. } => self.now,
             Body::Host(_) => 0,
         };
-        self.nodes.push(Node {
+        let mut node = Node {
             spec,
             body,
             offset,
@@ -312,7 +334,9 @@ impl Network {
             state: State::Running,
             old_lines: Vec::new(),
             lives: 0,
-        });
+        };
+        node.core_mut().set_on_medium(true);
+        self.nodes.push(node);
         id
     }
 
@@ -467,7 +491,12 @@ impl Network {
                 cfg.ni = String::from_utf8_lossy(saved.ni()).into_owned();
                 cfg.ee = saved.ee();
                 cfg.ky = saved.ky();
+                cfg.rn = saved.rn();
+                cfg.ca = saved.ca();
+                cfg.rr = saved.rr();
+                cfg.mm = saved.mm();
                 let mut fresh_radio = XBee::new(cfg);
+                fresh_radio.core_mut().set_on_medium(true);
                 if let Some((rate, seed)) = noise {
                     fresh_radio.set_line_errors(rate, seed);
                 }
@@ -507,12 +536,19 @@ impl Network {
         hit
     }
 
-    /// The next quantum boundary on the way to `target`.
+    /// The next quantum boundary on the way to `target`: at most a quantum on, at the end of
+    /// the first packet on air, and where a radio's MAC next needs the medium's verdict
+    /// ([`XBeeCore::mac_due`]).
     fn next_boundary(&self, target: u64) -> u64 {
         let q = self.cfg.quantum.clamp(1, MAX_QUANTUM);
         let mut next = (self.now + q).min(target);
         if let Some(e) = self.medium.next_end() {
             next = next.min(e.max(self.now + 1));
+        }
+        for n in self.nodes.iter().filter(|n| n.powered) {
+            if let Some(d) = n.core().mac_due() {
+                next = next.min((d + n.offset).max(self.now + 1));
+            }
         }
         next
     }
@@ -594,22 +630,18 @@ impl Network {
         self.nodes = nodes;
     }
 
-    /// Between quanta: every node is at `now`; hand the new packets to the medium, deliver
-    /// what ended.
+    /// Between quanta: every node is at `now`. Hand the new packets to the medium, judge the
+    /// clear channel assessments up to `now` in time order (each verdict's packet handed over
+    /// before the next is judged), then deliver what ended and hand over the ACKs it brought.
     fn exchange(&mut self, nodes: &mut [&mut Node], now: u64) {
         self.now = now;
         self.quanta += 1;
         for (id, node) in nodes.iter_mut().enumerate() {
-            if !node.powered {
-                continue;
-            }
-            let offset = node.offset;
-            for (mut tx, security) in node.core_mut().take_transmissions_with_security() {
-                tx.start_cycle += offset;
-                tx.end_cycle += offset;
-                self.medium.transmit_secured(id, tx, security);
+            if node.powered {
+                self.hand_over(id, node);
             }
         }
+        self.judge_ccas(nodes, now);
         if self.medium.next_end().is_none_or(|e| e > now) {
             return;
         }
@@ -623,21 +655,7 @@ impl Network {
                         Heard::TooWeak => Outcome::TooWeak,
                         Heard::Collided => Outcome::Collided,
                         Heard::Yes => {
-                            let node = &mut *nodes[rx.node];
-                            let at = r.tx.end_cycle.saturating_sub(node.offset);
-                            let core = node.core_mut();
-                            let before = core.stats();
-                            let packet = RxPacket::from_transmission(&r.tx, rx.rssi_dbm);
-                            core.deliver_secured(packet, r.security, at);
-                            core.advance(core.now().max(at));
-                            let after = core.stats();
-                            if after.rx_delivered > before.rx_delivered {
-                                Outcome::Delivered
-                            } else if after.rx_lost > before.rx_lost {
-                                Outcome::Busy
-                            } else {
-                                Outcome::Filtered
-                            }
+                            Self::receive(&mut *nodes[rx.node], &r.tx, rx.rssi_dbm, r.security)
                         }
                     };
                     RxRecord {
@@ -654,6 +672,72 @@ impl Network {
                 collided: r.collided,
                 receivers,
             });
+        }
+        // The ACKs of what was delivered.
+        for (id, node) in nodes.iter_mut().enumerate() {
+            if node.powered {
+                self.hand_over(id, node);
+            }
+        }
+    }
+
+    /// Hands the packets node `id` put on air to the medium, on the network's clock.
+    fn hand_over(&mut self, id: NodeId, node: &mut Node) {
+        let offset = node.offset;
+        for (mut tx, security) in node.core_mut().take_transmissions_with_security() {
+            tx.start_cycle += offset;
+            tx.end_cycle += offset;
+            self.medium.transmit_secured(id, tx, security);
+        }
+    }
+
+    /// Judges every pending CCA that starts by `now`, earliest first (ties: lower node id),
+    /// against the packets on air, so that each radio sees the packets of the radios that
+    /// found the channel clear before it.
+    fn judge_ccas(&mut self, nodes: &mut [&mut Node], now: u64) {
+        let cca = ms_to_cycles(CCA_US as f64 / 1000.0);
+        loop {
+            let next = nodes
+                .iter()
+                .enumerate()
+                .filter(|(_, n)| n.powered)
+                .filter_map(|(id, n)| n.core().pending_cca().map(|c| (c.at + n.offset, id, c)))
+                .filter(|&(at, ..)| at <= now)
+                .min_by_key(|&(at, id, _)| (at, id));
+            let Some((at, id, c)) = next else {
+                return;
+            };
+            let busy = self
+                .medium
+                .channel_busy(id, c.channel, at, at + cca, c.threshold_dbm);
+            nodes[id].core_mut().judge_cca(busy);
+            self.hand_over(id, &mut *nodes[id]);
+        }
+    }
+
+    /// Hands `tx` (network cycles) to `node`'s radio at its end and says what became of it.
+    fn receive(node: &mut Node, tx: &Transmission, rssi_dbm: i16, security: Security) -> Outcome {
+        let offset = node.offset;
+        let core = node.core_mut();
+        let before = core.stats();
+        if offset == 0 {
+            core.receive(tx, rssi_dbm, security);
+        } else {
+            let mut local = tx.clone();
+            local.start_cycle = local.start_cycle.saturating_sub(offset);
+            local.end_cycle = local.end_cycle.saturating_sub(offset);
+            core.receive(&local, rssi_dbm, security);
+        }
+        let at = tx.end_cycle.saturating_sub(offset);
+        core.advance(core.now().max(at));
+        let after = core.stats();
+        let lost = after.rx_lost > before.rx_lost;
+        match tx.mac.kind {
+            FrameKind::Data if after.rx_delivered > before.rx_delivered => Outcome::Delivered,
+            FrameKind::Data if after.rx_duplicates > before.rx_duplicates => Outcome::Duplicate,
+            FrameKind::Ack if after.acks_received > before.acks_received => Outcome::Delivered,
+            _ if lost => Outcome::Busy,
+            _ => Outcome::Filtered,
         }
     }
 }
@@ -715,7 +799,7 @@ pub fn time_on_air_cycles(k: usize) -> u64 {
 mod tests {
     use super::*;
     use crate::medium::{MediumConfig, NodeRadio};
-    use crate::xbee::encode_frame;
+    use crate::xbee::{encode_frame, TURNAROUND_US};
     use xbee_api::{Decoder, Mode};
 
     /// A host radio `my` at (x, 0) on channel `ch`, API mode 2.
@@ -771,12 +855,15 @@ mod tests {
             // Modem status from both radios at power-up.
             assert_eq!(frames_out(&mut net, a).len(), 1);
             assert_eq!(frames_out(&mut net, b).len(), 1);
-            let start = send(&mut net, a, b"hello");
+            let request = send(&mut net, a, b"hello");
             net.run_for_ms(10.0);
             let log = net.log();
             assert_eq!(log.len(), 1);
             let r = &log[0];
-            let end = start + time_on_air_cycles(5);
+            // On air after the CCA time and the turnaround; off the air the best case after
+            // the request.
+            let start = request + ms_to_cycles((CCA_US + TURNAROUND_US) as f64 / 1000.0);
+            let end = request + time_on_air_cycles(5);
             assert_eq!((r.from, r.tx.start_cycle, r.tx.end_cycle), (a, start, end));
             assert!(!r.collided);
             // −40 − 30·log10(5) = −60.97 dBm.

@@ -13,12 +13,14 @@
 //!   core's next event, feeds it the firmware's UART output, queues its output on the
 //!   firmware's RX line at the cycles it asks for, and keeps the firmware's text lines.
 //!
-//! A radio medium plugs in by draining [`XBeeCore::take_transmissions_with_security`] of every
-//! node and calling [`XBeeCore::deliver_secured`] on the receivers with an [`RxPacket`] (e.g.
-//! [`RxPacket::from_transmission`]) and the packet's [`Security`] at the transmission's end
-//! cycle.
+//! A radio medium plugs in by putting every radio on it ([`XBeeCore::set_on_medium`]),
+//! draining [`XBeeCore::take_transmissions_with_security`] of every node (data packets and
+//! ACKs), judging the radios' pending clear channel assessments ([`XBeeCore::pending_cca`],
+//! [`XBeeCore::judge_cca`]) in time order, and handing each packet to its receivers with
+//! [`XBeeCore::receive`] (the packet and its [`Security`]) at its end cycle.
 //! [`crate::network::Network`] does exactly that, with [`crate::medium::Medium`] deciding who
-//! hears what.
+//! hears what. [`XBeeCore::deliver_secured`] hands a radio a packet without a MAC around it
+//! (tests).
 //!
 //! # What is modelled
 //!
@@ -39,16 +41,16 @@
 //!   ms, after the frame's end; none for frame id 0) and the change applied at once: `CH`, `AP`
 //!   (the response still goes out in the old mode) and `BD` (the UART switches once the response is
 //!   on the line). 0x09 is checked and answered but applied only with the next 0x08 or `AC`. TX16
-//!   (0x01) / TX64 (0x00) → a [`Transmission`] on air for [`time_on_air_ms`] (the best case of the
-//!   XBee's figures, after an optional CSMA backoff [`Csma`]; transmissions queue behind each
-//!   other) and, for a frame id ≠ 0, a 0x89 TX status SUCCESS when it is off the air. Payloads over
-//!   100 bytes (95 with encryption) are refused: no transmission, no status (counted in
+//!   (0x01) / TX64 (0x00) → a TX request for the MAC (see *Channel access* and
+//!   *Acknowledgements*; requests queue behind each other) and, for a frame id ≠ 0, a 0x89 TX
+//!   status when it is decided: 0x00 success, 0x01 no ACK, 0x02 CCA failure. Payloads over 100
+//!   bytes (95 with encryption) are refused: no transmission, no status (counted in
 //!   [`XBeeStats::oversize_tx`]).
 //!   Modem status 0x8A (hardware reset) goes out [`XBeeConfig::power_up_ms`] (default 5 ms) after
 //!   power-up; host bytes before then are lost.
-//! * **Transparent mode** (`AP`=0): host bytes are RF payload to `DH:DL`, sent after `RO`
-//!   character times of silence or at 100 bytes (95 with encryption); received payloads go to
-//!   the host bare.
+//! * **Transparent mode** (`AP`=0): host bytes are RF payload to `DH:DL`, sent (through the same
+//!   MAC, without status) after `RO` character times of silence or at 100 bytes (95 with
+//!   encryption); received payloads go to the host bare.
 //! * **Command mode**: `GT` of silence, three `CC` characters (`+`), each within `GT` of the
 //!   previous, `GT` of silence → `OK\r`. Works in API mode too, as on the 802.15.4 firmware
 //!   (the bring-up of the `xbee-api` driver relies on it). Any other byte (or garbage from a
@@ -68,12 +70,55 @@
 //!   [`XBeeStats::garbled_in`]/[`XBeeStats::garbled_out`]. Byte times are counted as simavr
 //!   does (11 bit times per 8N1 byte, [`BIT_TIMES_PER_BYTE`]), so both sides compare like for
 //!   like (57600 on the radio vs. `UBRR0`=34 with U2X: 0.8 % apart).
-//! * **Reception** ([`XBee::deliver`]): passed on only if powered up, on the packet's channel,
-//!   same PAN (or broadcast PAN), addressed to `MY`/`SH:SL` or broadcast, not overlapping the
-//!   radio's own transmissions (half duplex), not in command mode, with the sender's `EE`
-//!   (see *Encryption*): as RX16 (0x81, 16-bit
-//!   source) or RX64 (0x80) with the RSSI byte and options (0x02 address broadcast, 0x04 PAN
-//!   broadcast) [`XBeeConfig::rx_latency_ms`] after the packet's end; `DB` keeps the RSSI.
+//! * **Reception** ([`XBee::deliver`], from a medium [`XBeeCore::receive`]): passed on only if
+//!   powered up, on the packet's channel, same PAN (or broadcast PAN), addressed to `MY`/`SH:SL`
+//!   or broadcast, not overlapping the radio's own transmissions or its turnarounds to transmit
+//!   (half duplex), not in command mode, with the sender's `EE` (see *Encryption*), and not a
+//!   duplicate (see *Acknowledgements*): as RX16 (0x81, 16-bit source) or RX64 (0x80) with the
+//!   RSSI byte and options (0x02 address broadcast, 0x04 PAN broadcast)
+//!   [`XBeeConfig::rx_latency_ms`] after the packet's end; `DB` keeps the RSSI.
+//! * **Channel access** ([`Csma`]): before every transmission (API, transparent mode, each
+//!   retry) IEEE 802.15.4-2003's unslotted CSMA-CA, as the S1 runs it: NB = 0, BE = `RN` (the
+//!   minimum backoff exponent, 0…3, factory 0: no backoff before the first CCA), a random
+//!   backoff of 0…2^BE − 1 periods of 320 µs ([`BACKOFF_PERIOD_US`]), then a clear channel
+//!   assessment of 8 symbols (128 µs, [`CCA_US`]). The channel is busy when another radio's
+//!   packet on it is on air during the CCA at a level at this radio (the one the medium gives
+//!   that packet there) at or above the threshold `CA` (−dBm, 0x24…0x50, factory 0x2C: −44
+//!   dBm), or while the radio itself turns around to transmit or sends an ACK (802.15.4: a CCA
+//!   with the transmitter on reports busy). Busy: NB + 1, BE = min(BE + 1, 5), back off again;
+//!   the fifth busy CCA (macMaxCSMABackoffs = 4 backoffs after the first) ends the attempt:
+//!   nothing on air, `EC` + 1, TX status 0x02. Clear: the packet goes on air after the
+//!   receive-to-transmit turnaround (12 symbols, 192 µs, [`TURNAROUND_US`]) for 32 µs a byte
+//!   of its 19 + k bytes ([`frame_air_cycles`], [`FRAME_OVERHEAD_BYTES`]): a request on a
+//!   clear channel with `RN` 0 is off the air the XBee's best case of 0.928 + 0.032·k ms
+//!   after it ([`time_on_air_ms`]), and after five CCAs and the longest backoffs (26 periods)
+//!   its worst case, 9.76 + 0.032·k ms. The medium judges each CCA on the network
+//!   ([`XBeeCore::set_on_medium`], [`XBeeCore::judge_cca`]); a radio alone finds the channel
+//!   clear. [`Csma::Off`] (the default) skips backoffs and CCAs: every attempt goes on air 0.32
+//!   ms after it starts, whatever is on the channel, the best case.
+//! * **Acknowledgements and retries**: a unicast (destination not 0xFFFF) without TX option
+//!   0x01, from a radio in a MAC mode with ACKs (`MM` 0, the factory Digi mode, or 2), asks for
+//!   an ACK. Its receiver, if it takes the packet (powered, on the channel, in the PAN,
+//!   addressed, the packet neither collided nor too weak nor lost while it transmitted or was in
+//!   command mode, and the same `EE`), acknowledges it a turnaround (192 µs) after its end,
+//!   unless it is transmitting then: a 5-byte frame, 11 bytes on air with the preamble (352 µs,
+//!   [`ACK_AIR_US`]), a packet on the medium like any other (it collides, and it makes other
+//!   radios' CCAs busy), carrying only the sequence number: a radio waiting for an ACK of that
+//!   number on its channel takes it. The sender waits macAckWaitDuration (54 symbols, 864 µs,
+//!   [`ACK_WAIT_US`]) after its packet's end; with the ACK in, status 0x00. Without it the MAC
+//!   tries again (channel access and all, the same sequence number) up to macMaxFrameRetries
+//!   ([`MAX_FRAME_RETRIES`], 3) times, and in the Digi modes that all over again `RR` times (XBee
+//!   retries, 0…6, factory 0; also after a CCA failure): at most 4·(`RR` + 1) transmissions,
+//!   then status 0x01 and `EA` + 1. A broadcast, or a packet asking for no ACK, is sent once:
+//!   status 0x00 when it is off the air (0x02 if the channel access failed). Duplicate
+//!   detection (the Digi header's, `MM` 0 and 3): a receiver acknowledges again a packet with
+//!   the source address and sequence number of the last it passed on from that source, but
+//!   does not pass it on ([`XBeeStats::rx_duplicates`]); strict 802.15.4 (`MM` 2) passes every
+//!   copy on. Sequence numbers start at random at power-up (802.15.4's macDSN), one per TX
+//!   request. Alone (not on a medium) an ideal receiver acknowledges every such packet: its
+//!   ACK ends 544 µs after the packet. `EC` and `EA` answer their counts and reset when set
+//!   (to 0). The medium's log shows every transmission apart, retries ([`MacFields::attempt`])
+//!   and ACKs ([`FrameKind::Ack`]) included.
 //! * **Encryption** (`EE`=1 with the key `KY`; both take effect at once, like `MY`): the S1's
 //!   AES-128 encryption without integrity check (802.15.4 security level 4). A packet sent with
 //!   it carries [`Security::Encrypted`] (the sender's key, serial and frame counter) beside its
@@ -89,8 +134,13 @@
 //!
 //! # Not modelled
 //!
-//! ACKs, retries and NO_ACK/CCA-failure statuses (every transmission succeeds until a medium
-//! says otherwise), sleep, I/O sampling and remote AT (0x17 frames are counted as unsupported),
+//! Of the MAC: the interframe spacing (SIFS/LIFS) after a frame before the radio's next; a CCA
+//! compares each packet on air with `CA` alone (energies of overlapping packets are not added
+//! up); a CCA failure ends a TX request unless `RR` retries are left (Digi's manuals for later
+//! 802.15.4 modules retry one three more times, and the S1's mentions CCA failure retries in its
+//! Digi mode without saying how many); newer modules' repeated broadcasts with `RR` > 0; the
+//! Digi header's bytes beyond what the best-case figure implies. Also not modelled:
+//! sleep, I/O sampling and remote AT (0x17 frames are counted as unsupported),
 //! association, `ND`/`AS`, non-standard `BD` rates, hardware flow control, framing error flags
 //! on the AVR side (simavr has none: garbage arrives as ordinary bytes). Of encryption: the
 //! cipher itself (a hash stands in for AES, so the garbled bytes are not a real radio's), and,
@@ -110,8 +160,10 @@ use crate::avr::{ms_to_cycles, Avr, State, UartByte};
 use crate::radio::{LineSplitter, SeenFrame, TextLine};
 
 pub use self::core::{
-    byte_cycles, encode_frame, time_on_air_ms, Address, Csma, RxPacket, Security, Transmission,
-    XBeeConfig, XBeeCore, XBeeStats, BIT_TIMES_PER_BYTE, SECURITY_HEADER_BYTES,
+    byte_cycles, encode_frame, frame_air_cycles, time_on_air_ms, Address, Cca, Csma, FrameKind,
+    MacFields, RxPacket, Security, Transmission, XBeeConfig, XBeeCore, XBeeStats, ACK_AIR_US,
+    ACK_WAIT_US, BACKOFF_PERIOD_US, BIT_TIMES_PER_BYTE, CCA_US, FRAME_OVERHEAD_BYTES, MAX_BE,
+    MAX_CSMA_BACKOFFS, MAX_FRAME_RETRIES, SECURITY_HEADER_BYTES, TURNAROUND_US,
 };
 pub use self::regs::{baud_of_bd, Model, Registers, BAUD_RATES, KEY_LEN};
 

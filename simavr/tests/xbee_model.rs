@@ -9,8 +9,8 @@ use std::rc::Rc;
 
 use embedded_hal_nb::serial::{ErrorKind, ErrorType, Read, Write};
 use simavr::xbee::{
-    byte_cycles, encode_frame, time_on_air_ms, Address, Csma, Model, RxPacket, Security, XBee,
-    XBeeConfig, XBeeCore, SECURITY_HEADER_BYTES,
+    byte_cycles, encode_frame, time_on_air_ms, Address, Csma, FrameKind, Model, RxPacket, Security,
+    XBee, XBeeConfig, XBeeCore, ACK_AIR_US, CCA_US, SECURITY_HEADER_BYTES, TURNAROUND_US,
 };
 use simavr::{ms_to_cycles, Avr, UartByte};
 use xbee_api::driver::{BringUp, BringUpConfig, Clock, Encryption, Radio, SetBaud};
@@ -18,6 +18,15 @@ use xbee_api::{Decoder, Mode};
 
 fn ms(x: f64) -> u64 {
     ms_to_cycles(x)
+}
+
+fn us(x: u64) -> u64 {
+    ms_to_cycles(x as f64 / 1000.0)
+}
+
+/// From a TX request to its packet on air, the channel clear: a CCA and the turnaround.
+fn lead() -> u64 {
+    us(CCA_US + TURNAROUND_US)
 }
 
 /// A host on the model's UART: sends bytes back to back at its own rate, collects output.
@@ -355,8 +364,10 @@ fn bd_change_switches_the_uart_after_the_response() {
 
 // ---- transmit ----
 
+/// A unicast asks for an ACK; alone, the radio gets it from an ideal receiver: the status
+/// follows the ACK, a turnaround and the ACK's time on air after the packet.
 #[test]
-fn tx16_goes_on_air_and_tx_status_follows_after_the_time_on_air() {
+fn tx16_goes_on_air_and_tx_status_follows_its_ack() {
     for mode in MODES {
         let mut h = Host::new(XBeeConfig {
             my: 0x0042,
@@ -379,9 +390,10 @@ fn tx16_goes_on_air_and_tx_status_follows_after_the_time_on_air() {
         assert_eq!(toa, ms(1.248));
         assert_eq!(
             out[0].cycle,
-            end + toa,
-            "status when the packet is off the air"
+            end + toa + us(TURNAROUND_US + ACK_AIR_US),
+            "status when the ACK is in"
         );
+        assert_eq!(h.core.stats().acks_received, 1);
         let txs = h.core.take_transmissions();
         assert_eq!(txs.len(), 1);
         let tx = &txs[0];
@@ -391,8 +403,11 @@ fn tx16_goes_on_air_and_tx_status_follows_after_the_time_on_air() {
         assert_eq!(tx.source16(), Some(0x0042));
         assert_eq!(tx.dest, Address::Short(0x1234));
         assert_eq!(tx.payload, payload);
-        assert_eq!((tx.start_cycle, tx.end_cycle), (end, end + toa));
+        assert_eq!((tx.start_cycle, tx.end_cycle), (end + lead(), end + toa));
         assert_eq!(tx.frame_id, 0x33);
+        assert_eq!(tx.mac.kind, FrameKind::Data);
+        assert!(tx.mac.ack_request);
+        assert_eq!(tx.mac.attempt, 0);
     }
 }
 
@@ -426,11 +441,13 @@ fn tx_frame_id_zero_tx64_queueing_and_oversize_payloads() {
     assert_eq!(h.core.stats().oversize_tx, 1);
 }
 
+/// Alone every CCA is clear: the first backoff, 0…2^RN − 1 periods, is the only delay.
 #[test]
 fn csma_backoff_delays_within_eight_backoff_periods_reproducibly() {
-    let run = |seed| {
+    let run = |seed, rn| {
         let mut h = Host::new(XBeeConfig {
             csma: Csma::Random { seed },
+            rn,
             ..XBeeConfig::api(2)
         });
         let mut delays = Vec::new();
@@ -438,14 +455,17 @@ fn csma_backoff_delays_within_eight_backoff_periods_reproducibly() {
             let end = h.frame(&[0x01, i + 1, 0xFF, 0xFF, 0x00, i], Mode::Escaped);
             h.run_ms(20.0);
             let tx = h.core.take_transmissions().pop().unwrap();
-            delays.push(tx.start_cycle - end);
+            delays.push(tx.start_cycle - end - lead());
         }
         delays
     };
-    let a = run(7);
-    assert_eq!(a, run(7));
+    let a = run(7, 3);
+    assert_eq!(a, run(7, 3));
+    assert_ne!(a, run(8, 3));
     assert!(a.iter().all(|&d| d <= ms(7.0 * 0.32) && d % ms(0.32) == 0));
     assert!(a.iter().any(|&d| d > 0));
+    // The factory RN = 0: no backoff before the first CCA.
+    assert!(run(7, 0).iter().all(|&d| d == 0));
 }
 
 // ---- receive ----
@@ -523,7 +543,7 @@ fn transparent_mode_sends_after_ro_and_passes_payloads_bare() {
     assert_eq!(txs[0].dest, Address::Short(0));
     assert_eq!(
         txs[0].start_cycle,
-        end + 3 * byte_cycles(57_600),
+        end + 3 * byte_cycles(57_600) + lead(),
         "RO = 3 characters"
     );
     h.core
@@ -958,7 +978,7 @@ fn encryption_limits_payloads_to_95_bytes_and_adds_5_bytes_of_air_time() {
         assert_eq!(tx.payload.len(), limit);
         // Either way the packet is 100 bytes long on air: 95 of payload + 5 of header.
         let toa = ms(time_on_air_ms(100));
-        assert_eq!((tx.start_cycle, tx.end_cycle), (end, end + toa));
+        assert_eq!((tx.start_cycle, tx.end_cycle), (end + lead(), end + toa));
         assert_eq!(out[0].cycle, end + toa, "TX status when off the air");
         match key {
             None => assert_eq!(*security, Security::Clear),
@@ -982,7 +1002,7 @@ fn encryption_limits_payloads_to_95_bytes_and_adds_5_bytes_of_air_time() {
     assert_eq!(txs[0].0.end_cycle - end, ms(1.408));
     assert_eq!(
         txs[0].0.end_cycle - txs[0].0.start_cycle,
-        ms(time_on_air_ms(15))
+        ms(time_on_air_ms(15)) - lead()
     );
     // The frame counter numbers the encrypted packets.
     let counters: Vec<_> = txs
@@ -1398,7 +1418,7 @@ fn avr_firmware_gets_modem_status_at_response_and_tx_status() {
     assert_eq!(txs.len(), 1);
     assert_eq!(txs[0].payload, b"ok");
     assert_eq!(txs[0].source, Address::Short(0x0007));
-    assert_eq!(txs[0].start_cycle, f[1].end_cycle);
+    assert_eq!(txs[0].start_cycle, f[1].end_cycle + lead());
     let s = radio.stats();
     assert_eq!((s.frames_ok, s.checksum_errors), (2, 0));
     // "boot\n" went out before the radio was up; the three "rx …" lines reach it.

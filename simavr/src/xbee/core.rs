@@ -1,12 +1,19 @@
 //! [`XBeeCore`]: the sans-IO model of one XBee 802.15.4 radio. Bytes from the host go in with
 //! their cycle; bytes to the host, transmissions and counters come out. See the parent module
-//! for what is modelled.
+//! for what is modelled. Its MAC (channel access, acknowledgements, retries) is in the submodule `mac`.
+
+mod mac;
 
 use xbee_api::{
     encode_raw, AtStatus, DecodeError, Decoder, Frame, Mode, ModemStatus, Rssi, TxStatus,
     MAX_ENCODED, MAX_RF_PAYLOAD, MAX_RF_PAYLOAD_ENCRYPTED, START,
 };
 
+pub use self::mac::{
+    frame_air_cycles, Cca, FrameKind, MacFields, ACK_AIR_US, ACK_WAIT_US, BACKOFF_PERIOD_US,
+    CCA_US, FRAME_OVERHEAD_BYTES, MAX_BE, MAX_CSMA_BACKOFFS, MAX_FRAME_RETRIES, TURNAROUND_US,
+};
+use self::mac::{MacLayer, MacTimer};
 use super::regs::{self, baud_of_bd, Model, Registers, KEY_LEN, NI_MAX, READ_ONLY};
 use crate::avr::{ms_to_cycles, UartByte, F_CPU};
 use crate::medium::splitmix;
@@ -24,8 +31,10 @@ pub fn byte_cycles(baud: u32) -> u64 {
     (BIT_TIMES_PER_BYTE * u64::from(F_CPU) + baud / 2) / baud
 }
 
-/// Best-case time on air of a packet with a `k`-byte RF payload (`docs/design.md`, section 2):
-/// 0.928 + 0.032·k ms. An encrypted packet is on air for `k` +
+/// Best-case time from a TX request to its packet's end, with a `k`-byte RF payload
+/// (`docs/design.md`, section 2): 0.928 + 0.032·k ms, the XBee's figure. That is one clear
+/// channel assessment ([`CCA_US`]), the turnaround to transmit ([`TURNAROUND_US`]) and the
+/// frame on air ([`frame_air_cycles`]: 0.608 + 0.032·k ms). An encrypted packet counts `k` +
 /// [`SECURITY_HEADER_BYTES`] bytes.
 pub fn time_on_air_ms(k: usize) -> f64 {
     0.928 + 0.032 * k as f64
@@ -33,17 +42,21 @@ pub fn time_on_air_ms(k: usize) -> f64 {
 
 pub use xbee_api::SECURITY_HEADER_BYTES;
 
-/// One 802.15.4 backoff period (20 symbols of 16 µs).
-const BACKOFF_MS: f64 = 0.32;
-
-/// Channel access before a transmission.
+/// Channel access before each transmission (see the parent module's docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Csma {
-    /// Best case: the packet goes on air right away (the channel is always clear).
+    /// Best case: no backoff and no clear channel assessment. Every attempt goes on air after
+    /// the time a CCA and the turnaround take ([`CCA_US`] + [`TURNAROUND_US`]), whatever is on
+    /// the channel: the radio never defers and never reports a CCA failure. Acknowledgements
+    /// and retries are modelled all the same.
     #[default]
     Off,
-    /// Unslotted CSMA-CA's first backoff: a random 0…7 backoff periods (0…2.24 ms) before the
-    /// packet, from a seeded generator (reproducible).
+    /// The XBee's channel access, IEEE 802.15.4-2003's unslotted CSMA-CA: a random backoff of
+    /// 0…2^BE − 1 periods ([`BACKOFF_PERIOD_US`]), BE starting at `RN`, then a CCA; busy, BE
+    /// grows by one (up to [`MAX_BE`]) and it backs off again, up to [`MAX_CSMA_BACKOFFS`]
+    /// times, after which the attempt fails (TX status 0x02). Backoffs come from a generator
+    /// seeded with `seed` (reproducible). On a medium ([`XBeeCore::set_on_medium`]) the
+    /// medium judges each CCA against `CA`; alone, every CCA finds the channel clear.
     Random {
         /// Seed of the backoff generator.
         seed: u64,
@@ -80,6 +93,15 @@ pub struct XBeeConfig {
     pub ee: bool,
     /// `KY`: the AES-128 key.
     pub ky: [u8; KEY_LEN],
+    /// `RN`: the minimum backoff exponent of the CSMA-CA (factory 0: no backoff before the
+    /// first CCA).
+    pub rn: u8,
+    /// `CA`: the CCA threshold, −dBm (factory 0x2C: −44 dBm).
+    pub ca: u8,
+    /// `RR`: XBee retries on top of the MAC's (factory 0).
+    pub rr: u8,
+    /// `MM`: MAC mode (factory 0: Digi mode, with ACKs and duplicate detection).
+    pub mm: u8,
     /// `VR`, firmware version.
     pub vr: u16,
     /// `HV`, hardware version.
@@ -112,6 +134,10 @@ impl Default for XBeeConfig {
             ni: String::new(),
             ee: false,
             ky: [0; KEY_LEN],
+            rn: 0,
+            ca: 0x2C,
+            rr: 0,
+            mm: 0,
             vr: 0x10EF,
             hv: 0x180B,
             power_up_ms: 5.0,
@@ -146,6 +172,10 @@ impl XBeeConfig {
         r.set_ni(self.ni.as_bytes());
         r.set_unchecked(*b"EE", u32::from(self.ee));
         r.set_ky(self.ky);
+        r.set_unchecked(*b"RN", u32::from(self.rn));
+        r.set_unchecked(*b"CA", u32::from(self.ca));
+        r.set_unchecked(*b"RR", u32::from(self.rr));
+        r.set_unchecked(*b"MM", u32::from(self.mm));
         r
     }
 }
@@ -212,30 +242,36 @@ fn keystream_xor(buf: &mut [u8], key: &[u8; KEY_LEN], source64: u64, counter: u3
     }
 }
 
-/// A packet the radio put on air, for a radio medium to deliver.
+/// A packet the radio put on air, for a radio medium to deliver: a data frame, or an ACK
+/// ([`MacFields::kind`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Transmission {
     /// `CH` it went out on.
     pub channel: u8,
     /// PAN id (`ID`) of the sender.
     pub pan_id: u16,
-    /// Source address: `MY`, or the 64-bit serial when `MY` is 0xFFFE/0xFFFF.
+    /// Source address: `MY`, or the 64-bit serial when `MY` is 0xFFFE/0xFFFF (an ACK carries no
+    /// address on air: this is the acknowledging radio's, for the log).
     pub source: Address,
     /// The sender's 64-bit serial (`SH:SL`).
     pub source64: u64,
-    /// Destination.
+    /// Destination (an ACK: the source of the frame it acknowledges, for the log).
     pub dest: Address,
     /// TX options (0x01 no ACK, 0x04 broadcast PAN).
     pub options: u8,
-    /// RF payload (≤ 100 bytes, ≤ 95 encrypted), as the sender's host gave it (the plaintext).
+    /// RF payload (≤ 100 bytes, ≤ 95 encrypted), as the sender's host gave it (the plaintext;
+    /// empty for an ACK).
     pub payload: Vec<u8>,
-    /// First cycle on air.
+    /// First cycle on air (after the CCA and the turnaround: [`time_on_air_ms`] counts those
+    /// from the request).
     pub start_cycle: u64,
-    /// Cycle it is off the air ([`time_on_air_ms`] after the start, of the payload and, when
-    /// encrypted, [`SECURITY_HEADER_BYTES`]).
+    /// Cycle it is off the air: [`frame_air_cycles`] after the start, of the payload and, when
+    /// encrypted, [`SECURITY_HEADER_BYTES`]; [`ACK_AIR_US`] for an ACK.
     pub end_cycle: u64,
     /// Frame id of the API request (0: none, or transparent mode).
     pub frame_id: u8,
+    /// What the MAC put in it: data or ACK, sequence number, ACK request, which attempt.
+    pub mac: MacFields,
 }
 
 impl Transmission {
@@ -325,15 +361,30 @@ pub struct XBeeStats {
     /// TX requests refused for a payload over [`XBeeCore::max_payload`] (100 bytes, 95 with
     /// encryption).
     pub oversize_tx: u32,
-    /// Packets put on air.
+    /// Data packets put on air (retries included; ACKs apart, in `acks_sent`).
     pub transmissions: u32,
+    /// Transmissions that repeated an unacknowledged packet (MAC and XBee retries).
+    pub retries: u32,
+    /// Clear channel assessments that found the channel busy.
+    pub cca_busy: u32,
+    /// Channel access failures: [`MAX_CSMA_BACKOFFS`] + 1 busy CCAs in a row (as `EC` counts
+    /// them).
+    pub cca_failures: u32,
+    /// Unicasts that got no ACK after every retry (as `EA` counts them).
+    pub ack_failures: u32,
+    /// ACKs this radio sent.
+    pub acks_sent: u32,
+    /// ACKs this radio took for its own packets.
+    pub acks_received: u32,
     /// Packets passed to the host.
     pub rx_delivered: u32,
     /// Packets not for this radio (other channel, PAN or address, or not powered up).
     pub rx_filtered: u32,
     /// Packets for this radio that it lost (arrived while it was transmitting, or in command
-    /// mode).
+    /// mode), ACKs it waited for among them.
     pub rx_lost: u32,
+    /// Retried packets it acknowledged again but did not pass on (duplicate detection).
+    pub rx_duplicates: u32,
     /// Packets for this radio that it did not pass on because its `EE` differs from the
     /// sender's (encrypted at one end only).
     pub encryption_mismatch: u32,
@@ -350,8 +401,19 @@ enum Event {
     Output(Vec<u8>),
     /// Switch the UART to a new rate.
     ApplyBaud(u32),
-    /// A transmission is off the air: TX status.
-    TxDone(u8),
+    /// A MAC timer of MAC phase generation `u64`.
+    Mac(MacTimer, u64),
+    /// A TX status frame for frame id `u8`.
+    TxStatus(u8, TxStatus),
+    /// An ACK arrives (its end).
+    AckIn {
+        /// The sequence number it acknowledges.
+        seq: u8,
+        /// Its channel.
+        channel: u8,
+        /// Its first cycle on air.
+        start: u64,
+    },
     /// `GT` after a command-sequence character: did the sequence complete?
     PlusCheck(u64),
     /// `CT` after the last command-mode command.
@@ -361,7 +423,20 @@ enum Event {
     /// `FR`: reset after the response.
     SoftReset,
     /// A packet arrives.
-    Deliver(RxPacket, Security),
+    Deliver(Box<Arrival>),
+}
+
+/// A data packet arriving at the radio.
+#[derive(Debug)]
+struct Arrival {
+    packet: RxPacket,
+    security: Security,
+    /// Its first cycle on air.
+    start: u64,
+    /// Its MAC sequence number.
+    seq: u8,
+    /// Whether it asks for an ACK.
+    ack_request: bool,
 }
 
 /// What an AT command answered: OK with a value (empty for sets), or an error.
@@ -539,9 +614,10 @@ pub struct XBeeCore {
     securities: Vec<Security>,
     /// Encrypted packets sent since power-up (the 802.15.4 frame counter).
     frame_counter: u32,
-    /// On-air intervals of recent transmissions (half duplex: no reception meanwhile).
+    /// Recent intervals the radio was switching to transmit or transmitting (half duplex: no
+    /// reception, and its own CCAs busy, meanwhile).
     on_air: Vec<(u64, u64)>,
-    radio_busy_until: u64,
+    mac: MacLayer,
     frames: Vec<SeenFrame>,
     frame_start: u64,
     tbuf: Vec<u8>,
@@ -560,9 +636,10 @@ impl XBeeCore {
     /// A radio powered up at cycle `at`.
     pub fn new_at(cfg: XBeeConfig, at: u64) -> Self {
         let persisted = cfg.registers();
+        // The radio's own stream (its serial), varied by the seed: never 0 (xorshift).
         let rng = match cfg.csma {
-            Csma::Random { seed } => seed | 1,
-            Csma::Off => 1,
+            Csma::Random { seed } => splitmix(seed ^ splitmix(cfg.sh_sl)) | 1,
+            Csma::Off => splitmix(cfg.sh_sl) | 1,
         };
         let mut me = XBeeCore {
             active: persisted.clone(),
@@ -592,7 +669,7 @@ impl XBeeCore {
             securities: Vec::new(),
             frame_counter: 0,
             on_air: Vec::new(),
-            radio_busy_until: at,
+            mac: MacLayer::default(),
             frames: Vec::new(),
             frame_start: at,
             tbuf: Vec::new(),
@@ -626,6 +703,8 @@ impl XBeeCore {
         self.held.clear();
         self.tbuf.clear();
         self.frame_counter = 0;
+        let dsn = self.next_rand() as u8;
+        self.mac.power_up(dsn);
         self.last_rx_end = self.now;
         self.uart_baud = self.active.baud();
         self.api = Mode::from_ap(self.active.ap());
@@ -794,10 +873,45 @@ impl XBeeCore {
     /// command mode, and its `EE` is the sender's: in API mode as an RX16/RX64 frame with the
     /// RSSI byte, in transparent mode as the bare payload. `DB` takes its RSSI. Encrypted with
     /// another key than this radio's `KY`, the payload comes out garbled (see
-    /// [`XBeeCore::stats`]: `rx_wrong_key`).
+    /// [`XBeeCore::stats`]: `rx_wrong_key`). It asks for no ACK (a medium hands over data
+    /// frames with [`XBeeCore::receive`]).
     pub fn deliver_secured(&mut self, packet: RxPacket, security: Security, at: u64) {
+        let air = frame_air_cycles(packet.payload.len() + security.overhead());
+        let arrival = Arrival {
+            packet,
+            security,
+            start: at.saturating_sub(air),
+            seq: 0,
+            ack_request: false,
+        };
         let at = at.max(self.now);
-        self.schedule(at, Event::Deliver(packet, security));
+        self.schedule(at, Event::Deliver(Box::new(arrival)));
+    }
+
+    /// A packet another radio put on air, `tx` (its cycles in this radio's time base), arriving
+    /// at its end at level `rssi_dbm`, sent as `security` says: what a medium hands over. A
+    /// data frame goes as [`XBeeCore::deliver_secured`] says, and when it asks for an ACK and
+    /// reaches this radio's host (or is a retry of one that did) the radio acknowledges it
+    /// ([`ACK_AIR_US`] on air, [`TURNAROUND_US`] after its end). An ACK ends this radio's wait
+    /// for one if it acknowledges the sequence number of the packet it waits for, on its
+    /// channel, and it was not transmitting meanwhile.
+    pub fn receive(&mut self, tx: &Transmission, rssi_dbm: i16, security: Security) {
+        let at = tx.end_cycle.max(self.now);
+        let ev = match tx.mac.kind {
+            FrameKind::Data => Event::Deliver(Box::new(Arrival {
+                packet: RxPacket::from_transmission(tx, rssi_dbm),
+                security,
+                start: tx.start_cycle,
+                seq: tx.mac.seq,
+                ack_request: tx.mac.ack_request,
+            })),
+            FrameKind::Ack => Event::AckIn {
+                seq: tx.mac.seq,
+                channel: tx.channel,
+                start: tx.start_cycle,
+            },
+        };
+        self.schedule(at, ev);
     }
 
     /// Runs the model's timers up to cycle `now`.
@@ -857,15 +971,18 @@ impl XBeeCore {
                 self.garble_in = Garbler::default();
                 self.garble_out = Garbler::default();
             }
-            Event::TxDone(frame_id) => {
+            Event::Mac(timer, gen) => self.mac_timer(timer, gen),
+            Event::TxStatus(frame_id, status) => {
                 if frame_id != 0 && self.api.is_some() {
-                    let f = self.encode(&Frame::TxStatus {
-                        frame_id,
-                        status: TxStatus::SUCCESS,
-                    });
+                    let f = self.encode(&Frame::TxStatus { frame_id, status });
                     self.send_now(&f);
                 }
             }
+            Event::AckIn {
+                seq,
+                channel,
+                start,
+            } => self.ack_in(seq, channel, start),
             Event::PlusCheck(gen) => {
                 if gen != self.activity {
                     return;
@@ -899,7 +1016,7 @@ impl XBeeCore {
                 }
             }
             Event::SoftReset => self.power_up(self.now, ModemStatus::WATCHDOG_RESET),
-            Event::Deliver(p, security) => self.arrive(p, security),
+            Event::Deliver(a) => self.arrive(*a),
         }
     }
 
@@ -1083,10 +1200,6 @@ impl XBeeCore {
     }
 
     fn transmit(&mut self, t: u64, frame_id: u8, dest: Address, options: u8, payload: Vec<u8>) {
-        let backoff = match self.cfg.csma {
-            Csma::Off => 0,
-            Csma::Random { .. } => ms_to_cycles(BACKOFF_MS * (self.next_rand() % 8) as f64),
-        };
         let security = if self.active.ee() {
             let counter = self.frame_counter;
             self.frame_counter = counter.wrapping_add(1);
@@ -1098,33 +1211,17 @@ impl XBeeCore {
         } else {
             Security::Clear
         };
-        let start = (t + backoff).max(self.radio_busy_until);
-        let end = start + ms_to_cycles(time_on_air_ms(payload.len() + security.overhead()));
-        self.radio_busy_until = end;
-        self.on_air.retain(|&(_, e)| e + ms_to_cycles(50.0) > t);
-        self.on_air.push((start, end));
+        self.mac_request(t, frame_id, dest, options, payload, security);
+    }
+
+    /// This radio's address as a packet's source: `MY`, or the 64-bit serial when `MY` is
+    /// 0xFFFE/0xFFFF.
+    fn source_address(&self) -> Address {
         let my = self.active.my();
-        let source = if my >= 0xFFFE {
+        if my >= 0xFFFE {
             Address::Long(self.cfg.sh_sl)
         } else {
             Address::Short(my)
-        };
-        self.transmissions.push(Transmission {
-            channel: self.channel,
-            pan_id: self.active.id(),
-            source,
-            source64: self.cfg.sh_sl,
-            dest,
-            options,
-            payload,
-            start_cycle: start,
-            end_cycle: end,
-            frame_id,
-        });
-        self.securities.push(security);
-        self.stats.transmissions += 1;
-        if self.api.is_some() && frame_id != 0 {
-            self.schedule(end, Event::TxDone(frame_id));
         }
     }
 
@@ -1137,7 +1234,14 @@ impl XBeeCore {
         x
     }
 
-    fn arrive(&mut self, mut p: RxPacket, security: Security) {
+    fn arrive(&mut self, a: Arrival) {
+        let Arrival {
+            packet: mut p,
+            security,
+            start,
+            seq,
+            ack_request,
+        } = a;
         let my = self.active.my();
         let for_me = match p.dest {
             Address::Short(d) => d == 0xFFFF || (d == my && my < 0xFFFE),
@@ -1148,8 +1252,6 @@ impl XBeeCore {
             self.stats.rx_filtered += 1;
             return;
         }
-        let toa = ms_to_cycles(time_on_air_ms(p.payload.len() + security.overhead()));
-        let start = self.now.saturating_sub(toa);
         let overlaps = self.on_air.iter().any(|&(s, e)| s < self.now && e > start);
         if overlaps || self.cmd_line.is_some() {
             self.stats.rx_lost += 1;
@@ -1173,6 +1275,13 @@ impl XBeeCore {
             // Encrypted at one end only: the radio passes nothing on.
             _ => {
                 self.stats.encryption_mismatch += 1;
+                return;
+            }
+        }
+        if ack_request && !p.dest.is_broadcast() {
+            self.send_ack(p.source, seq);
+            if self.duplicate(p.source, seq) {
+                self.stats.rx_duplicates += 1;
                 return;
             }
         }
@@ -1352,6 +1461,8 @@ impl XBeeCore {
             b"VR" => u64::from(self.cfg.vr),
             b"HV" => u64::from(self.cfg.hv),
             b"DB" => u64::from(self.db),
+            b"EC" => u64::from(self.mac.ec),
+            b"EA" => u64::from(self.mac.ea),
             _ => 0,
         };
         Ok(AtValue::Num(v, width))
@@ -1371,6 +1482,13 @@ impl XBeeCore {
                 .key()
                 .map(|k| k.to_vec())
                 .ok_or(AtStatus::INVALID_PARAMETER);
+        }
+        if matches!(&cmd, b"EC" | b"EA") {
+            // The failure counters: set (to 0) to reset.
+            return match param.number() {
+                Some(v) if v <= 0xFFFF => Ok(v.to_be_bytes().to_vec()),
+                _ => Err(AtStatus::INVALID_PARAMETER),
+            };
         }
         if READ_ONLY.iter().any(|r| r.0 == cmd) {
             return Err(AtStatus::ERROR);
@@ -1397,6 +1515,13 @@ impl XBeeCore {
             let mut key = [0; KEY_LEN];
             key.copy_from_slice(v);
             self.active.set_ky(key);
+        } else if matches!(&cmd, b"EC" | b"EA") {
+            let n = v.iter().fold(0u32, |a, &b| (a << 8) | u32::from(b)) as u16;
+            if cmd == *b"EC" {
+                self.mac.ec = n;
+            } else {
+                self.mac.ea = n;
+            }
         } else {
             let n = v.iter().fold(0u32, |a, &b| (a << 8) | u32::from(b));
             self.active.set_unchecked(cmd, n);

@@ -227,9 +227,22 @@ impl Registers {
     pub fn cc(&self) -> u8 {
         self.num(b"CC") as u8
     }
-    /// `MM`: MAC mode.
+    /// `MM`: MAC mode (0 Digi mode: 802.15.4 with the XBee's header, ACKs and duplicate
+    /// detection; 1 802.15.4 without ACKs; 2 802.15.4 with ACKs; 3 Digi mode without ACKs).
     pub fn mm(&self) -> u8 {
         self.num(b"MM") as u8
+    }
+    /// `RN`: the CSMA-CA's minimum backoff exponent (802.15.4's macMinBE), 0…3.
+    pub fn rn(&self) -> u8 {
+        self.num(b"RN") as u8
+    }
+    /// `RR`: XBee retries of an unacknowledged unicast, on top of the MAC's three, 0…6.
+    pub fn rr(&self) -> u8 {
+        self.num(b"RR") as u8
+    }
+    /// `CA`: the clear channel assessment's threshold, −dBm.
+    pub fn ca(&self) -> u8 {
+        self.num(b"CA") as u8
     }
     /// `CE`: coordinator enable.
     pub fn ce(&self) -> u8 {
