@@ -29,6 +29,7 @@ use loc_proto::sink_line::{Estimator, RawReport, SinkLine, SinkOutput, FLAG_FITT
 use loc_proto::Role;
 use simavr::medium::{Medium, NodeRadio};
 use simavr::network::{Network, NetworkConfig, NodeId, NodeSpec, Outcome, TxRecord};
+use simavr::xbee::Csma;
 use simavr::{cycles_to_ms, ms_to_cycles};
 use sink_fw::{BadFrame, Sink};
 use xbee_api::{Decoder, Frame, Mode};
@@ -280,7 +281,8 @@ pub struct ScenarioNodes {
 /// Adds `s`'s anchors, its agent (id 1) at its first stop and its sink to `net`, every
 /// firmware node with the config `hoploc provision` would store; radios placed at `origin` +
 /// the scenario's positions (several scenarios on disjoint channels can share one medium: the
-/// nodes' configs keep the room's own coordinates). Serial numbers from `serial_base`.
+/// nodes' configs keep the room's own coordinates), with the XBee's CSMA-CA (backoffs seeded
+/// from the scenario's seed and each radio's serial). Serial numbers from `serial_base`.
 pub fn add_scenario(
     net: &mut Network,
     s: &Scenario,
@@ -302,6 +304,7 @@ pub fn add_scenario(
         );
         spec.eeprom = eeprom(s, Role::Anchor, i as u8 + 1, cm(a.position))?;
         spec.xbee.sh_sl = serial_base + i as u64;
+        spec.xbee.csma = Csma::Random { seed: s.seed };
         let elf = firmware::elf(fw_dir, Role::Anchor);
         anchors.push(
             net.add_node(&elf, spec)
@@ -312,6 +315,7 @@ pub fn add_scenario(
     // The sink stands in the middle of the room; the room's size is its config position.
     let mut spec = NodeSpec::new("sink1", at([s.area.width_m / 2.0, s.area.height_m / 2.0]));
     spec.xbee.sh_sl = serial_base + 20;
+    spec.xbee.csma = Csma::Random { seed: s.seed };
     let sink = match sink {
         SinkSource::Host => {
             spec.xbee.my = Role::Sink.address(1);
@@ -341,7 +345,8 @@ pub fn add_scenario(
 }
 
 /// Adds agent `id` of `s` (report sub-slot `id`) at the first stop of `s`'s path (+ `origin`),
-/// running `agent-fw` with its config; serial `serial_base + 10 + id − 1`.
+/// running `agent-fw` with its config; serial `serial_base + 10 + id − 1`, CSMA-CA as
+/// [`add_scenario`]'s radios.
 pub fn add_agent(
     net: &mut Network,
     s: &Scenario,
@@ -361,6 +366,7 @@ pub fn add_agent(
     );
     spec.eeprom = eeprom(s, Role::Agent, id, Position { x: 0, y: 0 })?;
     spec.xbee.sh_sl = serial_base + 10 + u64::from(id.max(1) - 1);
+    spec.xbee.csma = Csma::Random { seed: s.seed };
     let elf = firmware::elf(fw_dir, Role::Agent);
     net.add_node(&elf, spec)
         .map_err(|e| format!("{}: {e}", elf.display()))
@@ -656,10 +662,14 @@ pub struct Traffic {
     pub beacons_collided: usize,
     /// Beacons with no record for the agent (agent powered off).
     pub beacons_unheard: usize,
-    /// Reports the agent put on air.
+    /// Reports the agent put on air (a report its radio sent again for want of an ACK counts
+    /// once).
     pub reports: usize,
-    /// Of these, the ones the sink's radio passed on.
+    /// Of these, the ones the sink's radio passed on (at whichever attempt).
     pub reports_delivered: usize,
+    /// Transmissions of reports beyond each one's first (retries: no ACK from the sink's
+    /// radio).
+    pub report_retries: usize,
     /// Packets of any kind, from any node, that collided.
     pub collisions: usize,
     /// Superframes whose every slot was checked (the window's whole superframes: those between
@@ -747,7 +757,11 @@ pub fn traffic(
                 });
             }
         } else if r.from == agent && Report::decode(&r.tx.payload).is_ok() {
-            t.reports += 1;
+            if r.tx.mac.attempt == 0 {
+                t.reports += 1;
+            } else {
+                t.report_retries += 1;
+            }
             if outcome(r, sink) == Some(Outcome::Delivered) {
                 t.reports_delivered += 1;
             }
@@ -952,6 +966,12 @@ mod tests {
             };
             let at = t0 + f64::from(s.report_at_us(1).unwrap());
             log.push(record(AGENT, at, report(seq), None, sink));
+            // Superframe 1's report again: its ACK was lost, the sink's radio had it already.
+            if seq == 1 {
+                let mut retry = record(AGENT, at + 3000.0, report(seq), None, Outcome::Duplicate);
+                retry.tx.mac.attempt = 1;
+                log.push(retry);
+            }
         }
         // Another testbed's collided packet: not ours.
         let mut other = record(
@@ -980,6 +1000,7 @@ mod tests {
         );
         assert_eq!((t.beacons_too_weak, t.beacons_unheard), (0, 0));
         assert_eq!((t.reports, t.reports_delivered), (5, 4));
+        assert_eq!(t.report_retries, 1, "the retry is no other report");
         assert_eq!(
             t.collisions, 1,
             "the other testbed's collision is not counted"

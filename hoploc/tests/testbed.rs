@@ -257,6 +257,7 @@ fn two_testbeds_on_disjoint_channels_share_a_medium() {
             0,
             "{t:?}"
         );
+        assert_eq!(t.report_retries, 0, "{t:?}");
         totals.push((t.beacons + t.reports, t.reports));
     }
     // Every packet after the warm-up is one of the two testbeds', and each report's sink
