@@ -441,12 +441,15 @@ pub fn run(args: &Args) -> Result<(), String> {
         checksum_errors,
         foreign,
         fixes,
+        repeats,
+        failed,
+        ..
     }) = crate::testbed::last_status(&obs)
     {
         summary += &format!(
             "sink firmware's last status line (at {uptime_s} s): {frames} frames, {reports} \
              reports, {drops} missing from the sequence, {checksum_errors} corrupt, {foreign} \
-             foreign, {fixes} fixes\n"
+             foreign, {fixes} fixes, {repeats} repeated, {failed} undelivered\n"
         );
     }
     summary += &format!(

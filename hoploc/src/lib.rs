@@ -4,6 +4,7 @@
 //! directly.
 
 pub mod demo;
+pub mod diagnose;
 pub mod firmware;
 pub mod fixes;
 pub mod footprint;

@@ -172,15 +172,20 @@ impl Monitor {
                     checksum_errors,
                     foreign,
                     fixes,
+                    repeats,
+                    failed,
                 },
             )) => {
                 self.counts.status += 1;
+                let warnings = crate::diagnose::status_warnings(self.last_status.as_ref(), &s);
                 self.last_status = Some(s);
                 rows.extend(self.flush());
                 rows.push(format!(
                     "status at {uptime_s} s: {frames} frames, {reports} reports, {drops} dropped, \
-                     {checksum_errors} corrupt, {foreign} foreign, {fixes} fixes"
+                     {checksum_errors} corrupt, {foreign} foreign, {fixes} fixes, {repeats} \
+                     repeated, {failed} undelivered"
                 ));
+                rows.extend(warnings);
             }
             Ok(SinkOutput::Report(_)) => self.counts.reports += 1,
             // The sink's boot and config lines (`hoploc sink boot`, …) are worth seeing.
@@ -395,11 +400,18 @@ mod tests {
             checksum_errors: 1,
             foreign: 17,
             fixes: 480,
+            repeats: 0,
+            failed: 0,
         }));
+        assert_eq!(rows.len(), 4, "{rows:?}");
         assert_eq!(
-            rows,
-            ["status at 61 s: 1203 frames, 240 reports, 3 dropped, 1 corrupt, 17 foreign, 480 fixes"]
+            rows[0],
+            "status at 61 s: 1203 frames, 240 reports, 3 dropped, 1 corrupt, 17 foreign, 480 \
+             fixes, 0 repeated, 0 undelivered"
         );
+        // The first status line: what its counters say since boot.
+        assert!(rows[1].contains("17 frames") && rows[2].contains("1 damaged"));
+        assert!(rows[3].contains("3 reports missing"));
         assert!(m.feed("random noise").is_empty());
         assert_eq!(
             m.counts,

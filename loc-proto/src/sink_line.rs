@@ -17,7 +17,18 @@
 //! |---|---|
 //! | `hoploc sink fix 2 417 mle 281 600 282 -4126 4 1 *66` | agent, sequence, estimator (`mle`: thesis MLE, `mmse`: windowed MMSE), x and y (cm), α × 100, P0 × 100 (dBm), anchors used, flags |
 //! | `hoploc sink nofix 2 418 2 *5F` | agent, sequence, usable anchors (fewer than 3) |
-//! | `hoploc sink status 61 1203 240 3 1 17 480 *DB` | uptime (s), frames, reports, drops, checksum errors, foreign frames, estimates |
+//! | `hoploc sink status 61 1203 240 3 1 17 480 0 2 *58` | uptime (s), frames, reports, drops, checksum errors, foreign frames, estimates, repeats, failed transmissions |
+//!
+//! The status counters, each since boot but the last: *frames* the sink's radio passed on;
+//! *reports* among them; *drops*, reports missing from an agent's sequence numbers; *checksum
+//! errors*, hoploc messages that failed their checks (CRC, length, values); *foreign*, frames
+//! that are no hoploc message (another device on the PAN; with a network key, also a sender
+//! with another key); *estimates*; *repeats*, reports that carried a sequence number of their
+//! agent's again (one of its last 16): two agents with one id, or a replay; *failed
+//! transmissions*, the reports the agents' radios said they could not deliver (the channel busy
+//! or no acknowledgement), as the agents' next reports tell. With the reports count standing
+//! still between two status lines (one every 10 s), that tells what stops fixes: see the
+//! README's "What goes wrong and what the nodes say".
 //! | `hoploc sink report B50202…7166 *20` | the report message as received, in upper-case hex ([`RawReport`]) |
 //!
 //! The whole `report` line of that example (agent 2, report 418, four anchors, channels 1 and 12):
@@ -102,12 +113,19 @@ pub enum SinkLine {
         foreign: u32,
         /// Estimates made.
         fixes: u32,
+        /// Reports whose sequence number their agent had sent already (one of its last 16).
+        repeats: u32,
+        /// Reports the agents' radios could not deliver, as their next reports said.
+        failed: u32,
     },
 }
 
-/// Longest line [`SinkLine::write`] produces, `\r\n` included (a status line of seven
+/// The fields of a `status` line.
+pub const STATUS_FIELDS: usize = 9;
+
+/// Longest line [`SinkLine::write`] produces, `\r\n` included (a status line of nine
 /// 10-digit counters).
-pub const MAX_SINK_LINE: usize = 101;
+pub const MAX_SINK_LINE: usize = 123;
 
 /// Why [`SinkLine::parse`] rejected a line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -163,12 +181,15 @@ pub fn crc8(bytes: impl IntoIterator<Item = u8>) -> u8 {
 /// uptime, then the counters): for a writer that keeps them in an array (the sink firmware: one
 /// loop, each read as it is written, no line in memory). The same bytes as
 /// [`SinkLine::write`] of that line.
-pub fn write_status<W: uWrite + ?Sized>(fields: &[u32; 7], out: &mut W) -> Result<(), W::Error> {
+pub fn write_status<W: uWrite + ?Sized>(
+    fields: &[u32; STATUS_FIELDS],
+    out: &mut W,
+) -> Result<(), W::Error> {
     write_line(out, true, &StatusFields(fields))
 }
 
 /// The `status` line of [`write_status`]'s fields, without its checksum.
-struct StatusFields<'a>(&'a [u32; 7]);
+struct StatusFields<'a>(&'a [u32; STATUS_FIELDS]);
 
 impl uDisplay for StatusFields<'_> {
     #[inline(always)]
@@ -236,18 +257,20 @@ impl uDisplay for SinkLine {
                 checksum_errors,
                 foreign,
                 fixes,
-            } => uwrite!(
-                f,
-                "{} {} {} {} {} {} {} {}",
-                head(Word::STATUS),
-                Dec(uptime_s),
-                Dec(frames),
-                Dec(reports),
-                Dec(drops),
-                Dec(checksum_errors),
-                Dec(foreign),
-                Dec(fixes)
-            ),
+                repeats,
+                failed,
+            } => StatusFields(&[
+                uptime_s,
+                frames,
+                reports,
+                drops,
+                checksum_errors,
+                foreign,
+                fixes,
+                repeats,
+                failed,
+            ])
+            .fmt(f),
         }
     }
 }
@@ -295,6 +318,8 @@ impl SinkLine {
                 checksum_errors: fields.num()?,
                 foreign: fields.num()?,
                 fixes: fields.num()?,
+                repeats: fields.num()?,
+                failed: fields.num()?,
             },
             _ => return Err(SinkLineError::UnknownKind),
         };

@@ -34,6 +34,8 @@ const STATUS: SinkLine = SinkLine::Status {
     checksum_errors: 1,
     foreign: 17,
     fixes: 480,
+    repeats: 0,
+    failed: 2,
 };
 
 #[test]
@@ -46,7 +48,7 @@ fn golden_lines() {
     assert_eq!(text(&NOFIX), "hoploc sink nofix 2 418 2 *5F\r\n");
     assert_eq!(
         text(&STATUS),
-        "hoploc sink status 61 1203 240 3 1 17 480 *DB\r\n"
+        "hoploc sink status 61 1203 240 3 1 17 480 0 2 *58\r\n"
     );
     for l in [FIX, NOFIX, STATUS] {
         assert_eq!(SinkLine::parse(&text(&l)), Ok(l));
@@ -69,6 +71,8 @@ fn the_longest_line_fits() {
         checksum_errors: u32::MAX,
         foreign: u32::MAX,
         fixes: u32::MAX,
+        repeats: u32::MAX,
+        failed: u32::MAX,
     };
     assert_eq!(text(&l).len(), MAX_SINK_LINE);
 }
@@ -197,7 +201,7 @@ fn any_line() -> impl Strategy<Value = SinkLine> {
             seq,
             usable
         }),
-        proptest::array::uniform7(any::<u32>()).prop_map(|v| SinkLine::Status {
+        proptest::array::uniform9(any::<u32>()).prop_map(|v| SinkLine::Status {
             uptime_s: v[0],
             frames: v[1],
             reports: v[2],
@@ -205,6 +209,8 @@ fn any_line() -> impl Strategy<Value = SinkLine> {
             checksum_errors: v[4],
             foreign: v[5],
             fixes: v[6],
+            repeats: v[7],
+            failed: v[8],
         }),
     ]
 }
@@ -383,10 +389,10 @@ fn line_body() -> impl Strategy<Value = String> {
             std::format!("fix {}", f.join(" "))
         }),
         fields(3).prop_map(|f| std::format!("nofix {}", f.join(" "))),
-        fields(7).prop_map(|f| std::format!("status {}", f.join(" "))),
+        fields(STATUS_FIELDS).prop_map(|f| std::format!("status {}", f.join(" "))),
         (
             "(fix|nofix|status)",
-            proptest::collection::vec(field_text(), 0..11)
+            proptest::collection::vec(field_text(), 0..14)
         )
             .prop_map(|(k, f)| std::format!("{k} {}", f.join(" "))),
     ]
