@@ -93,8 +93,8 @@ pub fn inspect_bytes(data: &[u8]) -> Result<ElfImage, ElfProblem> {
         what: what.to_string(),
         size,
     };
-    let header = elf::FileHeader32::<Endianness>::parse(data)
-        .map_err(|_| truncated("the ELF header"))?;
+    let header =
+        elf::FileHeader32::<Endianness>::parse(data).map_err(|_| truncated("the ELF header"))?;
     let endian = header.endian().map_err(|_| ElfProblem::NotElf32)?;
     let machine = header.e_machine(endian);
     if machine != elf::EM_AVR {
@@ -117,8 +117,8 @@ pub fn inspect_bytes(data: &[u8]) -> Result<ElfImage, ElfProblem> {
     if loadable == 0 {
         return Err(ElfProblem::NoProgram);
     }
-    let file = ElfFile32::<Endianness>::parse(data)
-        .map_err(|_| truncated("the section header table"))?;
+    let file =
+        ElfFile32::<Endianness>::parse(data).map_err(|_| truncated("the section header table"))?;
     let mut image = ElfImage::default();
     for section in file.sections() {
         let name = section.name().unwrap_or("?");
@@ -209,6 +209,9 @@ mod tests {
             size: 85,
         }
         .to_string();
-        assert!(msg.contains("segment 0") && msg.contains("85 bytes"), "{msg}");
+        assert!(
+            msg.contains("segment 0") && msg.contains("85 bytes"),
+            "{msg}"
+        );
     }
 }

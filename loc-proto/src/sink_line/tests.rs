@@ -486,7 +486,12 @@ fn sample_lines() -> std::vec::Vec<String> {
     use proptest::test_runner::TestRunner;
     let mut buf = [0; MAX_PAYLOAD];
     let n = sample_report().encode(&mut buf).unwrap();
-    let mut lines = std::vec![text(&FIX), text(&NOFIX), text(&STATUS), report_text(&buf[..n])];
+    let mut lines = std::vec![
+        text(&FIX),
+        text(&NOFIX),
+        text(&STATUS),
+        report_text(&buf[..n])
+    ];
     let mut runner = TestRunner::deterministic();
     for _ in 0..60 {
         lines.push(text(&any_line().new_tree(&mut runner).unwrap().current()));
@@ -531,7 +536,11 @@ fn serial_damage_is_never_believed() {
         let patterns: u32 = if k < 4 { 1 << 6 } else { 2 };
         for start in 0..bits {
             for len in 1..=16.min(bits - start) {
-                let inner = if len <= 2 { 1 } else { patterns.min(1 << (len - 2)) };
+                let inner = if len <= 2 {
+                    1
+                } else {
+                    patterns.min(1 << (len - 2))
+                };
                 for p in 0..inner {
                     let mut v = bytes.to_vec();
                     flip(&mut v, start);
@@ -543,7 +552,9 @@ fn serial_damage_is_never_believed() {
                             flip(&mut v, start + 1 + b);
                         }
                     }
-                    check(&v, &|| std::format!("burst at bit {start}, {len} bits, {p:b}"));
+                    check(&v, &|| {
+                        std::format!("burst at bit {start}, {len} bits, {p:b}")
+                    });
                 }
             }
         }
