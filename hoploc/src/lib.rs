@@ -3,11 +3,15 @@
 //! the simulation study ([`study`]) and the testbed's scenarios ([`scenario`], [`testbed`])
 //! directly.
 
+pub mod args;
+pub mod cli;
 pub mod demo;
 pub mod firmware;
 pub mod fixes;
 pub mod footprint;
+pub mod framing;
 pub mod monitor;
+pub mod out;
 pub mod provision;
 pub mod replay;
 pub mod report;

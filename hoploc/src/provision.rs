@@ -276,7 +276,7 @@ pub struct Args {
     #[arg(long, value_parser = parse_role)]
     pub role: Role,
     /// Node id: 1…N for an anchor, 1…255 for an agent or a sink.
-    #[arg(long)]
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..))]
     pub id: u8,
     /// Position x in cm (anchors; for a sink the room width, 0 = the anchors' bounding box).
     #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
@@ -285,17 +285,21 @@ pub struct Args {
     #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
     pub y: i16,
     /// Number of anchors N in the network (3…8).
-    #[arg(long, default_value_t = Config::DEFAULT.anchors)]
+    #[arg(long, default_value_t = Config::DEFAULT.anchors,
+          value_parser = clap::value_parser!(u8).range(3..=loc_proto::msg::MAX_ANCHORS as i64))]
     pub anchors: u8,
     /// TDMA slot length in ms (2…10000).
-    #[arg(long, default_value_t = Config::DEFAULT.slot_ms)]
+    #[arg(long, default_value_t = Config::DEFAULT.slot_ms,
+          value_parser = clap::value_parser!(u16)
+              .range(i64::from(config::MIN_SLOT_MS)..=i64::from(config::MAX_SLOT_MS)))]
     pub slot_ms: u16,
     /// Anchor channels in hop order, testbed channels 1…16 (channel n = 802.15.4 channel 10+n).
     /// Channel 1 does not exist on the XBee S1 Pro (2…13 only).
     #[arg(long, default_value = "1,12", value_parser = parse_channels)]
     pub channels: ChannelList,
     /// The agents' report channel to the sink (testbed channel 1…16).
-    #[arg(long, default_value_t = Config::DEFAULT.sink_channel)]
+    #[arg(long, default_value_t = Config::DEFAULT.sink_channel,
+          value_parser = clap::value_parser!(u8).range(1..=i64::from(loc_proto::msg::MAX_CHANNEL)))]
     pub sink_channel: u8,
     /// PAN id, decimal or 0x-hex (not 0xFFFF).
     #[arg(long, default_value = "0x3332", value_parser = parse_pan)]
@@ -364,8 +368,9 @@ pub fn run(args: &Args) -> Result<(), ProvisionError> {
         .map_err(|e| ProvisionError::Io(io::Error::other(format!("{}: {e}", args.port))))?;
     eprintln!("waiting for the node to boot on {}...", args.port);
     drive(&mut port, &mut prov, BOOT_TIMEOUT, REPLY_TIMEOUT)?;
-    println!("provisioned: {}", describe(&config));
-    Ok(())
+    crate::out::Out::stdout()
+        .line(format_args!("provisioned: {}", describe(&config)))
+        .map_err(|e| ProvisionError::Io(io::Error::other(e)))
 }
 
 #[cfg(test)]
