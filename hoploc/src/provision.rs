@@ -15,7 +15,7 @@ use std::io::{self, Read, Write};
 use std::time::{Duration, Instant};
 
 use loc_proto::config::{self, Config, WRONG_ROLE};
-use loc_proto::line::BootLine;
+use loc_proto::line::{BootLine, MAX_BOOT_LINE};
 use loc_proto::msg::{ChannelList, Position};
 use loc_proto::provision::{encode, Reply, MAX_FRAME, REPLY_LEN, WRITE_FAILED};
 use loc_proto::Role;
@@ -181,6 +181,11 @@ impl Provisioner {
                 Phase::Done => {}
                 Phase::AwaitBoot => {
                     if b != b'\n' {
+                        // A line longer than any boot line is noise: only its end is kept, so
+                        // bytes that never end a line cannot grow the memory.
+                        if self.pending.len() >= MAX_BOOT_LINE {
+                            self.pending.remove(0);
+                        }
                         self.pending.push(b);
                         continue;
                     }
@@ -397,6 +402,18 @@ mod tests {
         assert!(p.result().is_none());
         p.receive(b"A\x01hoploc anchor provisioned\r\n");
         assert!(matches!(p.take_result(), Some(Ok(()))));
+    }
+
+    #[test]
+    fn a_flood_without_newlines_keeps_little_and_the_boot_line_still_counts() {
+        let mut p = Provisioner::new(anchor2()).unwrap();
+        for _ in 0..1000 {
+            assert_eq!(p.receive(&[b'x'; 1000]), None);
+            assert!(p.pending.len() <= MAX_BOOT_LINE);
+        }
+        // The noise ends the line before the boot line; the boot line after it is read.
+        assert_eq!(p.receive(b"\r\n"), None);
+        assert!(p.receive(b"hoploc anchor boot\r\n").is_some());
     }
 
     #[test]
