@@ -1,5 +1,8 @@
 //! The `hoploc` command line's arguments ([`Cli`]) and the dispatch to the commands: a library
 //! module, so tests parse command lines exactly as the binary does.
+//!
+//! The commands' doc comments are their `--help` text; its examples are shell lines, indented.
+#![allow(rustdoc::invalid_rust_codeblocks)]
 
 use std::path::PathBuf;
 

@@ -4,6 +4,9 @@
 //! directly.
 
 pub mod args;
+// The command line's doc comments are its `--help` text, with shell examples as indented lines:
+// not Rust, so not doctests.
+#[cfg(not(doctest))]
 pub mod cli;
 pub mod demo;
 pub mod firmware;

@@ -295,15 +295,15 @@ impl Replay {
     }
 }
 
-/// The words after `# truth`: `X Y` in metres (`Some(Some(p))`), `none` (`Some(None)`), or
-/// anything else (`None`).
+/// The words after `# truth`: `X Y` in metres, each within ±[`crate::args::MAX_METRES`]
+/// (`Some(Some(p))`), `none` (`Some(None)`), or anything else (`None`).
 fn parse_truth_words(rest: &str) -> Option<Option<Point>> {
     let w: Vec<&str> = rest.split_whitespace().collect();
     match w[..] {
         ["none"] => Some(None),
         [x, y] => {
-            let x = x.parse::<f64>().ok().filter(|v| v.is_finite())?;
-            let y = y.parse::<f64>().ok().filter(|v| v.is_finite())?;
+            let x = crate::args::coordinate_m(x).ok()?;
+            let y = crate::args::coordinate_m(y).ok()?;
             Some(Some(Point::new(x, y)))
         }
         _ => None,
