@@ -67,6 +67,9 @@ pub fn nak_meaning(code: u8) -> &'static str {
 impl fmt::Display for ProvisionError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            ProvisionError::InvalidConfig(loc_proto::Error::BadValue { field }) => {
+                write!(f, "invalid config: {}", field_range(*field))
+            }
             ProvisionError::InvalidConfig(e) => write!(f, "invalid config: {e}"),
             ProvisionError::Io(e) => write!(f, "serial port: {e}"),
             ProvisionError::NoBootLine => write!(
@@ -98,6 +101,26 @@ impl fmt::Display for ProvisionError {
 }
 
 impl std::error::Error for ProvisionError {}
+
+/// The option behind a config field the node would refuse, and the values it takes.
+pub fn field_range(field: loc_proto::error::Field) -> &'static str {
+    use loc_proto::error::Field;
+    match field {
+        Field::AnchorId | Field::NodeId => {
+            "--id: an anchor's id is 1…N (N = --anchors), an agent's or a sink's 1…255"
+        }
+        Field::AgentId => "--id: an agent's id is 1…255",
+        Field::Anchors => "--anchors: 3…8",
+        Field::Channel | Field::ChannelCount | Field::DuplicateChannel => {
+            "--channels: 1…4 distinct channels 1…16"
+        }
+        Field::SlotLength => "--slot-ms: 2…10000",
+        Field::SinkChannel => "--sink-channel: 1…16",
+        Field::PanId => "--pan: any PAN id but 0xFFFF",
+        Field::Role => "--role: anchor, agent or sink",
+        Field::RelayCount | Field::SelfRssi | Field::Flags => "a field out of range",
+    }
+}
 
 impl From<io::Error> for ProvisionError {
     fn from(e: io::Error) -> Self {
@@ -414,6 +437,12 @@ mod tests {
         // The noise ends the line before the boot line; the boot line after it is read.
         assert_eq!(p.receive(b"\r\n"), None);
         assert!(p.receive(b"hoploc anchor boot\r\n").is_some());
+    }
+
+    #[test]
+    fn an_invalid_config_names_the_option_and_its_range() {
+        let e = Provisioner::new(Config { id: 9, ..anchor2() }).unwrap_err();
+        assert!(e.to_string().contains("--id: an anchor's id is 1…N"), "{e}");
     }
 
     #[test]

@@ -21,8 +21,8 @@
 //!   the line cut): about one damaged line in 65 536 carries a matching CRC by chance, and the
 //!   parser's checks of the fields (canonical numbers, the kind's count, in range) refuse most
 //!   of those too. `random_damage_is_refused` damages 200 000 lines and prints how many were
-//!   believed (`cargo test -p loc-proto random_damage -- --nocapture`): none; a CRC-8 lets
-//!   about 1 in 5 000 of the same damaged lines through.
+//!   believed (`cargo test -p loc-proto random_damage -- --nocapture`): none (an 8-bit CRC lets
+//!   about 1 in 5 000 of the same damaged lines through).
 //!
 //! The format is [`SinkLine`]'s `ufmt::uDisplay` (the text before the checksum); its `write`
 //! and [`RawReport::write`] write a line onto any `ufmt::uWrite` through a [`Crc16Writer`],
