@@ -409,7 +409,7 @@ fn log_file(dir: &Path, n: u16) -> PathBuf {
 }
 
 #[test]
-fn a_closed_output_pipe_ends_replay_monitor_and_simulate_quietly() {
+fn a_closed_output_pipe_ends_replay_monitor_simulate_and_demo_quietly() {
     let dir = tmp("pipe");
     let log = log_file(&dir, 20_000);
     let log_s = log.to_str().unwrap();
@@ -429,6 +429,7 @@ fn a_closed_output_pipe_ends_replay_monitor_and_simulate_quietly() {
         ],
         None,
     );
+    with_closed_stdout(&["demo", "--boot", "--seconds", "3"], None);
 }
 
 // ------------------------------------------------------------------------------------------
