@@ -24,11 +24,28 @@ fn bin() -> &'static str {
     env!("CARGO_BIN_EXE_hoploc")
 }
 
-fn tmp(name: &str) -> PathBuf {
+/// A fresh temporary directory, removed with everything in it when dropped (a test's copies
+/// of the binary are large).
+struct TempDir(PathBuf);
+
+impl std::ops::Deref for TempDir {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn tmp(name: &str) -> TempDir {
     let d = std::env::temp_dir().join(format!("hoploc-robust-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
-    d
+    TempDir(d)
 }
 
 fn fix_line(seq: u16) -> String {
@@ -483,7 +500,7 @@ fn bad_firmware_files_are_named_with_their_problem() {
 /// A hoploc workspace of its own in a temporary directory: a `Cargo.toml` with `[workspace]`,
 /// room10 as `scenarios/short.toml` (its path cut to one short stop), the firmware in
 /// `target/avr-none/fw`; and a copy of the binary outside it.
-fn fake_workspace(name: &str) -> (PathBuf, PathBuf) {
+fn fake_workspace(name: &str) -> (TempDir, PathBuf, PathBuf) {
     let root = tmp(name);
     let ws = root.join("ws");
     std::fs::create_dir_all(ws.join("scenarios")).unwrap();
@@ -505,12 +522,12 @@ fn fake_workspace(name: &str) -> (PathBuf, PathBuf) {
     let exe = root.join("bin/hoploc");
     std::fs::create_dir_all(exe.parent().unwrap()).unwrap();
     std::fs::copy(bin(), &exe).unwrap();
-    (ws, exe)
+    (root, ws, exe)
 }
 
 #[test]
 fn the_binary_finds_scenarios_and_firmware_from_where_it_runs() {
-    let (ws, exe) = fake_workspace("where");
+    let (_root, ws, exe) = fake_workspace("where");
     // From a directory deep inside the workspace: its scenario, its firmware, its target/.
     let out = Command::new(&exe)
         .args([
@@ -555,7 +572,7 @@ fn the_binary_finds_scenarios_and_firmware_from_where_it_runs() {
 
 #[test]
 fn an_interrupted_demo_keeps_what_it_saw() {
-    let (ws, exe) = fake_workspace("killed");
+    let (_root, ws, exe) = fake_workspace("killed");
     let out_dir = ws.join("out");
     let mut child = Command::new(&exe)
         .args([
