@@ -20,14 +20,15 @@ pub struct Cli {
 }
 
 /// Where hoploc finds scenarios and firmware (the help's last paragraph).
-pub const WHERE: &str =
-    "Where hoploc looks: the hoploc workspace is the first directory, from the \
-current one upwards, with a Cargo.toml holding [workspace] and a scenarios/ directory. Scenarios: \
-a path given (anything with a / or ending in .toml), else scenarios/NAME.toml of the workspace, \
-else of the current directory. Firmware: --firmware-dir, else $HOPLOC_FIRMWARE_DIR, else \
-target/avr-none/fw of the workspace (built there with cargo fw if missing), else of the current \
-directory. The demo's files: --out-dir, else target/demo/SCENARIO of the workspace, else of the \
-current directory.";
+pub const WHERE: &str = "Where hoploc looks:
+  the hoploc workspace: the first directory, from the current one upwards, with a Cargo.toml
+    holding [workspace] and a scenarios/ directory;
+  scenarios: a path given (anything with a / or ending in .toml), else scenarios/NAME.toml of
+    the workspace, else of the current directory;
+  firmware: --firmware-dir, else $HOPLOC_FIRMWARE_DIR, else target/avr-none/fw of the workspace
+    (built there with cargo fw if missing), else of the current directory;
+  the demo's files: --out-dir, else target/demo/SCENARIO of the workspace, else of the current
+    directory.";
 
 /// The commands.
 #[derive(Subcommand, Debug)]
