@@ -12,10 +12,12 @@
 //!
 //! Ground truth comes from `--truth X,Y` or from `# truth X Y` lines in the log (metres; the demo
 //! writes them when the agent moves; `# truth none` clears it). Any other line — boot lines,
-//! comments, noise — is counted and skipped; a damaged sink line (bad checksum) is counted, never
-//! believed.
+//! comments, noise — is counted and skipped; a damaged sink line (bad checksum, or bytes that
+//! show damage: [`crate::framing::classify`]) is counted, never believed. The log is cut into
+//! lines as `hoploc monitor` cuts the port's bytes ([`crate::framing::Framer`]): a good line
+//! right after noise is found again, and a line too long is dropped and counted.
 
-use std::io::BufRead;
+use std::io::Read;
 use std::path::PathBuf;
 
 use loc_core::baselines::Baseline;
@@ -23,10 +25,12 @@ use loc_core::grid::{self, Search};
 use loc_core::params::{Bounds, FitMethod, OnlineParams, ParamMode};
 use loc_core::refine::{observations, Refinement};
 use loc_core::{Area, Measurements, PathLoss, Point, MAX_ANCHORS, MAX_CHANNELS};
-use loc_proto::line::BootLine;
 use loc_proto::msg::Report;
-use loc_proto::sink_line::{Estimator, SinkLine, SinkLineError, SinkOutput};
+use loc_proto::sink_line::{Estimator, SinkLine, SinkOutput};
 
+use crate::framing::{classify, Class, Framed, Framer};
+use crate::out::Out;
+use crate::outln;
 use crate::tally::Tally;
 
 /// σ of the MMSE estimates while no fit gave one, dB (the sink's default, the thesis' larger σ).
@@ -60,34 +64,23 @@ pub struct Args {
     pub out_dir: Option<PathBuf>,
 }
 
-/// `X,Y` in metres.
+/// `X,Y` in metres, each within ±[`crate::args::MAX_METRES`].
 pub fn parse_point(s: &str) -> Result<Point, String> {
     let (x, y) = s
         .split_once(',')
         .ok_or_else(|| format!("`{s}`: expected X,Y in metres, e.g. 3.5,2"))?;
-    let num = |v: &str| {
-        v.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| format!("`{v}` is not a number of metres"))
-    };
-    Ok(Point::new(num(x)?, num(y)?))
+    Ok(Point::new(
+        crate::args::coordinate_m(x)?,
+        crate::args::coordinate_m(y)?,
+    ))
 }
 
-/// `WxH` in metres, both positive.
+/// `WxH` in metres, both above 0 and at most [`crate::args::MAX_METRES`].
 pub fn parse_area(s: &str) -> Result<Area, String> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("`{s}`: expected WxH in metres, e.g. 7x7"))?;
-    let num = |v: &str| {
-        v.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite() && *v > 0.0)
-            .ok_or_else(|| format!("`{v}` is not a positive number of metres"))
-    };
-    Ok(Area::new(num(w)?, num(h)?))
+    Ok(Area::new(crate::args::side_m(w)?, crate::args::side_m(h)?))
 }
 
 /// What the log held besides reports.
@@ -103,8 +96,10 @@ pub struct LineCounts {
     pub nofixes: usize,
     /// `status` lines.
     pub status: usize,
-    /// Sink lines that failed their checksum or did not parse.
+    /// Sink lines that failed their checksum or did not parse, or whose bytes show damage.
     pub damaged: usize,
+    /// Lines longer than any line a node writes, dropped.
+    pub too_long: usize,
     /// Lines that are not sink lines (boot lines, comments, noise).
     pub other: usize,
 }
@@ -191,23 +186,27 @@ impl Replay {
 
     /// One line of the log.
     pub fn feed(&mut self, line: &str) {
-        let t = line.trim_end_matches(['\r', '\n']);
-        if let Some(rest) = t.strip_prefix("# truth") {
-            match parse_truth_words(rest) {
+        self.feed_bytes(line.as_bytes())
+    }
+
+    /// One line of the log as bytes (any bytes: noise that is not text is counted).
+    pub fn feed_bytes(&mut self, line: &[u8]) {
+        if let Some(rest) = line.strip_prefix(b"# truth") {
+            match std::str::from_utf8(rest).ok().and_then(parse_truth_words) {
                 Some(truth) => self.truth = truth,
                 None => self.counts.other += 1,
             }
             return;
         }
-        match SinkOutput::parse(t) {
-            Ok(SinkOutput::Report(raw)) => match raw.report() {
+        match classify(line) {
+            Class::Sink(SinkOutput::Report(raw)) => match raw.report() {
                 Ok(r) => {
                     self.counts.reports += 1;
                     self.on_report(&r);
                 }
                 Err(_) => self.counts.bad_reports += 1,
             },
-            Ok(SinkOutput::Line(SinkLine::Fix {
+            Class::Sink(SinkOutput::Line(SinkLine::Fix {
                 estimator, x, y, ..
             })) => {
                 self.counts.fixes += 1;
@@ -218,12 +217,21 @@ impl Replay {
                 let p = Point::new(x as f64 / 100.0, y as f64 / 100.0);
                 self.tally.add(self.truth, algo, p);
             }
-            Ok(SinkOutput::Line(SinkLine::NoFix { .. })) => self.counts.nofixes += 1,
-            Ok(SinkOutput::Line(SinkLine::Status { .. })) => self.counts.status += 1,
-            // The sink's boot lines share the `hoploc sink` prefix but carry no checksum.
-            Err(_) if BootLine::parse(t).is_ok() => self.counts.other += 1,
-            Err(SinkLineError::NotSinkLine) => self.counts.other += 1,
-            Err(_) => self.counts.damaged += 1,
+            Class::Sink(SinkOutput::Line(SinkLine::NoFix { .. })) => self.counts.nofixes += 1,
+            Class::Sink(SinkOutput::Line(SinkLine::Status { .. })) => self.counts.status += 1,
+            Class::Boot(_) | Class::Foreign => self.counts.other += 1,
+            Class::Damaged(_) => self.counts.damaged += 1,
+        }
+    }
+
+    /// One framed piece of the log: a line, or a line too long.
+    pub fn feed_framed(&mut self, framed: &Framed) {
+        match framed {
+            Framed::Line(bytes) => {
+                let line = bytes.strip_suffix(b"\r").unwrap_or(bytes);
+                self.feed_bytes(line)
+            }
+            Framed::TooLong => self.counts.too_long += 1,
         }
     }
 
@@ -270,8 +278,8 @@ impl Replay {
         let c = &self.counts;
         let mut s = format!(
             "{} reports ({} unreadable), {} sink fix lines, {} nofix, {} status, {} damaged sink \
-             lines, {} other lines\n\n",
-            c.reports, c.bad_reports, c.fixes, c.nofixes, c.status, c.damaged, c.other
+             lines, {} too long, {} other lines\n\n",
+            c.reports, c.bad_reports, c.fixes, c.nofixes, c.status, c.damaged, c.too_long, c.other
         );
         s += &self.tally.table();
         let overall: Vec<String> = self
@@ -287,15 +295,15 @@ impl Replay {
     }
 }
 
-/// The words after `# truth`: `X Y` in metres (`Some(Some(p))`), `none` (`Some(None)`), or
-/// anything else (`None`).
+/// The words after `# truth`: `X Y` in metres, each within ±[`crate::args::MAX_METRES`]
+/// (`Some(Some(p))`), `none` (`Some(None)`), or anything else (`None`).
 fn parse_truth_words(rest: &str) -> Option<Option<Point>> {
     let w: Vec<&str> = rest.split_whitespace().collect();
     match w[..] {
         ["none"] => Some(None),
         [x, y] => {
-            let x = x.parse::<f64>().ok().filter(|v| v.is_finite())?;
-            let y = y.parse::<f64>().ok().filter(|v| v.is_finite())?;
+            let x = crate::args::coordinate_m(x).ok()?;
+            let y = crate::args::coordinate_m(y).ok()?;
             Some(Some(Point::new(x, y)))
         }
         _ => None,
@@ -306,23 +314,32 @@ fn parse_truth_words(rest: &str) -> Option<Option<Point>> {
 pub fn run(args: &Args) -> Result<(), String> {
     let mut replay = Replay::new(args.area, args.truth);
     let name = args.log.display().to_string();
-    let reader: Box<dyn BufRead> = if name == "-" {
+    let mut reader: Box<dyn Read> = if name == "-" {
         Box::new(std::io::stdin().lock())
     } else {
         let f = std::fs::File::open(&args.log).map_err(|e| format!("{name}: {e}"))?;
-        Box::new(std::io::BufReader::new(f))
+        Box::new(f)
     };
     // Lines are read as bytes: a log with noise that is not UTF-8 loses only those lines.
-    for line in reader.split(b'\n') {
-        let line = line.map_err(|e| format!("{name}: {e}"))?;
-        match std::str::from_utf8(&line) {
-            Ok(t) => replay.feed(t),
-            Err(_) => replay.counts.other += 1,
-        }
+    let mut framer = Framer::new();
+    let mut buf = vec![0u8; 64 * 1024];
+    loop {
+        let n = match reader.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(format!("{name}: {e}")),
+        };
+        framer.push(&buf[..n], |f| replay.feed_framed(&f));
     }
-    print!("{}", replay.summary());
+    if let Some(f) = framer.finish() {
+        replay.feed_framed(&f);
+    }
+    let mut out = Out::stdout();
+    out.write(format_args!("{}", replay.summary()))?;
     if replay.counts.reports == 0 {
-        println!(
+        outln!(
+            out,
             "\n(no report lines: the host algorithms need the sink's `report` lines; the sink's \
              own fixes are tallied above)"
         );
@@ -341,7 +358,7 @@ pub fn run(args: &Args) -> Result<(), String> {
             "replay",
         )?;
         for f in files {
-            println!("wrote {}", f.display());
+            outln!(out, "wrote {}", f.display());
         }
     }
     Ok(())
@@ -441,6 +458,7 @@ mod tests {
                 nofixes: 1,
                 status: 0,
                 damaged: 2,
+                too_long: 0,
                 other: 2,
             }
         );
@@ -524,8 +542,11 @@ mod tests {
         assert_eq!(parse_point("3.5, 2").unwrap(), Point::new(3.5, 2.0));
         assert!(parse_point("3.5").unwrap_err().contains("X,Y"));
         assert!(parse_point("a,2").unwrap_err().contains("`a`"));
+        assert!(parse_point("nan,2").unwrap_err().contains("-10000…10000 m"));
+        assert!(parse_point("1,inf").unwrap_err().contains("-10000…10000 m"));
         assert_eq!(parse_area("7x6").unwrap(), Area::new(7.0, 6.0));
-        assert!(parse_area("7x0").unwrap_err().contains("positive"));
+        assert!(parse_area("7x0").unwrap_err().contains("above 0"));
+        assert!(parse_area("1e6x7").unwrap_err().contains("at most 10000 m"));
         assert!(parse_area("7").unwrap_err().contains("WxH"));
     }
 }

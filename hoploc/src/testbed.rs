@@ -290,6 +290,11 @@ pub fn add_scenario(
     serial_base: u64,
 ) -> Result<ScenarioNodes, String> {
     let at = |p: [f64; 2]| NodeRadio::at(origin[0] + p[0], origin[1] + p[1]);
+    firmware::check(&firmware::elf(fw_dir, Role::Anchor), Role::Anchor)?;
+    firmware::check(&firmware::elf(fw_dir, Role::Agent), Role::Agent)?;
+    if sink == SinkSource::Firmware {
+        firmware::check(&firmware::elf(fw_dir, Role::Sink), Role::Sink)?;
+    }
     let mut anchors = Vec::new();
     for (i, a) in s.anchors.iter().enumerate() {
         let mut spec = NodeSpec::new(

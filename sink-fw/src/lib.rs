@@ -423,14 +423,18 @@ impl Sink {
 
     /// `secs` more seconds since boot, for the status line's uptime.
     pub fn add_uptime(&mut self, secs: u8) {
-        let up = &mut self.counters.0[UPTIME];
-        *up = up.wrapping_add(secs as u32);
+        Self::add(&mut self.counters.0[UPTIME], secs.into());
     }
 
-    /// `c + 1` (one copy of the 32-bit increment for every counter).
+    /// `c + n` (one copy of the 32-bit addition for every counter).
     #[inline(never)]
+    fn add(c: &mut u32, n: u16) {
+        *c = c.wrapping_add(n as u32);
+    }
+
+    /// `c + 1`.
     fn bump(c: &mut u32) {
-        *c = c.wrapping_add(1);
+        Self::add(c, 1);
     }
 
     /// A frame that is not a usable report.
@@ -500,12 +504,12 @@ impl Sink {
         let c = &mut self.counters.0;
         Self::bump(&mut c[FRAMES]);
         Self::bump(&mut c[REPORTS]);
-        c[FAILED] = c[FAILED].wrapping_add(failed as u32);
+        Self::add(&mut c[FAILED], failed.into());
         let k = agent.wrapping_sub(1) as usize;
         if let (Some(next), Some(seen)) = (self.next_seq.get_mut(k), self.seen.get_mut(k)) {
             let gap = seq.wrapping_sub(*next);
             if *seen && gap < 0x8000 {
-                c[DROPS] = c[DROPS].wrapping_add(gap as u32);
+                Self::add(&mut c[DROPS], gap);
             } else if *seen && next.wrapping_sub(seq) <= REPEAT_WINDOW {
                 Self::bump(&mut c[REPEATS]);
                 return;
