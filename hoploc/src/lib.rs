@@ -7,6 +7,7 @@ pub mod demo;
 pub mod firmware;
 pub mod fixes;
 pub mod footprint;
+pub mod health;
 pub mod monitor;
 pub mod provision;
 pub mod replay;
