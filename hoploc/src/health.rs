@@ -5,7 +5,9 @@
 //! standing at another biases every fix without a word from the sink, which trusts the
 //! positions. [`Health`] reads the reports (sans-IO: [`Health::push`] per report and
 //! [`Health::assess`] when a verdict is wanted, or [`Health::on_report`] for both) and names an
-//! anchor whose links contradict its position.
+//! anchor whose links contradict its position. `hoploc replay` prints every change of its
+//! verdict and its verdict at the end of the log; `hoploc monitor` calls [`Health::on_report`]
+//! per `report` line and prints a row when the verdict changes.
 //!
 //! # The rule
 //!

@@ -85,6 +85,8 @@ pub struct Monitor {
     pub counts: Counts,
     /// The last `status` line.
     pub last_status: Option<SinkLine>,
+    /// The anchor health check over the `report` lines: a row when its verdict changes.
+    pub health: crate::health::Health,
 }
 
 impl Monitor {
@@ -182,7 +184,16 @@ impl Monitor {
                      {checksum_errors} corrupt, {foreign} foreign, {fixes} fixes"
                 ));
             }
-            Ok(SinkOutput::Report(_)) => self.counts.reports += 1,
+            Ok(SinkOutput::Report(raw)) => {
+                self.counts.reports += 1;
+                let events = raw
+                    .report()
+                    .map_or(Vec::new(), |r| self.health.on_report(&r));
+                if !events.is_empty() {
+                    rows.extend(self.flush());
+                    rows.extend(events.iter().map(|e| e.to_string()));
+                }
+            }
             // The sink's boot and config lines (`hoploc sink boot`, …) are worth seeing.
             Err(_) if BootLine::parse(line).is_ok() => {
                 self.counts.other += 1;

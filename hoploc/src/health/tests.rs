@@ -474,3 +474,26 @@ fn odd_reports_never_panic() {
     }
 }
 
+#[test]
+fn the_monitor_shows_a_row_when_an_anchor_is_flagged() {
+    use loc_proto::sink_line::RawReport;
+    // The monitor's check has the default settings (the emulated testbed's fading); the room
+    // has little multipath, anchor 3 stands at (6, 6).
+    let room = with_fading(Room::new(&ROOM10_CENTRE), 1.0).moved(2, (6.0, 6.0));
+    let mut mon = crate::monitor::Monitor::new(None);
+    let mut rows = Vec::new();
+    for r in room.reports(25, 1) {
+        let mut buf = [0; loc_proto::msg::MAX_PAYLOAD];
+        let n = r.encode(&mut buf).unwrap();
+        let mut line = String::new();
+        let Ok(()) = RawReport::write(&buf[..n], &mut line);
+        rows.extend(mon.feed(&line));
+    }
+    assert_eq!(mon.counts.reports, 25);
+    assert_eq!(rows.len(), 1, "{rows:?}");
+    assert!(
+        rows[0].starts_with("anchor health: FLAGGED anchor 3 configured at (10.00, 10.00) m"),
+        "{rows:?}"
+    );
+    assert_eq!(mon.health.flagged(), [3]);
+}
