@@ -238,8 +238,7 @@ impl Assessment {
         let mut s = match self.no_verdict {
             Some(why) => format!("anchor health: no verdict ({why})\n"),
             None if self.flags.is_empty() => format!(
-                "anchor health: every anchor agrees with its configured position ({} reports, \
-                 {} links)\n",
+                "anchor health: no anchor flagged ({} reports, {} links)\n",
                 self.reports, self.links
             ),
             None => self
@@ -289,10 +288,9 @@ impl fmt::Display for HealthEvent {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             HealthEvent::Flagged(flag) => write!(f, "anchor health: FLAGGED {flag}"),
-            HealthEvent::Cleared { id } => write!(
-                f,
-                "anchor health: anchor {id} agrees with its configured position again"
-            ),
+            HealthEvent::Cleared { id } => {
+                write!(f, "anchor health: anchor {id} no longer flagged")
+            }
         }
     }
 }
