@@ -84,6 +84,9 @@
 //! every one of them. When the rule flags an anchor it is the misplaced one but for a few per
 //! cent of rooms, where a neighbour of it fits the links better moved.
 //!
+//! An assessment refits the model at every lattice point for every anchor, so
+//! [`Health::on_report`] makes one every [`HealthConfig::every`] reports, not per report.
+
 use std::collections::VecDeque;
 use std::fmt;
 
