@@ -96,7 +96,10 @@ pub enum Command {
     #[command(verbatim_doc_comment)]
     Provision(provision::Args),
     /// Show the sink's lines live: one row per report (MLE and MMSE fixes, α, P0, anchors),
-    /// status lines, damaged lines; a table of the fixes at the end.
+    /// status lines with a warning for what their counters say is wrong (two agents with one
+    /// id, undelivered reports, foreign frames, no report for a status period), damaged lines,
+    /// a row when the anchor health check flags an anchor whose relayed RSSI contradicts its
+    /// configured position; a table of the fixes at the end.
     ///
     /// Reads the sink's USB serial port, or stdin. Save the lines with --log to replay them
     /// later. Examples:
@@ -111,7 +114,9 @@ pub enum Command {
     /// Per `report` line of the log: the least-squares P0/α fit with AR(1), then MLE, windowed
     /// and full MMSE, MLE with the thesis' fixed P0/α, trilateration, quadlateration, MDS-MAP;
     /// the sink's own fixes next to them. RMSE and bias per truth position and algorithm
-    /// (truth from --truth or `# truth X Y` lines in the log), and a plot. Examples:
+    /// (truth from --truth or `# truth X Y` lines in the log), and a plot. Then the anchor
+    /// health check: an anchor whose relayed RSSI contradicts its configured position is
+    /// flagged, with where its links place it. Examples:
     ///
     ///     hoploc replay sink.log --truth 3.5,3.5
     ///     hoploc replay sink.log --area 7x7 --out-dir replay/

@@ -14,6 +14,7 @@ pub mod firmware;
 pub mod fixes;
 pub mod footprint;
 pub mod framing;
+pub mod health;
 pub mod monitor;
 pub mod out;
 pub mod provision;

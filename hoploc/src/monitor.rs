@@ -95,6 +95,8 @@ pub struct Monitor {
     pub counts: Counts,
     /// The last `status` line.
     pub last_status: Option<SinkLine>,
+    /// The anchor health check over the `report` lines: a row when its verdict changes.
+    pub health: crate::health::Health,
 }
 
 impl Monitor {
@@ -216,7 +218,16 @@ impl Monitor {
                 ));
                 rows.extend(warnings);
             }
-            Class::Sink(SinkOutput::Report(_)) => self.counts.reports += 1,
+            Class::Sink(SinkOutput::Report(raw)) => {
+                self.counts.reports += 1;
+                let events = raw
+                    .report()
+                    .map_or(Vec::new(), |r| self.health.on_report(&r));
+                if !events.is_empty() {
+                    rows.extend(self.flush());
+                    rows.extend(events.iter().map(|e| e.to_string()));
+                }
+            }
             // The sink's boot and config lines (`hoploc sink boot`, …) are worth seeing.
             Class::Boot(b) => {
                 self.counts.other += 1;

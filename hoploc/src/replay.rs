@@ -16,6 +16,11 @@
 //! show damage: [`crate::framing::classify`]) is counted, never believed. The log is cut into
 //! lines as `hoploc monitor` cuts the port's bytes ([`crate::framing::Framer`]): a good line
 //! right after noise is found again, and a line too long is dropped and counted.
+//!
+//! The reports also go through the anchor health check ([`crate::health`]): whether each
+//! anchor's anchor-to-anchor RSSI agrees with its configured position. The summary lists every
+//! change of its verdict (an anchor flagged or cleared, with the report it came at) and its
+//! verdict over the log's last window, with a row per anchor.
 
 use std::io::Read;
 use std::path::PathBuf;
@@ -29,6 +34,7 @@ use loc_proto::msg::Report;
 use loc_proto::sink_line::{Estimator, SinkLine, SinkOutput};
 
 use crate::framing::{classify, Class, Framed, Framer};
+use crate::health::{Health, HealthConfig, HealthEvent};
 use crate::out::Out;
 use crate::outln;
 use crate::tally::Tally;
@@ -62,6 +68,16 @@ pub struct Args {
     /// Write the fixes-versus-truth plot (replay.svg, replay.png) into this directory.
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
+    /// The anchor health check's assumption: σ of a link's static error on one channel, dB
+    /// (the fading of the room; the emulated testbed's is 3). Smaller flags smaller offsets,
+    /// and more false alarms in a room with more multipath.
+    #[arg(long, default_value_t = HealthConfig::default().fading_db, value_parser = parse_fading)]
+    pub health_fading_db: f64,
+}
+
+/// A σ in dB: 0…30.
+fn parse_fading(s: &str) -> Result<f64, String> {
+    crate::args::float_in(s, 0.0, 30.0, false, " dB")
 }
 
 /// `X,Y` in metres, each within ±[`crate::args::MAX_METRES`].
@@ -136,6 +152,29 @@ pub fn bounding_area(anchors: &[Point]) -> Area {
     Area::new(w.max(0.01), h.max(0.01))
 }
 
+/// A change of the anchor health check's verdict, and the report it came with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HealthNote {
+    /// The report's number in the log (the first is 1).
+    pub report: usize,
+    /// Its agent.
+    pub agent: u8,
+    /// Its sequence number.
+    pub seq: u16,
+    /// What changed.
+    pub event: HealthEvent,
+}
+
+impl std::fmt::Display for HealthNote {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "report {} (agent {}, seq {}): {}",
+            self.report, self.agent, self.seq, self.event
+        )
+    }
+}
+
 /// A log being replayed.
 #[derive(Clone, Debug)]
 pub struct Replay {
@@ -151,6 +190,10 @@ pub struct Replay {
     pub anchors: Vec<Point>,
     /// The room of the last report.
     pub last_area: Option<Area>,
+    /// The anchor health check over the reports.
+    pub health: Health,
+    /// Every change of its verdict, in order.
+    pub health_notes: Vec<HealthNote>,
 }
 
 impl Replay {
@@ -176,6 +219,16 @@ impl Replay {
             counts: LineCounts::default(),
             anchors: Vec::new(),
             last_area: None,
+            health: Health::default(),
+            health_notes: Vec::new(),
+        }
+    }
+
+    /// The same with the anchor health check's settings `cfg`.
+    pub fn with_health(self, cfg: HealthConfig) -> Replay {
+        Replay {
+            health: Health::new(cfg),
+            ..self
         }
     }
 
@@ -235,8 +288,17 @@ impl Replay {
         }
     }
 
-    /// A report: fit and smooth P0/α as the sink does, then every host algorithm.
+    /// A report: fit and smooth P0/α as the sink does, then every host algorithm; then the
+    /// anchor health check.
     fn on_report(&mut self, r: &Report) {
+        for event in self.health.on_report(r) {
+            self.health_notes.push(HealthNote {
+                report: self.counts.reports,
+                agent: r.agent,
+                seq: r.seq,
+                event,
+            });
+        }
         let m = measurements(r);
         let fit = self.params.update(&m);
         if let Some(s) = fit.ok().and_then(|f| f.sigma) {
@@ -291,6 +353,13 @@ impl Replay {
         if !overall.is_empty() {
             s += &format!("\nRMSE over every position: {}\n", overall.join(", "));
         }
+        if c.reports > 0 {
+            s += "\n";
+            for n in &self.health_notes {
+                s += &format!("{n}\n");
+            }
+            s += &self.health.assess().summary();
+        }
         s
     }
 }
@@ -312,7 +381,10 @@ fn parse_truth_words(rest: &str) -> Option<Option<Point>> {
 
 /// Runs `hoploc replay`.
 pub fn run(args: &Args) -> Result<(), String> {
-    let mut replay = Replay::new(args.area, args.truth);
+    let mut replay = Replay::new(args.area, args.truth).with_health(HealthConfig {
+        fading_db: args.health_fading_db,
+        ..HealthConfig::default()
+    });
     let name = args.log.display().to_string();
     let mut reader: Box<dyn Read> = if name == "-" {
         Box::new(std::io::stdin().lock())
@@ -538,6 +610,60 @@ mod tests {
     }
 
     #[test]
+    fn a_misplaced_anchor_is_flagged_in_the_summary() {
+        use crate::health::synthetic::Room;
+        // room10's corners and a fifth anchor in the middle; anchor 3, configured at (10, 10),
+        // stands at (7, 7). A room with little multipath (fading σ 1 dB per channel), which
+        // the check is told.
+        let layout = [
+            (0.0, 0.0),
+            (10.0, 0.0),
+            (10.0, 10.0),
+            (0.0, 10.0),
+            (5.0, 5.0),
+        ];
+        let mut room = Room::new(&layout).moved(2, (7.0, 7.0));
+        room.fading_db = 1.0;
+        let cfg = HealthConfig {
+            fading_db: 1.0,
+            ..HealthConfig::default()
+        };
+        let mut r = Replay::new(None, None).with_health(cfg);
+        r.feed("hoploc sink boot");
+        for rep in room.reports(40, 1) {
+            r.feed(&report_line(&rep));
+        }
+        assert_eq!(r.counts.reports, 40);
+        // Flagged at the first verdict: 20 reports.
+        assert_eq!(r.health_notes.len(), 1, "{:?}", r.health_notes);
+        let n = r.health_notes[0];
+        assert_eq!((n.report, n.agent, n.seq), (20, 1, 19));
+        let s = r.summary();
+        assert!(
+            s.contains("report 20 (agent 1, seq 19): anchor health: FLAGGED anchor 3 configured at (10.00, 10.00) m"),
+            "{s}"
+        );
+        assert!(s.contains("\nanchor health: FLAGGED anchor 3"), "{s}");
+        // The same room with anchor 3 where it is configured: no note, and the verdict says so.
+        room.truth = room.configured.clone();
+        let mut r = Replay::new(None, None).with_health(cfg);
+        for rep in room.reports(40, 1) {
+            r.feed(&report_line(&rep));
+        }
+        assert!(r.health_notes.is_empty());
+        assert!(
+            r.summary()
+                .contains("anchor health: no anchor flagged (40 reports, 10 links)"),
+            "{}",
+            r.summary()
+        );
+        // A log without report lines has no health section.
+        let mut r = Replay::new(None, None);
+        r.feed("hoploc sink boot");
+        assert!(!r.summary().contains("anchor health"));
+    }
+
+    #[test]
     fn arguments_parse_or_say_why() {
         assert_eq!(parse_point("3.5, 2").unwrap(), Point::new(3.5, 2.0));
         assert!(parse_point("3.5").unwrap_err().contains("X,Y"));
@@ -548,5 +674,12 @@ mod tests {
         assert!(parse_area("7x0").unwrap_err().contains("above 0"));
         assert!(parse_area("1e6x7").unwrap_err().contains("at most 10000 m"));
         assert!(parse_area("7").unwrap_err().contains("WxH"));
+        assert_eq!(parse_fading("1.5").unwrap(), 1.5);
+        assert!(
+            parse_fading("-1").unwrap_err().contains("0…30 dB"),
+            "{:?}",
+            parse_fading("-1")
+        );
+        assert!(parse_fading("inf").is_err());
     }
 }

@@ -114,6 +114,13 @@ pub enum AntennaKind {
     Chip,
 }
 
+impl AnchorSpec {
+    /// Where the anchor stands: [`AnchorSpec::true_position`], else its configured position.
+    pub fn radio_position(&self) -> [f64; 2] {
+        self.true_position.unwrap_or(self.position)
+    }
+}
+
 impl From<AntennaKind> for Antenna {
     fn from(k: AntennaKind) -> Antenna {
         match k {
@@ -128,8 +135,12 @@ impl From<AntennaKind> for Antenna {
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct AnchorSpec {
-    /// (x, y), m.
+    /// (x, y), m: its configured position (what its config holds and its beacons carry).
     pub position: [f64; 2],
+    /// Where it actually stands, (x, y) m, when that is not its configured position: the
+    /// medium places its radio here (a misplaced or misconfigured anchor).
+    #[serde(default)]
+    pub true_position: Option<[f64; 2]>,
     /// Antenna kind.
     #[serde(default)]
     pub antenna: AntennaKind,
@@ -350,6 +361,12 @@ impl Scenario {
                 return bad(
                     &format!("anchors[{i}].position"),
                     format!("{:?} is outside the {w} m × {h} m area", a.position),
+                );
+            }
+            if let Some(p) = a.true_position.filter(|&p| !inside(p)) {
+                return bad(
+                    &format!("anchors[{i}].true_position"),
+                    format!("{p:?} is outside the {w} m × {h} m area"),
                 );
             }
         }
@@ -644,6 +661,17 @@ path = [ { position = [5.0, 5.0], dwell_s = 10.0 }, { position = [2.0, 3.0], dwe
         assert_eq!(s.anchors.len(), 3);
         assert_eq!(s.anchors[1].antenna, AntennaKind::Chip);
         assert_eq!(s.anchors[0].antenna, AntennaKind::Isotropic);
+        // An anchor stands where it is configured unless the file says otherwise.
+        assert_eq!(s.anchors[2].true_position, None);
+        assert_eq!(s.anchors[2].radio_position(), [10.0, 10.0]);
+        let moved = GOOD.replacen(
+            "position = [10.0, 10.0]",
+            "position = [10.0, 10.0]\ntrue_position = [6.0, 6.0]",
+            1,
+        );
+        let m = Scenario::parse(&moved).unwrap();
+        assert_eq!(m.anchors[2].position, [10.0, 10.0]);
+        assert_eq!(m.anchors[2].radio_position(), [6.0, 6.0]);
         assert_eq!(s.timing.sink_channel, 3);
         assert_eq!(s.timing.warmup_s, 8.0);
         assert_eq!(s.agent.path[1].orientation_deg, Some(225.0));
@@ -688,6 +716,18 @@ path = [ { position = [5.0, 5.0], dwell_s = 10.0 }, { position = [2.0, 3.0], dwe
                 "[10.0, 10.5]",
                 "anchors[2].position",
                 "outside",
+            ),
+            (
+                "position = [10.0, 10.0]",
+                "position = [10.0, 10.0]\ntrue_position = [6.0, -0.1]",
+                "anchors[2].true_position",
+                "outside",
+            ),
+            (
+                "position = [10.0, 10.0]",
+                "position = [10.0, 10.0]\ntrue_position = [6.0]",
+                "anchors[2].true_position",
+                "invalid length",
             ),
             (
                 "dwell_s = 5.0",

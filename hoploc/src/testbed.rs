@@ -280,7 +280,9 @@ pub struct ScenarioNodes {
 /// Adds `s`'s anchors, its agent (id 1) at its first stop and its sink to `net`, every
 /// firmware node with the config `hoploc provision` would store; radios placed at `origin` +
 /// the scenario's positions (several scenarios on disjoint channels can share one medium: the
-/// nodes' configs keep the room's own coordinates). Serial numbers from `serial_base`.
+/// nodes' configs keep the room's own coordinates). An anchor's radio stands at
+/// [`crate::scenario::AnchorSpec::radio_position`], its config holds its configured position.
+/// Serial numbers from `serial_base`.
 pub fn add_scenario(
     net: &mut Network,
     s: &Scenario,
@@ -302,7 +304,7 @@ pub fn add_scenario(
             NodeRadio {
                 antenna: a.antenna.into(),
                 orientation_deg: a.orientation_deg,
-                ..at(a.position)
+                ..at(a.radio_position())
             },
         );
         spec.eeprom = eeprom(s, Role::Anchor, i as u8 + 1, cm(a.position))?;
