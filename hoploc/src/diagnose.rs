@@ -3,94 +3,72 @@
 //! the one before, each with what to check. The README's "What goes wrong and what the nodes
 //! say" lists the same cases.
 
-use loc_proto::sink_line::SinkLine;
-
-/// The counters of a status line: (uptime s, frames, reports, drops, corrupt, foreign, repeats,
-/// failed); `None` for another line.
-fn counters(l: &SinkLine) -> Option<[u32; 8]> {
-    match *l {
-        SinkLine::Status {
-            uptime_s,
-            frames,
-            reports,
-            drops,
-            checksum_errors,
-            foreign,
-            repeats,
-            failed,
-            ..
-        } => Some([
-            uptime_s,
-            frames,
-            reports,
-            drops,
-            checksum_errors,
-            foreign,
-            repeats,
-            failed,
-        ]),
-        _ => None,
-    }
-}
+use loc_proto::sink_line::{SinkLine, STATUS_FIELDS};
 
 /// The warnings of status line `now` after `before` (the previous status line of the same
 /// sink, `None` for the first: then every counter counts from boot). A counter that went down
 /// means the sink restarted: counted from 0 again. A status period without a new report warns
 /// too (the sink writes a status line every 10 s).
 pub fn status_warnings(before: Option<&SinkLine>, now: &SinkLine) -> Vec<String> {
-    let Some(n) = counters(now) else {
+    let Some(n) = now.status_fields() else {
         return Vec::new();
     };
-    let b = before.and_then(counters).unwrap_or([0; 8]);
+    let b = before
+        .and_then(SinkLine::status_fields)
+        .unwrap_or([0; STATUS_FIELDS]);
     let restarted = n.iter().zip(&b).any(|(n, b)| n < b);
     let delta = |k: usize| if restarted { n[k] } else { n[k] - b[k] };
-    let mut w = Vec::new();
-    if delta(6) > 0 {
-        w.push(format!(
-            "warning: {} reports repeated a sequence number their agent had sent: two agents \
-             with one id (give each its own: HOPLOC_ID, hoploc provision --id), or a replay",
-            delta(6)
-        ));
-    }
-    if delta(7) > 0 {
-        w.push(format!(
-            "warning: the agents' radios could not deliver {} reports: the sink channel is busy \
-             (another network or device on it: pick another HOPLOC_SINK_CHANNEL), or the sink's \
-             radio did not acknowledge (sink off, out of range, another PAN or key)",
-            delta(7)
-        ));
-    }
-    if delta(5) > 0 {
-        w.push(format!(
-            "warning: {} frames on the sink channel were no hoploc report: another device on the \
-             PAN, or a sender with another network key (a PAN id or a key of your own keeps them \
-             out)",
-            delta(5)
-        ));
-    }
-    if delta(4) > 0 {
-        w.push(format!(
-            "warning: {} damaged hoploc messages (failed CRC or values)",
-            delta(4)
-        ));
-    }
-    if delta(3) > 0 {
-        w.push(format!("warning: {} reports missing", delta(3)));
-    }
-    if before.is_some() && !restarted && delta(2) == 0 && delta(0) > 0 {
+    // The counters that warn when they grow (indices of `SinkLine::status_fields`), most
+    // telling first, each with what to check.
+    const WARN: [(usize, &str); 5] = [
+        (
+            REPEATS,
+            "reports repeated a sequence number their agent had sent: two agents with one id \
+             (give each its own: HOPLOC_ID, hoploc provision --id), or a replay",
+        ),
+        (
+            FAILED,
+            "reports the agents' radios could not deliver: the sink channel is busy (another \
+             network or device on it: pick another HOPLOC_SINK_CHANNEL), or the sink's radio did \
+             not acknowledge (sink off, out of range, another PAN or key)",
+        ),
+        (
+            FOREIGN,
+            "frames on the sink channel were no hoploc report: another device on the PAN, or a \
+             sender with another network key (a PAN id or a key of your own keeps them out)",
+        ),
+        (CORRUPT, "damaged hoploc messages (failed CRC or values)"),
+        (DROPS, "reports missing"),
+    ];
+    let mut w: Vec<String> = WARN
+        .iter()
+        .filter(|&&(k, _)| delta(k) > 0)
+        .map(|&(k, what)| format!("warning: {} {what}", delta(k)))
+        .collect();
+    if before.is_some() && !restarted && delta(REPORTS) == 0 && delta(UPTIME) > 0 {
         w.push(format!(
             "warning: no report in the last {} s: are the anchors and an agent on, on the same \
              channels, PAN and key as the sink? (two agents with one id can silence each other)",
-            delta(0)
+            delta(UPTIME)
         ));
     }
     w
 }
 
+/// [`SinkLine::status_fields`]' indices.
+const UPTIME: usize = 0;
+const REPORTS: usize = 2;
+const DROPS: usize = 3;
+const CORRUPT: usize = 4;
+const FOREIGN: usize = 5;
+const REPEATS: usize = 7;
+const FAILED: usize = 8;
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// A status line of (uptime, frames, reports, drops, corrupt, foreign, repeats, failed).
     fn status(counts: [u32; 8]) -> SinkLine {
         let [uptime_s, frames, reports, drops, checksum_errors, foreign, repeats, failed] = counts;
         SinkLine::Status {
@@ -128,7 +106,7 @@ mod tests {
         let w = status_warnings(Some(&a), &b);
         assert_eq!(w.len(), 5, "{w:?}");
         assert!(w[0].contains("8 reports repeated") && w[0].contains("two agents with one id"));
-        assert!(w[1].contains("could not deliver 3 reports") && w[1].contains("busy"));
+        assert!(w[1].contains("3 reports the agents' radios") && w[1].contains("busy"));
         assert!(w[2].contains("10 frames") && w[2].contains("another device"));
         assert!(w[3].contains("1 damaged"));
         assert!(w[4].contains("2 reports missing"));

@@ -262,6 +262,18 @@ impl uDisplay for SinkLine {
                 let (agent, seq, usable) = (Dec(agent.into()), Dec(seq.into()), Dec(usable.into()));
                 uwrite!(f, "{} {} {} {}", head(Word::NOFIX), agent, seq, usable)
             }
+            SinkLine::Status { .. } => {
+                StatusFields(&self.status_fields().unwrap_or([0; STATUS_FIELDS])).fmt(f)
+            }
+        }
+    }
+}
+
+impl SinkLine {
+    /// A `status` line's fields in its order (uptime, frames, reports, drops, checksum errors,
+    /// foreign, estimates, repeats, failed); `None` for another line.
+    pub fn status_fields(&self) -> Option<[u32; STATUS_FIELDS]> {
+        match *self {
             SinkLine::Status {
                 uptime_s,
                 frames,
@@ -272,7 +284,7 @@ impl uDisplay for SinkLine {
                 fixes,
                 repeats,
                 failed,
-            } => StatusFields(&[
+            } => Some([
                 uptime_s,
                 frames,
                 reports,
@@ -282,13 +294,11 @@ impl uDisplay for SinkLine {
                 fixes,
                 repeats,
                 failed,
-            ])
-            .fmt(f),
+            ]),
+            _ => None,
         }
     }
-}
 
-impl SinkLine {
     /// Writes the line, checksum and `\r\n` included (at most [`MAX_SINK_LINE`] bytes): its
     /// [`uDisplay`] through a [`Crc16Writer`], then ` *XXXX\r\n`. Always inlined, as the
     /// `uDisplay`.
