@@ -11,6 +11,8 @@
 //! Digi ships it), switch it to API mode 2 at 57600 through command mode (`+++`, `ATAP2`, `ATBD6`,
 //! `ATWR`, `ATCN`), then set MY/ID/CH through API frames and read each back.
 
+use std::fs::File;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -25,8 +27,10 @@ use xbee_api::Frame;
 
 use crate::firmware::{self, Role};
 use crate::fixes::Algo;
+use crate::out::Out;
 use crate::scenario::{self, Scenario};
 use crate::testbed::{Observed, RunConfig, SinkSource, Testbed};
+use crate::{args as arg, outln};
 
 /// One simulated node: its firmware and its radio.
 struct Node {
@@ -97,10 +101,11 @@ pub fn describe_line(text: &str) -> String {
 /// Runs the boot timeline for `seconds` of simulated time.
 pub fn run_boot(firmware_dir: &Path, seconds: f64) -> Result<(), String> {
     firmware::ensure_built(firmware_dir)?;
+    let mut out = Out::stdout();
     let mut nodes = Vec::new();
     for (i, role) in Role::ALL.into_iter().enumerate() {
         let path = firmware::elf(firmware_dir, role);
-        let avr = Avr::load(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let avr = firmware::load(&path, role)?;
         let radio = XBee::new(XBeeConfig {
             sh_sl: 0x0013_A200_4000_0001 + i as u64,
             ..XBeeConfig::default()
@@ -113,15 +118,16 @@ pub fn run_boot(firmware_dir: &Path, seconds: f64) -> Result<(), String> {
             frames_seen: 0,
         });
     }
-    println!(
+    outln!(
+        out,
         "hoploc demo: {} nodes in simavr, each with a factory-fresh XBee (AP=0, 9600 baud)\n",
         nodes.len()
     );
-    println!("{:>9}  {:<7} event", "time", "node");
+    outln!(out, "{:>9}  {:<7} event", "time", "node");
     let step = ms_to_cycles(1.0);
     let end = ms_to_cycles(seconds * 1000.0);
     let mut t = 0;
-    while t < end {
+    while t < end && !out.closed() {
         t = (t + step).min(end);
         for n in &mut nodes {
             n.radio.run_until(&mut n.avr, t);
@@ -136,14 +142,22 @@ pub fn run_boot(firmware_dir: &Path, seconds: f64) -> Result<(), String> {
             n.frames_seen = n.radio.frames_from_firmware().len();
             events.sort_by(|a, b| a.0.total_cmp(&b.0));
             for (ms, what) in events {
-                println!("{ms:>7.1}ms  {:<7} {what}", n.role.name());
+                outln!(out, "{ms:>7.1}ms  {:<7} {what}", n.role.name());
             }
         }
     }
-    println!("\nradios after {seconds} s:");
-    println!(
+    outln!(out, "\nradios after {seconds} s:");
+    outln!(
+        out,
         "{:<7} {:>3} {:>7} {:>6} {:>6} {:>4} {:>7} {:>9}",
-        "node", "AP", "baud", "MY", "ID", "CH", "frames", "stack"
+        "node",
+        "AP",
+        "baud",
+        "MY",
+        "ID",
+        "CH",
+        "frames",
+        "stack"
     );
     for n in &nodes {
         let r = n.radio.registers();
@@ -153,7 +167,8 @@ pub fn run_boot(firmware_dir: &Path, seconds: f64) -> Result<(), String> {
             .avr
             .stack_peak()
             .map_or("-".to_string(), |s| format!("{s} B"));
-        println!(
+        outln!(
+            out,
             "{:<7} {:>3} {:>7} {:>6} {:>6} {:>4} {:>7} {:>9}",
             n.role.name(),
             r.ap(),
@@ -185,30 +200,34 @@ pub struct Args {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Where the plots (fixes, error over time; SVG and PNG), fixes.csv, table.txt and the
-    /// sink's lines (sink.log) go [default: target/demo/SCENARIO].
+    /// sink's lines (sink.log) go; sink.log and fixes.csv are written as the run goes [default:
+    /// target/demo/SCENARIO of the hoploc workspace or the current directory].
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
     /// Simulated seconds to run at most (the scenario is cut short); with --boot the length of
-    /// the timeline [default: the whole scenario; with --boot 10].
-    #[arg(long)]
+    /// the timeline [default: the whole scenario; with --boot 10; 0.001…31536000].
+    #[arg(long, value_parser = arg::seconds)]
     pub seconds: Option<f64>,
     /// Show at most one live fix per this many simulated seconds (every fix is in the table,
-    /// the CSV and the plots).
-    #[arg(long, default_value_t = 1.0)]
+    /// the CSV and the plots) [0…86400].
+    #[arg(long, default_value_t = 1.0, value_parser = arg::interval)]
     pub live_every: f64,
     /// Network stepping threads (results do not depend on it; on a machine busy with other
-    /// work one thread can be faster: the threads meet twice per simulated millisecond).
-    #[arg(long, default_value_t = 2)]
+    /// work one thread can be faster: the threads meet twice per simulated millisecond)
+    /// [1…256].
+    #[arg(long, default_value_t = 2, value_parser = arg::threads)]
     pub threads: usize,
-    /// Probability of a bit error in each byte on every firmware↔radio UART (e.g. 1e-3).
-    #[arg(long, default_value_t = 0.0)]
+    /// Probability of a bit error in each byte on every firmware↔radio UART (e.g. 1e-3)
+    /// [0…1].
+    #[arg(long, default_value_t = 0.0, value_parser = arg::probability)]
     pub uart_errors: f64,
     /// The boot timeline instead: the anchor, agent and sink firmware boot, each on a
     /// factory-fresh XBee, and configure it through command mode and API frames.
     #[arg(long)]
     pub boot: bool,
-    /// Directory with anchor-fw.elf, agent-fw.elf and sink-fw.elf
-    /// [default: target/avr-none/fw, or $HOPLOC_FIRMWARE_DIR].
+    /// Directory with anchor-fw.elf, agent-fw.elf and sink-fw.elf [default:
+    /// $HOPLOC_FIRMWARE_DIR, else target/avr-none/fw of the hoploc workspace or the current
+    /// directory].
     #[arg(long)]
     pub firmware_dir: Option<PathBuf>,
 }
@@ -250,7 +269,7 @@ pub fn run(args: &Args) -> Result<(), String> {
     if args.boot {
         return run_boot(&fw_dir, args.seconds.unwrap_or(10.0));
     }
-    let path = scenario::resolve(&args.scenario);
+    let path = scenario::find(&args.scenario)?;
     let mut s = Scenario::load(&path).map_err(|e| e.to_string())?;
     if let Some(seed) = args.seed {
         s.seed = seed;
@@ -261,9 +280,17 @@ pub fn run(args: &Args) -> Result<(), String> {
     let out_dir = args
         .out_dir
         .clone()
-        .unwrap_or_else(|| firmware::workspace_root().join("target/demo").join(&s.name));
+        .unwrap_or_else(|| default_out_dir(&s.name));
     std::fs::create_dir_all(&out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
     firmware::ensure_built(&fw_dir)?;
+    // The sink's log and the fixes are written as they come, a line at a time, so a run that is
+    // stopped keeps what it saw.
+    let (log_path, csv_path) = (out_dir.join("sink.log"), out_dir.join("fixes.csv"));
+    let mut log_file = Appender::create(&log_path)?;
+    let mut csv_file = Appender::create(&csv_path)?;
+    csv_file.append(crate::fixes::CSV_HEADER)?;
+    let mut log_written = 0;
+    let mut out = Out::stdout();
     let cfg = RunConfig {
         sink: args.sink,
         threads: args.threads,
@@ -272,8 +299,9 @@ pub fn run(args: &Args) -> Result<(), String> {
     let mut tb = Testbed::new(&s, &fw_dir, &cfg)?;
     let sf = tb.superframe_s();
     let duration = s.duration_s();
-    println!("hoploc demo {}: {}", s.name, s.description);
-    println!(
+    outln!(out, "hoploc demo {}: {}", s.name, s.description);
+    outln!(
+        out,
         "  {} anchors (anchor-fw) and 1 agent (agent-fw) as real firmware in simavr, {} m × {} m, \
          channels {:?}, {} ms slots: a {:.0} ms superframe, {:.1} fixes/s",
         s.anchors.len(),
@@ -284,7 +312,8 @@ pub fn run(args: &Args) -> Result<(), String> {
         sf * 1000.0,
         1.0 / sf
     );
-    println!(
+    outln!(
+        out,
         "  medium: P0 {} dBm, α {}, shadowing σ {} dB, fading σ {} dB, drift {} dB/min, seed {}",
         s.medium.p0_dbm,
         s.medium.alpha,
@@ -293,29 +322,42 @@ pub fn run(args: &Args) -> Result<(), String> {
         s.medium.drift_db_per_min,
         s.seed
     );
-    println!("  sink: {}", args.sink.describe());
+    outln!(out, "  sink: {}", args.sink.describe());
     {
-        println!(
+        outln!(
+            out,
             "  MLE-fixed: the host's reference, not a sink line: the MLE of the same report with \
              P0 {} dBm and α {} fixed (no online estimation)",
-            s.medium.p0_dbm, s.medium.alpha
+            s.medium.p0_dbm,
+            s.medium.alpha
         );
-        println!(
+        outln!(
+            out,
             "  MLE-P0only: the host's reference, not a sink line: the f64 MLE of the same report \
              with P0 fitted online from the anchor-to-anchor RSSI and α {} fixed",
             s.medium.alpha
         );
     }
-    println!(
+    outln!(
+        out,
         "  {duration:.0} s simulated: {} s warm-up (boot, provisioning window, radio bring-up), \
          then {} stops; live: one fix per {} s\n",
         s.timing.warmup_s,
         s.agent.path.len(),
         args.live_every
     );
-    println!(
+    outln!(
+        out,
         "{:>8} {:>4} {:>13} {:>13} {:>6} {:>13} {:>6} {:>5} {:>7}  fixed err  P0only err",
-        "time", "stop", "truth (m)", "MLE (m)", "err", "MMSE (m)", "err", "α", "P0",
+        "time",
+        "stop",
+        "truth (m)",
+        "MLE (m)",
+        "err",
+        "MMSE (m)",
+        "err",
+        "α",
+        "P0",
     );
     let bar = ProgressBar::with_draw_target(
         Some((duration * 1000.0) as u64),
@@ -332,9 +374,15 @@ pub fn run(args: &Args) -> Result<(), String> {
     let mut last_live = f64::NEG_INFINITY;
     let mut stop_shown = usize::MAX;
     let mut nofix = 0usize;
-    while !tb.done() {
+    while !tb.done() && !out.closed() {
         let new = tb.step(0.25);
         bar.set_position((tb.time_s() * 1000.0) as u64);
+        let log = tb.sink_log();
+        log_file.append(&log[log_written..])?;
+        log_written = log.len();
+        for r in crate::fixes::rows(&new) {
+            csv_file.append(&crate::fixes::csv_row(&r))?;
+        }
         // A report's MLE and MMSE lines (and the host's reference) come together: one row.
         for pair in new.chunk_by(|a, b| seq_of(&a.line) == seq_of(&b.line)) {
             nofix += pair
@@ -377,7 +425,7 @@ pub fn run(args: &Args) -> Result<(), String> {
                 "  (moving)"
             };
             bar.suspend(|| {
-                println!(
+                out.line(format_args!(
                     "{:>7.2}s {:>4} {:>13} {} {} {:>5.2} {:>7.2}{fixed}{note}",
                     o.time_s,
                     o.stop + 1,
@@ -386,8 +434,8 @@ pub fn run(args: &Args) -> Result<(), String> {
                     cell(mmse),
                     model.0,
                     model.1
-                )
-            });
+                ))
+            })?;
         }
         obs.extend(new);
         if args.sink == SinkSource::Firmware
@@ -413,11 +461,12 @@ pub fn run(args: &Args) -> Result<(), String> {
         .filter(|r| r.estimator == Algo::Mle && r.time_s >= s.timing.warmup_s)
         .count();
     let counted = duration - s.timing.warmup_s;
-    println!(
+    outln!(
+        out,
         "\nRMSE and bias per position and estimator (settled fixes: the superframe after the \
          warm-up and after each move left out):"
     );
-    print!("{table}");
+    crate::out!(out, "{table}");
     let mut summary = format!(
         "{reports} reports located in {counted:.1} s after the warm-up: {:.2} fixes/s \
          (the superframe allows {:.2}); {nofix} reports without a fix\n",
@@ -441,12 +490,15 @@ pub fn run(args: &Args) -> Result<(), String> {
         checksum_errors,
         foreign,
         fixes,
+        repeats,
+        failed,
+        ..
     }) = crate::testbed::last_status(&obs)
     {
         summary += &format!(
             "sink firmware's last status line (at {uptime_s} s): {frames} frames, {reports} \
              reports, {drops} missing from the sequence, {checksum_errors} corrupt, {foreign} \
-             foreign, {fixes} fixes\n"
+             foreign, {fixes} fixes, {repeats} repeated, {failed} undelivered\n"
         );
     }
     summary += &format!(
@@ -454,15 +506,15 @@ pub fn run(args: &Args) -> Result<(), String> {
         duration / wall,
         args.threads
     );
-    print!("\n{summary}");
+    crate::out!(out, "\n{summary}");
     let mut files = crate::fixes::write_plots(&rows, &s, &out_dir)?;
+    files.push(csv_path);
     let mut write = |name: &str, text: String| -> Result<(), String> {
         let p = out_dir.join(name);
         std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))?;
         files.push(p);
         Ok(())
     };
-    write("fixes.csv", crate::fixes::csv(&rows))?;
     write(
         "table.txt",
         format!(
@@ -472,13 +524,47 @@ pub fn run(args: &Args) -> Result<(), String> {
             args.sink.describe()
         ),
     )?;
-    let log = tb.sink_log().to_string();
-    write("sink.log", log)?;
-    println!("\nwritten:");
+    log_file.append(&tb.sink_log()[log_written..])?;
+    files.push(log_path);
+    outln!(out, "\nwritten:");
     for f in files {
-        println!("  {}", f.display());
+        outln!(out, "  {}", f.display());
     }
     Ok(())
+}
+
+/// Where the demo's files go without --out-dir: `target/demo/NAME` of the workspace hoploc runs
+/// in ([`firmware::workspace`]), else of the current directory.
+pub fn default_out_dir(scenario: &str) -> PathBuf {
+    firmware::workspace()
+        .unwrap_or_default()
+        .join("target/demo")
+        .join(scenario)
+}
+
+/// A file written a piece at a time, each piece flushed to the disk's cache at once.
+struct Appender {
+    path: PathBuf,
+    file: File,
+}
+
+impl Appender {
+    /// A new (emptied) file at `path`.
+    fn create(path: &Path) -> Result<Appender, String> {
+        let file = File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        Ok(Appender {
+            path: path.to_path_buf(),
+            file,
+        })
+    }
+
+    /// Writes `text` at the end.
+    fn append(&mut self, text: &str) -> Result<(), String> {
+        self.file
+            .write_all(text.as_bytes())
+            .and_then(|()| self.file.flush())
+            .map_err(|e| format!("{}: {e}", self.path.display()))
+    }
 }
 
 /// The (agent, sequence) of a fix or nofix line.

@@ -215,28 +215,35 @@ pub fn table_text(stats: &[Stat], s: &Scenario) -> String {
     t
 }
 
+/// The header line of [`csv`].
+pub const CSV_HEADER: &str =
+    "time_s,seq,stop,truth_x_m,truth_y_m,estimator,x_m,y_m,error_m,alpha,p0_dbm,anchors,settled\n";
+
+/// One fix as a line of [`csv`].
+pub fn csv_row(r: &FixRow) -> String {
+    format!(
+        "{:.4},{},{},{},{},{},{},{},{:.3},{},{},{},{}\n",
+        r.time_s,
+        r.seq,
+        r.stop + 1,
+        r.truth[0],
+        r.truth[1],
+        name(r.estimator),
+        r.pos[0],
+        r.pos[1],
+        r.distance(),
+        r.alpha,
+        r.p0,
+        r.anchors,
+        r.settled
+    )
+}
+
 /// Every fix as CSV.
 pub fn csv(rows: &[FixRow]) -> String {
-    let mut t = String::from(
-        "time_s,seq,stop,truth_x_m,truth_y_m,estimator,x_m,y_m,error_m,alpha,p0_dbm,anchors,settled\n",
-    );
+    let mut t = String::from(CSV_HEADER);
     for r in rows {
-        t += &format!(
-            "{:.4},{},{},{},{},{},{},{},{:.3},{},{},{},{}\n",
-            r.time_s,
-            r.seq,
-            r.stop + 1,
-            r.truth[0],
-            r.truth[1],
-            name(r.estimator),
-            r.pos[0],
-            r.pos[1],
-            r.distance(),
-            r.alpha,
-            r.p0,
-            r.anchors,
-            r.settled
-        );
+        t += &csv_row(r);
     }
     t
 }

@@ -23,6 +23,7 @@ use simavr::xbee::{RxPacket, XBee, XBeeConfig};
 use simavr::{ms_to_cycles, Avr};
 
 use crate::firmware;
+use crate::outln;
 
 /// Flash budget per firmware: 28 KiB of the Uno's 32 256 B application area.
 pub const FLASH_BUDGET: usize = 28 * 1024;
@@ -69,10 +70,6 @@ impl Footprint {
     pub fn within_budget(&self) -> bool {
         self.flash <= FLASH_BUDGET && self.sram() <= SRAM_BUDGET
     }
-}
-
-fn load(elf: &Path) -> Result<Avr, String> {
-    Avr::load(elf).map_err(|e| format!("{}: {e}", elf.display()))
 }
 
 fn stack_of(avr: &Avr) -> Result<usize, String> {
@@ -126,7 +123,7 @@ pub fn traffic(role: Role, i: usize) -> (u16, Vec<u8>) {
 pub fn measure(dir: &Path, role: Role) -> Result<Footprint, String> {
     let elf = firmware::elf(dir, role);
     // Scenario 1: a factory-fresh radio, then traffic while listening.
-    let mut avr = load(&elf)?;
+    let mut avr = firmware::load(&elf, role)?;
     let flash = avr
         .flash_size()
         .ok_or_else(|| format!("{}: no __data_load_end/_etext symbol", elf.display()))?;
@@ -151,7 +148,7 @@ pub fn measure(dir: &Path, role: Role) -> Result<Footprint, String> {
         .collect();
     let stack_factory = stack_of(&avr)?;
     // Scenario 2: no radio at all.
-    let mut avr = load(&elf)?;
+    let mut avr = firmware::load(&elf, role)?;
     avr.run_until(ms_to_cycles(SILENT_RUN_MS));
     let stack_silent = stack_of(&avr)?;
     Ok(Footprint {
@@ -217,13 +214,17 @@ pub fn run(dir: &Path) -> Result<(), String> {
         SILENT_RUN_MS / 1000.0
     );
     let rows = measure_all(dir)?;
-    print!("{}", table(&rows));
-    println!(
+    let mut out = crate::out::Out::stdout();
+    out.write(format_args!("{}", table(&rows)))?;
+    outln!(
+        out,
         "\nbudgets: flash ≤ {} B (of the Uno's 32 256); static SRAM + stack peak ≤ {} B (of 2048).",
-        FLASH_BUDGET, SRAM_BUDGET
+        FLASH_BUDGET,
+        SRAM_BUDGET
     );
     for r in &rows {
-        println!(
+        outln!(
+            out,
             "{} with a factory radio: {}",
             firmware::crate_name(r.role),
             r.factory_lines.join(" / ")

@@ -3,11 +3,20 @@
 //! the simulation study ([`study`]) and the testbed's scenarios ([`scenario`], [`testbed`])
 //! directly.
 
+pub mod args;
+// The command line's doc comments are its `--help` text, with shell examples as indented lines:
+// not Rust, so not doctests.
+#[cfg(not(doctest))]
+pub mod cli;
 pub mod demo;
+pub mod diagnose;
 pub mod firmware;
 pub mod fixes;
 pub mod footprint;
+pub mod framing;
+pub mod health;
 pub mod monitor;
+pub mod out;
 pub mod provision;
 pub mod replay;
 pub mod report;

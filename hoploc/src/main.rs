@@ -1,119 +1,12 @@
 //! The hoploc command line.
 
-use hoploc::{demo, firmware, footprint, monitor, provision, replay, simulate};
-
-use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
-
-/// hoploc: multichannel RSSI localization testbed for Arduino Uno + XBee radios.
-#[derive(Parser)]
-#[command(version, about)]
-struct Cli {
-    #[command(subcommand)]
-    command: Command,
-}
-
-#[derive(Subcommand)]
-enum Command {
-    /// Run a testbed scenario on every node's real firmware in simavr with modelled XBee radios.
-    ///
-    /// The scenario's anchors (anchor-fw), agent (agent-fw) and sink (sink-fw) run in simavr on
-    /// the modelled radio medium, each with its config in EEPROM; the agent moves along the
-    /// scenario's path. The sink firmware's lines give its fixes, shown live against the truth;
-    /// at the end an RMSE/bias table per position and estimator (the sink's MLE and MMSE, and
-    /// the host's references of the same reports: MLE-fixed with P0/α fixed, MLE-P0only with
-    /// P0 fitted and α fixed), and plots, CSV and the sink's log in the out dir. --sink host
-    /// runs the sink's logic on the host instead (the same lines, faster). Builds the firmware
-    /// first if needed (cargo fw). Scenarios: scenarios/.
-    /// Examples:
-    ///
-    ///     hoploc demo                          # room10: 10 m × 10 m, 4 anchors, 5 fixes/s
-    ///     hoploc demo exp3 --seed 7 --out-dir exp3-plots
-    ///     hoploc demo exp1 --seconds 30 --live-every 0.5
-    ///     hoploc demo --boot --seconds 10      # the firmware booting, as a timeline
-    #[command(verbatim_doc_comment)]
-    Demo(demo::Args),
-    /// Print each firmware's flash, static SRAM and stack peak (measured in simavr) against the
-    /// budgets: 28 672 B flash, static SRAM + stack ≤ 1 536 B. Fails if one is over.
-    ///
-    /// The stack peak is the deepest of two runs per firmware: boot with a factory-fresh radio
-    /// (full command-mode bring-up, then traffic) and boot with no radio (failed bring-up, LED
-    /// error code, retry). Example:
-    ///
-    ///     hoploc footprint
-    #[command(verbatim_doc_comment)]
-    Footprint {
-        /// Directory with the firmware ELFs [default: target/avr-none/fw, or $HOPLOC_FIRMWARE_DIR].
-        #[arg(long)]
-        firmware_dir: Option<PathBuf>,
-    },
-    /// Run the thesis' Monte Carlo localization study on the host estimators.
-    ///
-    /// A 10 m × 10 m area (--area), anchors at its corners (3 and 4), the agent at 19 × 19
-    /// points, 100 runs per point, σ = 2 and 4 dB, two channels with independent noise,
-    /// P0 = −40 dBm and α = 3 known (or fitted per trial: --params estimated|ar1).
-    /// Rows MLE, MMSE, MDS, TRLT-3/QUAD-4 with CRLB and MMSE floor; columns Ch1, Ch2, Max,
-    /// Linear avg, Ext-MCH. Per σ: the mean per-point RMSE and the bias (std over points of
-    /// the per-point mean error in x and y). Same seed, same tables on any thread count.
-    /// Examples:
-    ///
-    ///     hoploc simulate
-    ///     hoploc simulate --runs 20 --sigma 3 --params estimated --estimator MLE,MMSE
-    ///     hoploc simulate --area 30x20 --search multistart --format csv --out-dir study/
-    ///     hoploc simulate --report docs/study     # the docs page: docs/study/README.md + plots
-    #[command(verbatim_doc_comment)]
-    Simulate(simulate::Args),
-    /// Write a node's config into its EEPROM over the Uno's USB serial.
-    ///
-    /// Opening the port resets the board; its firmware listens for a provisioning frame for
-    /// 2 s after the `hoploc <role> boot` line, stores a valid config of its role, and answers
-    /// ACK or NAK (a node whose EEPROM holds a bad config keeps listening). The node uses the new
-    /// config at once and at every boot after (`hoploc <role> config eeprom id <id>`).
-    /// Unset options take the defaults shown. Example:
-    ///
-    ///     hoploc provision --port /dev/ttyACM0 --role anchor --id 2 --x 700 --y 0
-    ///     hoploc provision --port /dev/ttyACM1 --role sink --id 1 --channels 1,12 --pan 0x3332
-    #[command(verbatim_doc_comment)]
-    Provision(provision::Args),
-    /// Show the sink's lines live: one row per report (MLE and MMSE fixes, α, P0, anchors),
-    /// status lines, damaged lines; a table of the fixes at the end.
-    ///
-    /// Reads the sink's USB serial port, or stdin. Save the lines with --log to replay them
-    /// later. Examples:
-    ///
-    ///     hoploc monitor --port /dev/ttyACM0 --log sink.log
-    ///     hoploc monitor --port /dev/ttyACM0 --truth 3.5,3.5 --seconds 60 --out-dir plots/
-    ///     cat sink.log | hoploc monitor
-    #[command(verbatim_doc_comment)]
-    Monitor(monitor::Args),
-    /// Rerun a recorded sink log through every host estimator.
-    ///
-    /// Per `report` line of the log: the least-squares P0/α fit with AR(1), then MLE, windowed
-    /// and full MMSE, MLE with the thesis' fixed P0/α, trilateration, quadlateration, MDS-MAP;
-    /// the sink's own fixes next to them. RMSE and bias per truth position and algorithm
-    /// (truth from --truth or `# truth X Y` lines in the log), and a plot. Examples:
-    ///
-    ///     hoploc replay sink.log --truth 3.5,3.5
-    ///     hoploc replay sink.log --area 7x7 --out-dir replay/
-    #[command(verbatim_doc_comment)]
-    Replay(replay::Args),
-}
+use clap::Parser;
+use hoploc::cli::{self, Cli};
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    let result = match cli.command {
-        Command::Demo(args) => demo::run(&args),
-        Command::Footprint { firmware_dir } => {
-            footprint::run(&firmware_dir.unwrap_or_else(firmware::default_dir))
-        }
-        Command::Simulate(args) => simulate::run(&args),
-        Command::Provision(args) => provision::run(&args).map_err(|e| e.to_string()),
-        Command::Monitor(args) => monitor::run(&args),
-        Command::Replay(args) => replay::run(&args),
-    };
-    match result {
+    match cli::run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("hoploc: {e}");

@@ -4,19 +4,25 @@
 //! report (the MLE and MMSE fixes of the same agent and sequence side by side, with the error
 //! against `--truth` when given), one per `status` line, and a note per damaged line — and keeps
 //! every fix in a [`Tally`] for the summary table and the plot at the end. The command reads the
-//! port (or stdin), prints the rows, saves every line to `--log` for `hoploc replay`, and stops
-//! at the end of the input, after `--seconds`, or when the port goes away.
+//! port (or stdin), cuts the bytes into lines with [`crate::framing`] (a good line right after
+//! noise is found again; a line too long is dropped and counted), prints the rows, saves every
+//! line to `--log` for `hoploc replay`, and stops at the end of the input, when the port goes
+//! away, or at `--seconds` whatever the input does: the port is read on a thread of its own, so a
+//! silent port, or bytes that never end a line, do not hold the deadline up.
 
-use std::io::{BufRead, Write};
+use std::io::{Read, Write};
 use std::path::PathBuf;
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
 use loc_core::{Area, Point};
-use loc_proto::line::BootLine;
-use loc_proto::sink_line::{Estimator, SinkLine, SinkLineError, SinkOutput};
+use loc_proto::sink_line::{Estimator, SinkLine, SinkOutput};
 
+use crate::framing::{classify, Class, Framed, Framer};
+use crate::out::Out;
 use crate::replay::{parse_area, parse_point};
 use crate::tally::Tally;
+use crate::{args, outln};
 
 /// `hoploc monitor` options.
 #[derive(clap::Args, Debug, Clone)]
@@ -24,8 +30,8 @@ pub struct Args {
     /// The sink's serial port (e.g. /dev/ttyACM0) [default: read the lines from stdin].
     #[arg(long)]
     pub port: Option<String>,
-    /// The port's baud rate (the sink's UART runs at the radio's 57600).
-    #[arg(long, default_value_t = 57_600)]
+    /// The port's baud rate (the sink's UART runs at the radio's 57600) [300…4000000].
+    #[arg(long, default_value_t = 57_600, value_parser = args::baud)]
     pub baud: u32,
     /// Save every line received to this file (the input of `hoploc replay`).
     #[arg(long)]
@@ -33,8 +39,9 @@ pub struct Args {
     /// The agent's true position, metres, to show each fix's error and the RMSE at the end.
     #[arg(long, value_parser = parse_point)]
     pub truth: Option<Point>,
-    /// Stop after this many seconds (default: at the end of the input).
-    #[arg(long)]
+    /// Stop after this many seconds, whatever the input does (default: at the end of the
+    /// input) [0.001…31536000, a year].
+    #[arg(long, value_parser = args::seconds)]
     pub seconds: Option<f64>,
     /// Write the plot of the fixes (monitor.svg, monitor.png) into this directory at the end.
     #[arg(long)]
@@ -55,9 +62,12 @@ pub struct Counts {
     pub reports: usize,
     /// `status` lines.
     pub status: usize,
-    /// Sink lines that failed their checksum or did not parse.
+    /// Sink lines that failed their checksum or did not parse, or whose bytes show damage
+    /// ([`crate::framing::classify`]).
     pub damaged: usize,
-    /// Other lines (boot lines, noise).
+    /// Lines longer than any line a node writes, dropped.
+    pub too_long: usize,
+    /// Other lines (boot lines, noise, other devices' text).
     pub other: usize,
 }
 
@@ -85,6 +95,8 @@ pub struct Monitor {
     pub counts: Counts,
     /// The last `status` line.
     pub last_status: Option<SinkLine>,
+    /// The anchor health check over the `report` lines: a row when its verdict changes.
+    pub health: crate::health::Health,
 }
 
 impl Monitor {
@@ -111,10 +123,29 @@ impl Monitor {
     /// One line from the sink; returns the rows to print (none for a report line, or for a fix
     /// line waiting for its report's other estimator).
     pub fn feed(&mut self, line: &str) -> Vec<String> {
-        let line = line.trim_end_matches(['\r', '\n']);
+        self.feed_bytes(line.as_bytes())
+    }
+
+    /// One framed piece of the sink's output ([`crate::framing::Framer`]): a line, or a line
+    /// that was too long. Returns the rows to print.
+    pub fn feed_framed(&mut self, framed: &Framed) -> Vec<String> {
+        match framed {
+            Framed::Line(bytes) => self.feed_bytes(bytes),
+            Framed::TooLong => {
+                self.counts.too_long += 1;
+                let mut rows: Vec<String> = self.flush().into_iter().collect();
+                rows.push("  line too long (noise?), dropped".to_string());
+                rows
+            }
+        }
+    }
+
+    /// One line from the sink as bytes (any bytes: noise that is not text is counted, as a
+    /// damaged sink line when it shows one). Returns the rows to print.
+    pub fn feed_bytes(&mut self, line: &[u8]) -> Vec<String> {
         let mut rows = Vec::new();
-        match SinkOutput::parse(line) {
-            Ok(SinkOutput::Line(SinkLine::Fix {
+        match classify(line) {
+            Class::Sink(SinkOutput::Line(SinkLine::Fix {
                 agent,
                 seq,
                 estimator,
@@ -156,14 +187,14 @@ impl Monitor {
                 }
                 return rows;
             }
-            Ok(SinkOutput::Line(SinkLine::NoFix { agent, seq, usable })) => {
+            Class::Sink(SinkOutput::Line(SinkLine::NoFix { agent, seq, usable })) => {
                 self.counts.nofixes += 1;
                 rows.extend(self.flush());
                 rows.push(format!(
                     "{agent:>5} {seq:>6}   no fix: {usable} usable anchors (3 needed)"
                 ));
             }
-            Ok(SinkOutput::Line(
+            Class::Sink(SinkOutput::Line(
                 s @ SinkLine::Status {
                     uptime_s,
                     frames,
@@ -172,28 +203,42 @@ impl Monitor {
                     checksum_errors,
                     foreign,
                     fixes,
+                    repeats,
+                    failed,
                 },
             )) => {
                 self.counts.status += 1;
+                let warnings = crate::diagnose::status_warnings(self.last_status.as_ref(), &s);
                 self.last_status = Some(s);
                 rows.extend(self.flush());
                 rows.push(format!(
                     "status at {uptime_s} s: {frames} frames, {reports} reports, {drops} dropped, \
-                     {checksum_errors} corrupt, {foreign} foreign, {fixes} fixes"
+                     {checksum_errors} corrupt, {foreign} foreign, {fixes} fixes, {repeats} \
+                     repeated, {failed} undelivered"
                 ));
+                rows.extend(warnings);
             }
-            Ok(SinkOutput::Report(_)) => self.counts.reports += 1,
+            Class::Sink(SinkOutput::Report(raw)) => {
+                self.counts.reports += 1;
+                let events = raw
+                    .report()
+                    .map_or(Vec::new(), |r| self.health.on_report(&r));
+                if !events.is_empty() {
+                    rows.extend(self.flush());
+                    rows.extend(events.iter().map(|e| e.to_string()));
+                }
+            }
             // The sink's boot and config lines (`hoploc sink boot`, …) are worth seeing.
-            Err(_) if BootLine::parse(line).is_ok() => {
+            Class::Boot(b) => {
                 self.counts.other += 1;
                 rows.extend(self.flush());
-                rows.push(format!("  {line}"));
+                rows.push(format!("  {b}"));
             }
-            Err(SinkLineError::NotSinkLine) => self.counts.other += 1,
-            Err(e) => {
+            Class::Foreign => self.counts.other += 1,
+            Class::Damaged(why) => {
                 self.counts.damaged += 1;
                 rows.extend(self.flush());
-                rows.push(format!("  damaged sink line ({e}), skipped"));
+                rows.push(format!("  damaged sink line ({why}), skipped"));
             }
         }
         rows
@@ -241,9 +286,9 @@ impl Monitor {
     pub fn summary(&self) -> String {
         let c = &self.counts;
         let mut s = format!(
-            "{} fix lines, {} nofix, {} report lines, {} status, {} damaged sink lines, {} other \
-             lines\n",
-            c.fixes, c.nofixes, c.reports, c.status, c.damaged, c.other
+            "{} fix lines, {} nofix, {} report lines, {} status, {} damaged sink lines, {} too \
+             long, {} other lines\n",
+            c.fixes, c.nofixes, c.reports, c.status, c.damaged, c.too_long, c.other
         );
         if !self.tally.accs.is_empty() {
             s += "\n";
@@ -253,17 +298,122 @@ impl Monitor {
     }
 }
 
+/// What the port's reader thread hands over: bytes, the end of the input, or a read error.
+enum Input {
+    Bytes(Vec<u8>),
+    End,
+    Error(std::io::Error),
+}
+
+/// Reads `reader` on a thread of its own, chunk by chunk, into a bounded channel: the session
+/// waits on the channel with its deadline, so no read can hold it up. A read timeout (a serial
+/// port with nothing to say) is not the end. The thread ends at the end of the input, on an
+/// error, or when the session has gone (a thread blocked in a read ends with the process).
+fn spawn_reader(mut reader: Box<dyn Read + Send>) -> Receiver<Input> {
+    let (tx, rx) = mpsc::sync_channel(64);
+    std::thread::spawn(move || {
+        let mut buf = vec![0u8; 4096];
+        loop {
+            let msg = match reader.read(&mut buf) {
+                Ok(0) => Input::End,
+                Ok(n) => Input::Bytes(buf[..n].to_vec()),
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::TimedOut
+                            | std::io::ErrorKind::WouldBlock
+                            | std::io::ErrorKind::Interrupted
+                    ) =>
+                {
+                    continue
+                }
+                Err(e) => Input::Error(e),
+            };
+            let last = !matches!(msg, Input::Bytes(_));
+            if tx.send(msg).is_err() || last {
+                return;
+            }
+        }
+    });
+    rx
+}
+
+/// A monitoring session: `reader`'s lines through `mon` until the input ends, `deadline` (from
+/// now) passes, or `out`'s reader goes; rows on `out`, every line into `log`. `name` names the
+/// input in messages.
+pub fn session<W: Write>(
+    reader: Box<dyn Read + Send>,
+    name: &str,
+    deadline: Option<Duration>,
+    mon: &mut Monitor,
+    mut log: Option<&mut dyn Write>,
+    out: &mut Out<W>,
+) -> Result<(), String> {
+    let start = Instant::now();
+    let input = spawn_reader(reader);
+    let mut framer = Framer::new();
+    let mut show = |framed: Framed, mon: &mut Monitor, out: &mut Out<W>| -> Result<(), String> {
+        if let (Some(log), Framed::Line(bytes)) = (log.as_mut(), &framed) {
+            log.write_all(bytes)
+                .and_then(|()| log.write_all(b"\n"))
+                .and_then(|()| log.flush())
+                .map_err(|e| format!("log: {e}"))?;
+        }
+        for r in mon.feed_framed(&framed) {
+            outln!(out, "{r}");
+        }
+        Ok(())
+    };
+    loop {
+        if out.closed() {
+            return Ok(());
+        }
+        let msg = match deadline {
+            None => input.recv().map_err(|_| RecvTimeoutError::Disconnected),
+            Some(d) => match d.checked_sub(start.elapsed()) {
+                Some(left) if !left.is_zero() => input.recv_timeout(left),
+                _ => Err(RecvTimeoutError::Timeout),
+            },
+        };
+        match msg {
+            Ok(Input::Bytes(bytes)) => {
+                let mut framed = Vec::new();
+                framer.push(&bytes, |f| framed.push(f));
+                for f in framed {
+                    show(f, mon, out)?;
+                }
+            }
+            Ok(Input::End) | Err(RecvTimeoutError::Disconnected) => break,
+            Ok(Input::Error(e)) => {
+                outln!(out, "{name}: {e}; stopping");
+                break;
+            }
+            // The deadline: a line being dropped as too long counts; a line cut here is ours.
+            Err(RecvTimeoutError::Timeout) => {
+                if framer.overlong() {
+                    show(Framed::TooLong, mon, out)?;
+                }
+                return Ok(());
+            }
+        }
+    }
+    if let Some(f) = framer.finish() {
+        show(f, mon, out)?;
+    }
+    Ok(())
+}
+
 /// Runs `hoploc monitor`.
 pub fn run(args: &Args) -> Result<(), String> {
-    let (name, reader): (String, Box<dyn BufRead>) = match &args.port {
+    let (name, reader): (String, Box<dyn Read + Send>) = match &args.port {
         Some(p) => {
             let port = serialport::new(p, args.baud)
                 .timeout(Duration::from_millis(200))
                 .open()
                 .map_err(|e| format!("{p}: {e}"))?;
-            (p.clone(), Box::new(std::io::BufReader::new(port)))
+            (p.clone(), Box::new(port))
         }
-        None => ("stdin".to_string(), Box::new(std::io::stdin().lock())),
+        None => ("stdin".to_string(), Box::new(std::io::stdin())),
     };
     let mut log = match &args.log {
         Some(path) => Some(std::io::BufWriter::new(
@@ -271,53 +421,29 @@ pub fn run(args: &Args) -> Result<(), String> {
         )),
         None => None,
     };
+    let deadline = match args.seconds {
+        Some(s) => Some(Duration::try_from_secs_f64(s).map_err(|e| format!("--seconds {s}: {e}"))?),
+        None => None,
+    };
     let mut mon = Monitor::new(args.truth);
-    println!("hoploc monitor: the sink's lines from {name}");
-    println!("{}", mon.header());
-    let start = Instant::now();
-    let deadline = args.seconds.map(Duration::from_secs_f64);
-    let mut reader = reader;
-    let mut buf = Vec::new();
-    loop {
-        if deadline.is_some_and(|d| start.elapsed() >= d) {
-            break;
-        }
-        match reader.read_until(b'\n', &mut buf) {
-            Ok(0) => break,
-            Ok(_) => {}
-            // A serial port's read timeout: nothing yet, keep the partial line.
-            Err(e) if e.kind() == std::io::ErrorKind::TimedOut => continue,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-            Err(e) => {
-                println!("{name}: {e}; stopping");
-                break;
-            }
-        }
-        if !buf.ends_with(b"\n") {
-            continue;
-        }
-        if let Some(log) = &mut log {
-            log.write_all(&buf)
-                .and_then(|()| log.flush())
-                .map_err(|e| format!("log: {e}"))?;
-        }
-        // Noise that is not UTF-8 is an "other" line, never a crash.
-        let rows = match std::str::from_utf8(&buf) {
-            Ok(t) => mon.feed(t),
-            Err(_) => {
-                mon.counts.other += 1;
-                Vec::new()
-            }
-        };
-        for r in rows {
-            println!("{r}");
-        }
-        buf.clear();
+    let mut out = Out::stdout();
+    outln!(out, "hoploc monitor: the sink's lines from {name}");
+    outln!(out, "{}", mon.header());
+    session(
+        reader,
+        &name,
+        deadline,
+        &mut mon,
+        log.as_mut().map(|l| l as &mut dyn Write),
+        &mut out,
+    )?;
+    if out.closed() {
+        return Ok(());
     }
     if let Some(r) = mon.flush() {
-        println!("{r}");
+        outln!(out, "{r}");
     }
-    println!("\n{}", mon.summary());
+    outln!(out, "\n{}", mon.summary());
     if let Some(dir) = &args.out_dir {
         let area = args.area.unwrap_or_else(|| {
             let pts = mon.tally.accs.values().flat_map(|a| a.fixes.iter());
@@ -325,7 +451,7 @@ pub fn run(args: &Args) -> Result<(), String> {
             Area::new(w, h)
         });
         for f in crate::tally::plot(&mon.tally, area, &[], "hoploc monitor", dir, "monitor")? {
-            println!("wrote {}", f.display());
+            outln!(out, "wrote {}", f.display());
         }
     }
     Ok(())
@@ -395,11 +521,18 @@ mod tests {
             checksum_errors: 1,
             foreign: 17,
             fixes: 480,
+            repeats: 0,
+            failed: 0,
         }));
+        assert_eq!(rows.len(), 4, "{rows:?}");
         assert_eq!(
-            rows,
-            ["status at 61 s: 1203 frames, 240 reports, 3 dropped, 1 corrupt, 17 foreign, 480 fixes"]
+            rows[0],
+            "status at 61 s: 1203 frames, 240 reports, 3 dropped, 1 corrupt, 17 foreign, 480 \
+             fixes, 0 repeated, 0 undelivered"
         );
+        // The first status line: what its counters say since boot.
+        assert!(rows[1].contains("17 frames") && rows[2].contains("1 damaged"));
+        assert!(rows[3].contains("3 reports missing"));
         assert!(m.feed("random noise").is_empty());
         assert_eq!(
             m.counts,
@@ -409,6 +542,7 @@ mod tests {
                 reports: 0,
                 status: 1,
                 damaged: 1,
+                too_long: 0,
                 other: 2,
             }
         );

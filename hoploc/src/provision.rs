@@ -15,7 +15,7 @@ use std::io::{self, Read, Write};
 use std::time::{Duration, Instant};
 
 use loc_proto::config::{self, Config, NetworkKey, WRONG_ROLE};
-use loc_proto::line::BootLine;
+use loc_proto::line::{BootLine, MAX_BOOT_LINE};
 use loc_proto::msg::{ChannelList, Position};
 use loc_proto::provision::{encode, Reply, MAX_FRAME, REPLY_LEN, WRITE_FAILED};
 use loc_proto::Role;
@@ -74,6 +74,9 @@ pub fn nak_meaning(code: u8) -> &'static str {
 impl fmt::Display for ProvisionError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            ProvisionError::InvalidConfig(loc_proto::Error::BadValue { field }) => {
+                write!(f, "invalid config: {}", field_range(*field))
+            }
             ProvisionError::InvalidConfig(e) => write!(f, "invalid config: {e}"),
             ProvisionError::SlotTooShort { slot_ms, anchors } => write!(
                 f,
@@ -111,6 +114,30 @@ impl fmt::Display for ProvisionError {
 }
 
 impl std::error::Error for ProvisionError {}
+
+/// The option behind a config field the node would refuse, and the values it takes.
+pub fn field_range(field: loc_proto::error::Field) -> &'static str {
+    use loc_proto::error::Field;
+    match field {
+        Field::AnchorId | Field::NodeId => {
+            "--id: an anchor's id is 1…N (N = --anchors), an agent's or a sink's 1…255"
+        }
+        Field::AgentId => "--id: an agent's id is 1…255",
+        Field::Anchors => "--anchors: 3…8",
+        Field::Channel | Field::ChannelCount | Field::DuplicateChannel => {
+            "--channels: 1…4 distinct channels 1…16"
+        }
+        Field::SlotLength => {
+            "--slot-ms: up to 10000, and at least 17 with 3 or 4 anchors, 18 with 5…7, 19 with 8"
+        }
+        Field::SinkChannel => "--sink-channel: 1…16",
+        Field::PanId => "--pan: any PAN id but 0xFFFF",
+        Field::Role => "--role: anchor, agent or sink",
+        Field::RelayCount | Field::SelfRssi | Field::Flags | Field::RelayRows => {
+            "a field out of range"
+        }
+    }
+}
 
 impl From<io::Error> for ProvisionError {
     fn from(e: io::Error) -> Self {
@@ -203,6 +230,11 @@ impl Provisioner {
                 Phase::Done => {}
                 Phase::AwaitBoot => {
                     if b != b'\n' {
+                        // A line longer than any boot line is noise: only its end is kept, so
+                        // bytes that never end a line cannot grow the memory.
+                        if self.pending.len() >= MAX_BOOT_LINE {
+                            self.pending.remove(0);
+                        }
                         self.pending.push(b);
                         continue;
                     }
@@ -298,7 +330,7 @@ pub struct Args {
     #[arg(long, value_parser = parse_role)]
     pub role: Role,
     /// Node id: 1…N for an anchor, 1…255 for an agent or a sink.
-    #[arg(long)]
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..))]
     pub id: u8,
     /// Position x in cm (anchors; for a sink the room width, 0 = the anchors' bounding box).
     #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
@@ -307,18 +339,22 @@ pub struct Args {
     #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
     pub y: i16,
     /// Number of anchors N in the network (3…8).
-    #[arg(long, default_value_t = Config::DEFAULT.anchors)]
+    #[arg(long, default_value_t = Config::DEFAULT.anchors,
+          value_parser = clap::value_parser!(u8).range(3..=loc_proto::msg::MAX_ANCHORS as i64))]
     pub anchors: u8,
     /// TDMA slot length in ms (up to 10000; at least 17 with 3 or 4 anchors, 18 with 5…7, 19
     /// with 8: a slot must hold a beacon).
-    #[arg(long, default_value_t = Config::DEFAULT.slot_ms)]
+    #[arg(long, default_value_t = Config::DEFAULT.slot_ms,
+          value_parser = clap::value_parser!(u16)
+              .range(i64::from(config::MIN_SLOT_MS)..=i64::from(config::MAX_SLOT_MS)))]
     pub slot_ms: u16,
     /// Anchor channels in hop order, testbed channels 1…16 (channel n = 802.15.4 channel 10+n).
     /// Channel 1 does not exist on the XBee S1 Pro (2…13 only).
     #[arg(long, default_value = "1,12", value_parser = parse_channels)]
     pub channels: ChannelList,
     /// The agents' report channel to the sink (testbed channel 1…16).
-    #[arg(long, default_value_t = Config::DEFAULT.sink_channel)]
+    #[arg(long, default_value_t = Config::DEFAULT.sink_channel,
+          value_parser = clap::value_parser!(u8).range(1..=i64::from(loc_proto::msg::MAX_CHANNEL)))]
     pub sink_channel: u8,
     /// PAN id, decimal or 0x-hex (not 0xFFFF).
     #[arg(long, default_value = "0x3332", value_parser = parse_pan)]
@@ -408,8 +444,9 @@ pub fn run(args: &Args) -> Result<(), ProvisionError> {
         .map_err(|e| ProvisionError::Io(io::Error::other(format!("{}: {e}", args.port))))?;
     eprintln!("waiting for the node to boot on {}...", args.port);
     drive(&mut port, &mut prov, BOOT_TIMEOUT, REPLY_TIMEOUT)?;
-    println!("provisioned: {}", describe(&config));
-    Ok(())
+    crate::out::Out::stdout()
+        .line(format_args!("provisioned: {}", describe(&config)))
+        .map_err(|e| ProvisionError::Io(io::Error::other(e)))
 }
 
 #[cfg(test)]
@@ -436,6 +473,24 @@ mod tests {
         assert!(p.result().is_none());
         p.receive(b"A\x01hoploc anchor provisioned\r\n");
         assert!(matches!(p.take_result(), Some(Ok(()))));
+    }
+
+    #[test]
+    fn a_flood_without_newlines_keeps_little_and_the_boot_line_still_counts() {
+        let mut p = Provisioner::new(anchor2()).unwrap();
+        for _ in 0..1000 {
+            assert_eq!(p.receive(&[b'x'; 1000]), None);
+            assert!(p.pending.len() <= MAX_BOOT_LINE);
+        }
+        // The noise ends the line before the boot line; the boot line after it is read.
+        assert_eq!(p.receive(b"\r\n"), None);
+        assert!(p.receive(b"hoploc anchor boot\r\n").is_some());
+    }
+
+    #[test]
+    fn an_invalid_config_names_the_option_and_its_range() {
+        let e = Provisioner::new(Config { id: 9, ..anchor2() }).unwrap_err();
+        assert!(e.to_string().contains("--id: an anchor's id is 1…N"), "{e}");
     }
 
     #[test]

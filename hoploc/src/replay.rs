@@ -12,10 +12,17 @@
 //!
 //! Ground truth comes from `--truth X,Y` or from `# truth X Y` lines in the log (metres; the demo
 //! writes them when the agent moves; `# truth none` clears it). Any other line — boot lines,
-//! comments, noise — is counted and skipped; a damaged sink line (bad checksum) is counted, never
-//! believed.
+//! comments, noise — is counted and skipped; a damaged sink line (bad checksum, or bytes that
+//! show damage: [`crate::framing::classify`]) is counted, never believed. The log is cut into
+//! lines as `hoploc monitor` cuts the port's bytes ([`crate::framing::Framer`]): a good line
+//! right after noise is found again, and a line too long is dropped and counted.
+//!
+//! The reports also go through the anchor health check ([`crate::health`]): whether each
+//! anchor's anchor-to-anchor RSSI agrees with its configured position. The summary lists every
+//! change of its verdict (an anchor flagged or cleared, with the report it came at) and its
+//! verdict over the log's last window, with a row per anchor.
 
-use std::io::BufRead;
+use std::io::Read;
 use std::path::PathBuf;
 
 use loc_core::baselines::Baseline;
@@ -23,10 +30,13 @@ use loc_core::grid::{self, Search};
 use loc_core::params::{Bounds, FitMethod, OnlineParams, ParamMode};
 use loc_core::refine::{observations, Refinement};
 use loc_core::{Area, Measurements, PathLoss, Point, MAX_ANCHORS, MAX_CHANNELS};
-use loc_proto::line::BootLine;
 use loc_proto::msg::Report;
-use loc_proto::sink_line::{Estimator, SinkLine, SinkLineError, SinkOutput};
+use loc_proto::sink_line::{Estimator, SinkLine, SinkOutput};
 
+use crate::framing::{classify, Class, Framed, Framer};
+use crate::health::{Health, HealthConfig, HealthEvent};
+use crate::out::Out;
+use crate::outln;
 use crate::tally::Tally;
 
 /// σ of the MMSE estimates while no fit gave one, dB (the sink's default, the thesis' larger σ).
@@ -58,36 +68,35 @@ pub struct Args {
     /// Write the fixes-versus-truth plot (replay.svg, replay.png) into this directory.
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
+    /// The anchor health check's assumption: σ of a link's static error on one channel, dB
+    /// (the fading of the room; the emulated testbed's is 3). Smaller flags smaller offsets,
+    /// and more false alarms in a room with more multipath.
+    #[arg(long, default_value_t = HealthConfig::default().fading_db, value_parser = parse_fading)]
+    pub health_fading_db: f64,
 }
 
-/// `X,Y` in metres.
+/// A σ in dB: 0…30.
+fn parse_fading(s: &str) -> Result<f64, String> {
+    crate::args::float_in(s, 0.0, 30.0, false, " dB")
+}
+
+/// `X,Y` in metres, each within ±[`crate::args::MAX_METRES`].
 pub fn parse_point(s: &str) -> Result<Point, String> {
     let (x, y) = s
         .split_once(',')
         .ok_or_else(|| format!("`{s}`: expected X,Y in metres, e.g. 3.5,2"))?;
-    let num = |v: &str| {
-        v.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| format!("`{v}` is not a number of metres"))
-    };
-    Ok(Point::new(num(x)?, num(y)?))
+    Ok(Point::new(
+        crate::args::coordinate_m(x)?,
+        crate::args::coordinate_m(y)?,
+    ))
 }
 
-/// `WxH` in metres, both positive.
+/// `WxH` in metres, both above 0 and at most [`crate::args::MAX_METRES`].
 pub fn parse_area(s: &str) -> Result<Area, String> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("`{s}`: expected WxH in metres, e.g. 7x7"))?;
-    let num = |v: &str| {
-        v.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite() && *v > 0.0)
-            .ok_or_else(|| format!("`{v}` is not a positive number of metres"))
-    };
-    Ok(Area::new(num(w)?, num(h)?))
+    Ok(Area::new(crate::args::side_m(w)?, crate::args::side_m(h)?))
 }
 
 /// What the log held besides reports.
@@ -103,8 +112,10 @@ pub struct LineCounts {
     pub nofixes: usize,
     /// `status` lines.
     pub status: usize,
-    /// Sink lines that failed their checksum or did not parse.
+    /// Sink lines that failed their checksum or did not parse, or whose bytes show damage.
     pub damaged: usize,
+    /// Lines longer than any line a node writes, dropped.
+    pub too_long: usize,
     /// Lines that are not sink lines (boot lines, comments, noise).
     pub other: usize,
 }
@@ -141,6 +152,29 @@ pub fn bounding_area(anchors: &[Point]) -> Area {
     Area::new(w.max(0.01), h.max(0.01))
 }
 
+/// A change of the anchor health check's verdict, and the report it came with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HealthNote {
+    /// The report's number in the log (the first is 1).
+    pub report: usize,
+    /// Its agent.
+    pub agent: u8,
+    /// Its sequence number.
+    pub seq: u16,
+    /// What changed.
+    pub event: HealthEvent,
+}
+
+impl std::fmt::Display for HealthNote {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "report {} (agent {}, seq {}): {}",
+            self.report, self.agent, self.seq, self.event
+        )
+    }
+}
+
 /// A log being replayed.
 #[derive(Clone, Debug)]
 pub struct Replay {
@@ -156,6 +190,10 @@ pub struct Replay {
     pub anchors: Vec<Point>,
     /// The room of the last report.
     pub last_area: Option<Area>,
+    /// The anchor health check over the reports.
+    pub health: Health,
+    /// Every change of its verdict, in order.
+    pub health_notes: Vec<HealthNote>,
 }
 
 impl Replay {
@@ -181,6 +219,16 @@ impl Replay {
             counts: LineCounts::default(),
             anchors: Vec::new(),
             last_area: None,
+            health: Health::default(),
+            health_notes: Vec::new(),
+        }
+    }
+
+    /// The same with the anchor health check's settings `cfg`.
+    pub fn with_health(self, cfg: HealthConfig) -> Replay {
+        Replay {
+            health: Health::new(cfg),
+            ..self
         }
     }
 
@@ -191,23 +239,27 @@ impl Replay {
 
     /// One line of the log.
     pub fn feed(&mut self, line: &str) {
-        let t = line.trim_end_matches(['\r', '\n']);
-        if let Some(rest) = t.strip_prefix("# truth") {
-            match parse_truth_words(rest) {
+        self.feed_bytes(line.as_bytes())
+    }
+
+    /// One line of the log as bytes (any bytes: noise that is not text is counted).
+    pub fn feed_bytes(&mut self, line: &[u8]) {
+        if let Some(rest) = line.strip_prefix(b"# truth") {
+            match std::str::from_utf8(rest).ok().and_then(parse_truth_words) {
                 Some(truth) => self.truth = truth,
                 None => self.counts.other += 1,
             }
             return;
         }
-        match SinkOutput::parse(t) {
-            Ok(SinkOutput::Report(raw)) => match raw.report() {
+        match classify(line) {
+            Class::Sink(SinkOutput::Report(raw)) => match raw.report() {
                 Ok(r) => {
                     self.counts.reports += 1;
                     self.on_report(&r);
                 }
                 Err(_) => self.counts.bad_reports += 1,
             },
-            Ok(SinkOutput::Line(SinkLine::Fix {
+            Class::Sink(SinkOutput::Line(SinkLine::Fix {
                 estimator, x, y, ..
             })) => {
                 self.counts.fixes += 1;
@@ -218,17 +270,35 @@ impl Replay {
                 let p = Point::new(x as f64 / 100.0, y as f64 / 100.0);
                 self.tally.add(self.truth, algo, p);
             }
-            Ok(SinkOutput::Line(SinkLine::NoFix { .. })) => self.counts.nofixes += 1,
-            Ok(SinkOutput::Line(SinkLine::Status { .. })) => self.counts.status += 1,
-            // The sink's boot lines share the `hoploc sink` prefix but carry no checksum.
-            Err(_) if BootLine::parse(t).is_ok() => self.counts.other += 1,
-            Err(SinkLineError::NotSinkLine) => self.counts.other += 1,
-            Err(_) => self.counts.damaged += 1,
+            Class::Sink(SinkOutput::Line(SinkLine::NoFix { .. })) => self.counts.nofixes += 1,
+            Class::Sink(SinkOutput::Line(SinkLine::Status { .. })) => self.counts.status += 1,
+            Class::Boot(_) | Class::Foreign => self.counts.other += 1,
+            Class::Damaged(_) => self.counts.damaged += 1,
         }
     }
 
-    /// A report: fit and smooth P0/α as the sink does, then every host algorithm.
+    /// One framed piece of the log: a line, or a line too long.
+    pub fn feed_framed(&mut self, framed: &Framed) {
+        match framed {
+            Framed::Line(bytes) => {
+                let line = bytes.strip_suffix(b"\r").unwrap_or(bytes);
+                self.feed_bytes(line)
+            }
+            Framed::TooLong => self.counts.too_long += 1,
+        }
+    }
+
+    /// A report: fit and smooth P0/α as the sink does, then every host algorithm; then the
+    /// anchor health check.
     fn on_report(&mut self, r: &Report) {
+        for event in self.health.on_report(r) {
+            self.health_notes.push(HealthNote {
+                report: self.counts.reports,
+                agent: r.agent,
+                seq: r.seq,
+                event,
+            });
+        }
         let m = measurements(r);
         let fit = self.params.update(&m);
         if let Some(s) = fit.ok().and_then(|f| f.sigma) {
@@ -270,8 +340,8 @@ impl Replay {
         let c = &self.counts;
         let mut s = format!(
             "{} reports ({} unreadable), {} sink fix lines, {} nofix, {} status, {} damaged sink \
-             lines, {} other lines\n\n",
-            c.reports, c.bad_reports, c.fixes, c.nofixes, c.status, c.damaged, c.other
+             lines, {} too long, {} other lines\n\n",
+            c.reports, c.bad_reports, c.fixes, c.nofixes, c.status, c.damaged, c.too_long, c.other
         );
         s += &self.tally.table();
         let overall: Vec<String> = self
@@ -283,19 +353,26 @@ impl Replay {
         if !overall.is_empty() {
             s += &format!("\nRMSE over every position: {}\n", overall.join(", "));
         }
+        if c.reports > 0 {
+            s += "\n";
+            for n in &self.health_notes {
+                s += &format!("{n}\n");
+            }
+            s += &self.health.assess().summary();
+        }
         s
     }
 }
 
-/// The words after `# truth`: `X Y` in metres (`Some(Some(p))`), `none` (`Some(None)`), or
-/// anything else (`None`).
+/// The words after `# truth`: `X Y` in metres, each within ±[`crate::args::MAX_METRES`]
+/// (`Some(Some(p))`), `none` (`Some(None)`), or anything else (`None`).
 fn parse_truth_words(rest: &str) -> Option<Option<Point>> {
     let w: Vec<&str> = rest.split_whitespace().collect();
     match w[..] {
         ["none"] => Some(None),
         [x, y] => {
-            let x = x.parse::<f64>().ok().filter(|v| v.is_finite())?;
-            let y = y.parse::<f64>().ok().filter(|v| v.is_finite())?;
+            let x = crate::args::coordinate_m(x).ok()?;
+            let y = crate::args::coordinate_m(y).ok()?;
             Some(Some(Point::new(x, y)))
         }
         _ => None,
@@ -304,25 +381,37 @@ fn parse_truth_words(rest: &str) -> Option<Option<Point>> {
 
 /// Runs `hoploc replay`.
 pub fn run(args: &Args) -> Result<(), String> {
-    let mut replay = Replay::new(args.area, args.truth);
+    let mut replay = Replay::new(args.area, args.truth).with_health(HealthConfig {
+        fading_db: args.health_fading_db,
+        ..HealthConfig::default()
+    });
     let name = args.log.display().to_string();
-    let reader: Box<dyn BufRead> = if name == "-" {
+    let mut reader: Box<dyn Read> = if name == "-" {
         Box::new(std::io::stdin().lock())
     } else {
         let f = std::fs::File::open(&args.log).map_err(|e| format!("{name}: {e}"))?;
-        Box::new(std::io::BufReader::new(f))
+        Box::new(f)
     };
     // Lines are read as bytes: a log with noise that is not UTF-8 loses only those lines.
-    for line in reader.split(b'\n') {
-        let line = line.map_err(|e| format!("{name}: {e}"))?;
-        match std::str::from_utf8(&line) {
-            Ok(t) => replay.feed(t),
-            Err(_) => replay.counts.other += 1,
-        }
+    let mut framer = Framer::new();
+    let mut buf = vec![0u8; 64 * 1024];
+    loop {
+        let n = match reader.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(format!("{name}: {e}")),
+        };
+        framer.push(&buf[..n], |f| replay.feed_framed(&f));
     }
-    print!("{}", replay.summary());
+    if let Some(f) = framer.finish() {
+        replay.feed_framed(&f);
+    }
+    let mut out = Out::stdout();
+    out.write(format_args!("{}", replay.summary()))?;
     if replay.counts.reports == 0 {
-        println!(
+        outln!(
+            out,
             "\n(no report lines: the host algorithms need the sink's `report` lines; the sink's \
              own fixes are tallied above)"
         );
@@ -341,7 +430,7 @@ pub fn run(args: &Args) -> Result<(), String> {
             "replay",
         )?;
         for f in files {
-            println!("wrote {}", f.display());
+            outln!(out, "wrote {}", f.display());
         }
     }
     Ok(())
@@ -441,6 +530,7 @@ mod tests {
                 nofixes: 1,
                 status: 0,
                 damaged: 2,
+                too_long: 0,
                 other: 2,
             }
         );
@@ -520,12 +610,76 @@ mod tests {
     }
 
     #[test]
+    fn a_misplaced_anchor_is_flagged_in_the_summary() {
+        use crate::health::synthetic::Room;
+        // room10's corners and a fifth anchor in the middle; anchor 3, configured at (10, 10),
+        // stands at (7, 7). A room with little multipath (fading σ 1 dB per channel), which
+        // the check is told.
+        let layout = [
+            (0.0, 0.0),
+            (10.0, 0.0),
+            (10.0, 10.0),
+            (0.0, 10.0),
+            (5.0, 5.0),
+        ];
+        let mut room = Room::new(&layout).moved(2, (7.0, 7.0));
+        room.fading_db = 1.0;
+        let cfg = HealthConfig {
+            fading_db: 1.0,
+            ..HealthConfig::default()
+        };
+        let mut r = Replay::new(None, None).with_health(cfg);
+        r.feed("hoploc sink boot");
+        for rep in room.reports(40, 1) {
+            r.feed(&report_line(&rep));
+        }
+        assert_eq!(r.counts.reports, 40);
+        // Flagged at the first verdict: 20 reports.
+        assert_eq!(r.health_notes.len(), 1, "{:?}", r.health_notes);
+        let n = r.health_notes[0];
+        assert_eq!((n.report, n.agent, n.seq), (20, 1, 19));
+        let s = r.summary();
+        assert!(
+            s.contains("report 20 (agent 1, seq 19): anchor health: FLAGGED anchor 3 configured at (10.00, 10.00) m"),
+            "{s}"
+        );
+        assert!(s.contains("\nanchor health: FLAGGED anchor 3"), "{s}");
+        // The same room with anchor 3 where it is configured: no note, and the verdict says so.
+        room.truth = room.configured.clone();
+        let mut r = Replay::new(None, None).with_health(cfg);
+        for rep in room.reports(40, 1) {
+            r.feed(&report_line(&rep));
+        }
+        assert!(r.health_notes.is_empty());
+        assert!(
+            r.summary()
+                .contains("anchor health: no anchor flagged (40 reports, 10 links)"),
+            "{}",
+            r.summary()
+        );
+        // A log without report lines has no health section.
+        let mut r = Replay::new(None, None);
+        r.feed("hoploc sink boot");
+        assert!(!r.summary().contains("anchor health"));
+    }
+
+    #[test]
     fn arguments_parse_or_say_why() {
         assert_eq!(parse_point("3.5, 2").unwrap(), Point::new(3.5, 2.0));
         assert!(parse_point("3.5").unwrap_err().contains("X,Y"));
         assert!(parse_point("a,2").unwrap_err().contains("`a`"));
+        assert!(parse_point("nan,2").unwrap_err().contains("-10000…10000 m"));
+        assert!(parse_point("1,inf").unwrap_err().contains("-10000…10000 m"));
         assert_eq!(parse_area("7x6").unwrap(), Area::new(7.0, 6.0));
-        assert!(parse_area("7x0").unwrap_err().contains("positive"));
+        assert!(parse_area("7x0").unwrap_err().contains("above 0"));
+        assert!(parse_area("1e6x7").unwrap_err().contains("at most 10000 m"));
         assert!(parse_area("7").unwrap_err().contains("WxH"));
+        assert_eq!(parse_fading("1.5").unwrap(), 1.5);
+        assert!(
+            parse_fading("-1").unwrap_err().contains("0…30 dB"),
+            "{:?}",
+            parse_fading("-1")
+        );
+        assert!(parse_fading("inf").is_err());
     }
 }

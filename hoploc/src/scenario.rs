@@ -114,6 +114,13 @@ pub enum AntennaKind {
     Chip,
 }
 
+impl AnchorSpec {
+    /// Where the anchor stands: [`AnchorSpec::true_position`], else its configured position.
+    pub fn radio_position(&self) -> [f64; 2] {
+        self.true_position.unwrap_or(self.position)
+    }
+}
+
 impl From<AntennaKind> for Antenna {
     fn from(k: AntennaKind) -> Antenna {
         match k {
@@ -128,8 +135,12 @@ impl From<AntennaKind> for Antenna {
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct AnchorSpec {
-    /// (x, y), m.
+    /// (x, y), m: its configured position (what its config holds and its beacons carry).
     pub position: [f64; 2],
+    /// Where it actually stands, (x, y) m, when that is not its configured position: the
+    /// medium places its radio here (a misplaced or misconfigured anchor).
+    #[serde(default)]
+    pub true_position: Option<[f64; 2]>,
     /// Antenna kind.
     #[serde(default)]
     pub antenna: AntennaKind,
@@ -194,19 +205,52 @@ impl fmt::Display for ScenarioError {
 
 impl std::error::Error for ScenarioError {}
 
-/// The directory of the scenario files shipped with hoploc.
+/// Anchors closer than this (m) are on one spot; anchors all within this of one line are on
+/// a line (the medium's shortest distance).
+pub const MIN_ANCHOR_SPACING_M: f64 = 0.1;
+
+/// The directory of the scenario files shipped with hoploc: `scenarios/` of the workspace
+/// hoploc runs in ([`crate::firmware::workspace`]), else of the current directory.
 pub fn dir() -> PathBuf {
-    crate::firmware::workspace_root().join("scenarios")
+    crate::firmware::workspace()
+        .unwrap_or_default()
+        .join("scenarios")
 }
 
-/// A scenario by name (`room10` → `scenarios/room10.toml`) or by path (anything with a `/` or
-/// ending in `.toml`).
+/// A scenario by name (`room10` → `scenarios/room10.toml` of [`dir`]) or by path (anything with
+/// a `/` or ending in `.toml`).
 pub fn resolve(name_or_path: &str) -> PathBuf {
     if name_or_path.contains('/') || name_or_path.ends_with(".toml") {
         PathBuf::from(name_or_path)
     } else {
         dir().join(format!("{name_or_path}.toml"))
     }
+}
+
+/// [`resolve`], and if a name gives no file, an error that says where hoploc looked.
+pub fn find(name_or_path: &str) -> Result<PathBuf, String> {
+    let path = resolve(name_or_path);
+    if path.exists() || name_or_path.contains('/') || name_or_path.ends_with(".toml") {
+        return Ok(path);
+    }
+    let names: Vec<String> = shipped()
+        .iter()
+        .filter_map(|p| p.file_stem()?.to_str().map(str::to_string))
+        .collect();
+    let place = match crate::firmware::workspace() {
+        Some(ws) => format!("the hoploc workspace at {}", ws.display()),
+        None => "the current directory (no hoploc workspace above it)".to_string(),
+    };
+    Err(format!(
+        "no scenario `{name_or_path}`: {} does not exist (scenarios/ of {place}); {}give a \
+         scenario file's path, or run hoploc in the hoploc source tree",
+        path.display(),
+        if names.is_empty() {
+            String::new()
+        } else {
+            format!("there: {}; ", names.join(", "))
+        }
+    ))
 }
 
 /// Every `*.toml` in [`dir`], sorted.
@@ -278,6 +322,30 @@ impl Scenario {
             }
         }
         let inside = |p: [f64; 2]| (0.0..=w).contains(&p[0]) && (0.0..=h).contains(&p[1]);
+        let finite = |field: &str, v: f64| {
+            if v.is_finite() {
+                Ok(())
+            } else {
+                bad(field, format!("{v} is not a finite number"))
+            }
+        };
+        for (i, a) in self.anchors.iter().enumerate() {
+            finite(
+                &format!("anchors[{i}].position"),
+                a.position[0] + a.position[1],
+            )?;
+            finite(&format!("anchors[{i}].orientation_deg"), a.orientation_deg)?;
+        }
+        finite("agent.orientation_deg", self.agent.orientation_deg)?;
+        for (i, stop) in self.agent.path.iter().enumerate() {
+            finite(
+                &format!("agent.path[{i}].position"),
+                stop.position[0] + stop.position[1],
+            )?;
+            if let Some(o) = stop.orientation_deg {
+                finite(&format!("agent.path[{i}].orientation_deg"), o)?;
+            }
+        }
         let n = self.anchors.len();
         if !(3..=loc_proto::msg::MAX_ANCHORS).contains(&n) {
             return bad(
@@ -295,7 +363,14 @@ impl Scenario {
                     format!("{:?} is outside the {w} m × {h} m area", a.position),
                 );
             }
+            if let Some(p) = a.true_position.filter(|&p| !inside(p)) {
+                return bad(
+                    &format!("anchors[{i}].true_position"),
+                    format!("{p:?} is outside the {w} m × {h} m area"),
+                );
+            }
         }
+        self.check_geometry()?;
         let t = &self.timing;
         let (lo, hi) = (
             loc_proto::config::MIN_SLOT_MS,
@@ -352,8 +427,12 @@ impl Scenario {
                 format!("channel {} is also an anchor channel", t.sink_channel),
             );
         }
-        if !(t.warmup_s >= 0.0 && t.warmup_s.is_finite()) {
-            return bad("timing.warmup_s", format!("{} is not ≥ 0", t.warmup_s));
+        let year = crate::args::MAX_SECONDS;
+        if !(t.warmup_s >= 0.0 && t.warmup_s <= year) {
+            return bad(
+                "timing.warmup_s",
+                format!("{} is not within 0…{year} s", t.warmup_s),
+            );
         }
         if t.network_key.is_some() && t.key().is_none() {
             return bad(
@@ -365,17 +444,32 @@ impl Scenario {
         if !(m.alpha > 0.0 && m.alpha <= 10.0) {
             return bad("medium.alpha", format!("{} is not within (0, 10]", m.alpha));
         }
-        for (f, v) in [
-            ("medium.sigma_db", m.sigma_db),
-            ("medium.fading_sigma_db", m.fading_sigma_db),
-            ("medium.drift_start_s", m.drift_start_s),
+        for (f, v, hi, unit) in [
+            ("medium.sigma_db", m.sigma_db, 30.0, "dB"),
+            ("medium.fading_sigma_db", m.fading_sigma_db, 30.0, "dB"),
+            ("medium.drift_start_s", m.drift_start_s, year, "s"),
         ] {
-            if !(v >= 0.0 && v.is_finite()) {
-                return bad(f, format!("{v} is not ≥ 0"));
+            if !(v >= 0.0 && v <= hi) {
+                return bad(f, format!("{v} is not within 0…{hi} {unit}"));
             }
         }
-        if !m.p0_dbm.is_finite() || !m.drift_db_per_min.is_finite() {
-            return bad("medium", "P0 and the drift must be finite".into());
+        if !(-150.0..=30.0).contains(&m.p0_dbm) {
+            return bad(
+                "medium.p0_dbm",
+                format!("{} is not within −150…30 dBm", m.p0_dbm),
+            );
+        }
+        if !(-150..=0).contains(&m.sensitivity_dbm) {
+            return bad(
+                "medium.sensitivity_dbm",
+                format!("{} is not within −150…0 dBm", m.sensitivity_dbm),
+            );
+        }
+        if !(-60.0..=60.0).contains(&m.drift_db_per_min) {
+            return bad(
+                "medium.drift_db_per_min",
+                format!("{} is not within −60…60 dB per minute", m.drift_db_per_min),
+            );
         }
         if self.agent.path.is_empty() {
             return bad("agent.path", "the agent has no stop".into());
@@ -387,11 +481,121 @@ impl Scenario {
                     format!("{:?} is outside the {w} m × {h} m area", s.position),
                 );
             }
-            if !(s.dwell_s > 0.0 && s.dwell_s.is_finite()) {
+            if !(s.dwell_s > 0.0 && s.dwell_s <= year) {
                 return bad(
                     &format!("agent.path[{i}].dwell_s"),
-                    format!("{} is not > 0", s.dwell_s),
+                    format!("{} is not > 0 and at most {year} s", s.dwell_s),
                 );
+            }
+        }
+        if self.duration_s() > year {
+            return bad(
+                "agent.path",
+                format!(
+                    "the run would last {} s, more than a year",
+                    self.duration_s()
+                ),
+            );
+        }
+        self.check_hearing()
+    }
+
+    /// Anchors far enough apart, not all on one line: else positions on either side of the
+    /// line (or around the one spot) give the same RSSI, and no estimator can tell them apart.
+    fn check_geometry(&self) -> Result<(), (String, String)> {
+        let p: Vec<[f64; 2]> = self.anchors.iter().map(|a| a.position).collect();
+        let dist = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+        for i in 0..p.len() {
+            for j in 0..i {
+                if dist(p[i], p[j]) < MIN_ANCHOR_SPACING_M {
+                    return Err((
+                        format!("anchors[{i}].position"),
+                        format!(
+                            "{:?} is on the spot of anchors[{j}] ({:?}, less than {} m away): \
+                             anchors must stand apart",
+                            p[i], p[j], MIN_ANCHOR_SPACING_M
+                        ),
+                    ));
+                }
+            }
+        }
+        // The largest distance of an anchor from the line through two others.
+        let mut widest = 0.0f64;
+        for i in 0..p.len() {
+            for j in 0..i {
+                for k in 0..p.len() {
+                    let (a, b, c) = (p[i], p[j], p[k]);
+                    let cross = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+                    widest = widest.max(cross.abs() / dist(a, b));
+                }
+            }
+        }
+        if widest < MIN_ANCHOR_SPACING_M {
+            return Err((
+                "anchors".to_string(),
+                format!(
+                    "every anchor is on one line (within {MIN_ANCHOR_SPACING_M} m): a position \
+                     and its mirror image across the line give the same RSSI"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The best level a packet can arrive with from `a` to `b`, dBm: the mean path loss at
+    /// their distance, plus three standard deviations of shadowing and fading together, plus
+    /// both antennas' peak gain (drift left out).
+    pub fn best_level_dbm(&self, a: [f64; 2], b: [f64; 2], antennas: [AntennaKind; 2]) -> f64 {
+        let m = &self.medium;
+        let min_d = MediumConfig::default().min_distance_m;
+        let d = (a[0] - b[0]).hypot(a[1] - b[1]).max(min_d);
+        let spread = 3.0 * m.sigma_db.hypot(m.fading_sigma_db);
+        let peak = |k: AntennaKind| Antenna::from(k).ripple_db() / 2.0;
+        m.p0_dbm - 10.0 * m.alpha * d.log10() + spread + peak(antennas[0]) + peak(antennas[1])
+    }
+
+    /// At every stop of the agent, at least 3 anchors can be heard and the sink (in the
+    /// middle of the room) can hear the agent, at the best level the medium gives
+    /// ([`Scenario::best_level_dbm`]): else no report, or no fix, can come from there.
+    fn check_hearing(&self) -> Result<(), (String, String)> {
+        let m = &self.medium;
+        let sens = f64::from(m.sensitivity_dbm);
+        let agent = self.agent.antenna;
+        let sink = [self.area.width_m / 2.0, self.area.height_m / 2.0];
+        for (i, stop) in self.agent.path.iter().enumerate() {
+            let heard = self
+                .anchors
+                .iter()
+                .filter(|a| {
+                    self.best_level_dbm(a.position, stop.position, [a.antenna, agent]) >= sens
+                })
+                .count();
+            if heard < 3 {
+                return Err((
+                    format!("agent.path[{i}].position"),
+                    format!(
+                        "{:?}: the agent can hear {heard} of the {} anchors here even at their \
+                         best level (P0 {} dBm, α {}, 3σ of shadowing and fading, the antennas' \
+                         peak gain) against a sensitivity of {} dBm; a fix needs 3",
+                        stop.position,
+                        self.anchors.len(),
+                        m.p0_dbm,
+                        m.alpha,
+                        m.sensitivity_dbm
+                    ),
+                ));
+            }
+            let to_sink = self.best_level_dbm(stop.position, sink, [agent, AntennaKind::Isotropic]);
+            if to_sink < sens {
+                return Err((
+                    format!("agent.path[{i}].position"),
+                    format!(
+                        "{:?}: the sink, in the middle of the room at {sink:?}, cannot hear the \
+                         agent here even at its best level ({to_sink:.1} dBm against a \
+                         sensitivity of {} dBm)",
+                        stop.position, m.sensitivity_dbm
+                    ),
+                ));
             }
         }
         Ok(())
@@ -457,6 +661,17 @@ path = [ { position = [5.0, 5.0], dwell_s = 10.0 }, { position = [2.0, 3.0], dwe
         assert_eq!(s.anchors.len(), 3);
         assert_eq!(s.anchors[1].antenna, AntennaKind::Chip);
         assert_eq!(s.anchors[0].antenna, AntennaKind::Isotropic);
+        // An anchor stands where it is configured unless the file says otherwise.
+        assert_eq!(s.anchors[2].true_position, None);
+        assert_eq!(s.anchors[2].radio_position(), [10.0, 10.0]);
+        let moved = GOOD.replacen(
+            "position = [10.0, 10.0]",
+            "position = [10.0, 10.0]\ntrue_position = [6.0, 6.0]",
+            1,
+        );
+        let m = Scenario::parse(&moved).unwrap();
+        assert_eq!(m.anchors[2].position, [10.0, 10.0]);
+        assert_eq!(m.anchors[2].radio_position(), [6.0, 6.0]);
         assert_eq!(s.timing.sink_channel, 3);
         assert_eq!(s.timing.warmup_s, 8.0);
         assert_eq!(s.agent.path[1].orientation_deg, Some(225.0));
@@ -503,6 +718,18 @@ path = [ { position = [5.0, 5.0], dwell_s = 10.0 }, { position = [2.0, 3.0], dwe
                 "outside",
             ),
             (
+                "position = [10.0, 10.0]",
+                "position = [10.0, 10.0]\ntrue_position = [6.0, -0.1]",
+                "anchors[2].true_position",
+                "outside",
+            ),
+            (
+                "position = [10.0, 10.0]",
+                "position = [10.0, 10.0]\ntrue_position = [6.0]",
+                "anchors[2].true_position",
+                "invalid length",
+            ),
+            (
                 "dwell_s = 5.0",
                 "dwell_s = 0.0",
                 "agent.path[1].dwell_s",
@@ -517,6 +744,76 @@ path = [ { position = [5.0, 5.0], dwell_s = 10.0 }, { position = [2.0, 3.0], dwe
             ("width_m = 10.0", "width_m = -1.0", "area.width_m", "within"),
             ("alpha = 3.0", "alpha = 0.0", "medium.alpha", "within"),
             ("seed = 7", "seed = = 7", "", "not valid TOML"),
+            // Values that cannot work.
+            (
+                "position = [0.0, 0.0]",
+                "position = [nan, 0.0]",
+                "anchors[0].position",
+                "finite",
+            ),
+            (
+                "[2.0, 3.0]",
+                "[2.0, inf]",
+                "agent.path[1].position",
+                "finite",
+            ),
+            (
+                "orientation_deg = 135.0",
+                "orientation_deg = nan",
+                "anchors[1].orientation_deg",
+                "finite",
+            ),
+            (
+                "dwell_s = 5.0",
+                "dwell_s = inf",
+                "agent.path[1].dwell_s",
+                "at most",
+            ),
+            (
+                "sigma_db = 2.0",
+                "sigma_db = nan",
+                "medium.sigma_db",
+                "0…30 dB",
+            ),
+            (
+                "p0_dbm = -40.0",
+                "p0_dbm = -inf",
+                "medium.p0_dbm",
+                "−150…30 dBm",
+            ),
+            (
+                "sensitivity_dbm = -92",
+                "sensitivity_dbm = 5",
+                "medium.sensitivity_dbm",
+                "−150…0 dBm",
+            ),
+            (
+                "sigma_db = 2.0",
+                "sigma_db = 2.0, drift_db_per_min = nan",
+                "medium.drift_db_per_min",
+                "−60…60",
+            ),
+            (
+                "[10.0, 0.0]",
+                "[0.05, 0.0]",
+                "anchors[1].position",
+                "on the spot of anchors[0]",
+            ),
+            ("[10.0, 10.0]", "[7.0, 0.0]", "anchors", "on one line"),
+            // Nothing is heard: a sensitivity above every level in the room.
+            (
+                "sensitivity_dbm = -92",
+                "sensitivity_dbm = -40",
+                "agent.path[0].position",
+                "can hear 0 of the 3 anchors",
+            ),
+            // A path loss too steep for the room: the anchors are too far away.
+            (
+                "alpha = 3.0",
+                "alpha = 10.0",
+                "agent.path[0].position",
+                "a fix needs 3",
+            ),
         ];
         for (from, to, field, problem) in cases {
             let (f, p) = error(from, to);
@@ -526,6 +823,22 @@ path = [ { position = [5.0, 5.0], dwell_s = 10.0 }, { position = [2.0, 3.0], dwe
         // Too few anchors.
         let two = GOOD.replacen("[[anchors]]\nposition = [0.0, 0.0]\n", "", 1);
         assert_eq!(Scenario::parse(&two).unwrap_err().0, "anchors");
+    }
+
+    #[test]
+    fn the_sink_must_hear_the_agent() {
+        // Anchors and agent in one corner of a large room, the sink in its middle.
+        let far = GOOD
+            .replace(
+                "width_m = 10.0, height_m = 10.0",
+                "width_m = 300.0, height_m = 300.0",
+            )
+            .replace("[10.0, 0.0]", "[5.0, 0.0]")
+            .replace("[10.0, 10.0]", "[5.0, 5.0]")
+            .replace("[5.0, 5.0], dwell_s", "[2.0, 2.0], dwell_s");
+        let (field, problem) = Scenario::parse(&far).unwrap_err();
+        assert_eq!(field, "agent.path[0].position");
+        assert!(problem.contains("the sink"), "{problem}");
     }
 
     #[test]

@@ -63,26 +63,26 @@ pub enum SearchArg {
 #[derive(clap::Args, Debug, Clone)]
 pub struct Args {
     /// Area in metres, `W` (square) or `WxH`; anchors at its corners, the agent on a 19 × 19
-    /// interior grid scaled to it.
+    /// interior grid scaled to it [each side above 0, at most 10000 m].
     #[arg(long, default_value = "10", value_parser = parse_area)]
     pub area: Area,
     /// Anchor layouts, comma-separated: 3 (0,0),(W,0),(W,H); 4 adds (0,H).
-    #[arg(long, value_delimiter = ',', default_value = "3,4")]
+    #[arg(long, value_delimiter = ',', default_value = "3,4", value_parser = parse_anchor_count)]
     pub anchors: Vec<usize>,
-    /// Monte Carlo runs per agent position.
-    #[arg(long, default_value_t = 100)]
+    /// Monte Carlo runs per agent position [1…1000000].
+    #[arg(long, default_value_t = 100, value_parser = parse_runs)]
     pub runs: usize,
-    /// Shadowing σ values in dB, one table each.
-    #[arg(long, num_args = 1.., default_values_t = [2.0, 4.0])]
+    /// Shadowing σ values in dB, one table each [each above 0, at most 30].
+    #[arg(long, num_args = 1.., default_values_t = [2.0, 4.0], value_parser = parse_sigma)]
     pub sigma: Vec<f64>,
-    /// Channels with independent noise (1…4).
-    #[arg(long, default_value_t = 2)]
+    /// Channels with independent noise [1…4].
+    #[arg(long, default_value_t = 2, value_parser = parse_channels)]
     pub channels: usize,
-    /// True path-loss exponent α.
-    #[arg(long, default_value_t = 3.0)]
+    /// True path-loss exponent α [above 0, at most 10].
+    #[arg(long, default_value_t = 3.0, value_parser = parse_alpha)]
     pub alpha: f64,
-    /// True received power at 1 m, dBm.
-    #[arg(long, default_value_t = -40.0, allow_negative_numbers = true)]
+    /// True received power at 1 m, dBm [−150…30].
+    #[arg(long, default_value_t = -40.0, allow_negative_numbers = true, value_parser = parse_p0)]
     pub p0: f64,
     /// What the estimators know: the true P0/α/σ, or fits per trial from simulated
     /// anchor-to-anchor RSSI (ar1: smoothed over the runs at a point).
@@ -108,8 +108,8 @@ pub struct Args {
     /// Master seed (same seed, same tables, whatever the thread count).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Worker threads [default: all cores].
-    #[arg(long)]
+    /// Worker threads [default: all cores; 1…256].
+    #[arg(long, value_parser = crate::args::threads)]
     pub threads: Option<usize>,
     /// Output on stdout.
     #[arg(long, value_enum, default_value_t = Format::Text)]
@@ -127,11 +127,7 @@ pub struct Args {
 
 fn parse_area(s: &str) -> Result<Area, String> {
     let num = |v: &str| {
-        v.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|x| *x > 0.0 && x.is_finite())
-            .ok_or_else(|| format!("`{s}`: expected W or WxH with positive sizes in metres"))
+        crate::args::side_m(v).map_err(|e| format!("`{s}`: expected W or WxH in metres: {e}"))
     };
     match s.split_once(['x', 'X', '×']) {
         Some((w, h)) => Ok(Area::new(num(w)?, num(h)?)),
@@ -140,6 +136,30 @@ fn parse_area(s: &str) -> Result<Area, String> {
             Ok(Area::new(w, w))
         }
     }
+}
+
+fn parse_anchor_count(s: &str) -> Result<usize, String> {
+    crate::args::int_in(s, 3, 4, " anchors (the layouts: 3 or 4)")
+}
+
+fn parse_runs(s: &str) -> Result<usize, String> {
+    crate::args::int_in(s, 1, 1_000_000, " runs")
+}
+
+fn parse_sigma(s: &str) -> Result<f64, String> {
+    crate::args::float_in(s, 0.0, 30.0, true, " dB")
+}
+
+fn parse_channels(s: &str) -> Result<usize, String> {
+    crate::args::int_in(s, 1, loc_core::MAX_CHANNELS, " channels")
+}
+
+fn parse_alpha(s: &str) -> Result<f64, String> {
+    crate::args::float_in(s, 0.0, 10.0, true, "")
+}
+
+fn parse_p0(s: &str) -> Result<f64, String> {
+    crate::args::float_in(s, -150.0, 30.0, false, " dBm")
 }
 
 fn parse_algo(s: &str) -> Result<Algo, String> {
@@ -207,12 +227,13 @@ pub fn run(args: &Args) -> Result<(), String> {
     let result = study::run(&cfg, &|k| bar.inc(k))?;
     let secs = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    let out = match args.format {
+    let body = match args.format {
         Format::Text => text(&result),
         Format::Csv => csv(&result),
         Format::Json => json(&result)?,
     };
-    print!("{out}");
+    // A closed stdout (`| head`) ends the printing quietly; the files are still written.
+    crate::out::Out::stdout().write(format_args!("{body}"))?;
     eprintln!(
         "hoploc simulate: {secs:.2} s on {} thread{}",
         cfg.threads,
@@ -669,6 +690,8 @@ mod tests {
         assert!(parse_area("0").is_err());
         assert!(parse_area("-3x4").is_err());
         assert!(parse_area("ax4").is_err());
+        assert!(parse_area("nan").unwrap_err().contains("at most 10000 m"));
+        assert!(parse_area("1e9x4").is_err());
     }
 
     #[test]

@@ -282,7 +282,9 @@ pub struct ScenarioNodes {
 /// firmware node with the config `hoploc provision` would store; radios placed at `origin` +
 /// the scenario's positions (several scenarios on disjoint channels can share one medium: the
 /// nodes' configs keep the room's own coordinates), with the XBee's CSMA-CA (backoffs seeded
-/// from the scenario's seed and each radio's serial). Serial numbers from `serial_base`.
+/// from the scenario's seed and each radio's serial). An anchor's radio stands at
+/// [`crate::scenario::AnchorSpec::radio_position`], its config holds its configured position.
+/// Serial numbers from `serial_base`.
 pub fn add_scenario(
     net: &mut Network,
     s: &Scenario,
@@ -292,6 +294,11 @@ pub fn add_scenario(
     serial_base: u64,
 ) -> Result<ScenarioNodes, String> {
     let at = |p: [f64; 2]| NodeRadio::at(origin[0] + p[0], origin[1] + p[1]);
+    firmware::check(&firmware::elf(fw_dir, Role::Anchor), Role::Anchor)?;
+    firmware::check(&firmware::elf(fw_dir, Role::Agent), Role::Agent)?;
+    if sink == SinkSource::Firmware {
+        firmware::check(&firmware::elf(fw_dir, Role::Sink), Role::Sink)?;
+    }
     let mut anchors = Vec::new();
     for (i, a) in s.anchors.iter().enumerate() {
         let mut spec = NodeSpec::new(
@@ -299,7 +306,7 @@ pub fn add_scenario(
             NodeRadio {
                 antenna: a.antenna.into(),
                 orientation_deg: a.orientation_deg,
-                ..at(a.position)
+                ..at(a.radio_position())
             },
         );
         spec.eeprom = eeprom(s, Role::Anchor, i as u8 + 1, cm(a.position))?;

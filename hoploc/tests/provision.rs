@@ -78,7 +78,7 @@ fn bad_options_are_refused_before_opening_anything() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("invalid config") && err.contains("NodeId"),
+        err.contains("invalid config") && err.contains("--id: an anchor's id is 1…N"),
         "{err}"
     );
 }

@@ -481,7 +481,7 @@ fn bad_flags_are_refused_with_a_reason() {
     for (args, want) in [
         (vec!["--channels", "9"], "channels"),
         (vec!["--runs", "0"], "runs"),
-        (vec!["--sigma", "0"], "σ"),
+        (vec!["--sigma", "0"], "above 0 and at most 30 dB"),
         (vec!["--anchors", "5"], "anchor"),
         (vec!["--area", "ten"], "WxH"),
         (vec!["--estimator", "KNN"], "MLE, MMSE"),

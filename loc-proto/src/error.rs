@@ -118,9 +118,20 @@ impl core::error::Error for Error {}
 /// check value of `"123456789"` is 0x29B1), a byte at a time without a table: the byte-wise
 /// form of the bit loop (x = the top byte ^ the data byte, folded once by its high nibble; then
 /// crc = crc << 8 ^ x << 12 ^ x << 5 ^ x): little flash and no inner loop.
+#[inline(never)]
 pub fn crc16(data: &[u8]) -> u16 {
+    crc16_update(CRC16_INIT, data)
+}
+
+/// [`crc16`]'s initial value.
+pub const CRC16_INIT: u16 = 0xFFFF;
+
+/// The CRC-16 of [`crc16`] after `crc` (the CRC so far) and `data`: `crc16` of a message
+/// written in pieces (the sink lines' [`crate::line::Crc16Writer`]). One out-of-line copy for
+/// both uses.
+#[inline(never)]
+pub fn crc16_update(mut crc: u16, data: &[u8]) -> u16 {
     // On the two bytes apart (8-bit shifts only): hi' = lo ^ x << 4 ^ x >> 3, lo' = x << 5 ^ x.
-    let mut crc = 0xFFFFu16;
     for &b in data {
         let [lo, hi] = crc.to_le_bytes();
         let mut x = hi ^ b;

@@ -239,70 +239,67 @@ impl uDisplay for Role {
     }
 }
 
-/// The CRC-8 of [`crate::sink_line::crc8`] after `crc` and `bytes`. (crc8 from state `crc` over
-/// `b` is crc8 of `crc ^ b` from 0.) A `u8` bit count: an untyped `0..8` is an `i32` loop on
-/// AVR.
-#[inline(never)]
-pub(crate) fn crc8_update(mut crc: u8, bytes: &[u8]) -> u8 {
-    for &b in bytes {
-        crc ^= b;
-        for _ in 0..8u8 {
-            crc = (crc << 1) ^ if crc & 0x80 != 0 { 0x07 } else { 0 };
+/// A [`uWrite`] that passes everything on to the writer it wraps and keeps the CRC-16
+/// ([`crate::sink_line::crc16`]) of what went through: the sink lines' checksum is computed as
+/// the line is written, with no line in memory.
+pub struct Crc16Writer<'w, W: ?Sized> {
+    out: &'w mut W,
+    crc: u16,
+}
+
+impl<'w, W: uWrite + ?Sized> Crc16Writer<'w, W> {
+    /// A writer to `out`, nothing written yet (the CRC's initial value, 0xFFFF).
+    pub fn new(out: &'w mut W) -> Crc16Writer<'w, W> {
+        Crc16Writer {
+            out,
+            crc: crate::error::CRC16_INIT,
         }
     }
-    crc
-}
 
-/// A [`uWrite`] that passes everything on to the writer it wraps and keeps the CRC-8
-/// ([`crate::sink_line::crc8`]) of what went through: the sink lines' checksum is computed as
-/// the line is written, with no line in memory.
-pub struct Crc8Writer<'w, W: ?Sized> {
-    out: &'w mut W,
-    crc: u8,
-}
-
-impl<'w, W: uWrite + ?Sized> Crc8Writer<'w, W> {
-    /// A writer to `out`, nothing written yet (CRC 0).
-    pub fn new(out: &'w mut W) -> Crc8Writer<'w, W> {
-        Crc8Writer { out, crc: 0 }
-    }
-
-    /// The CRC-8 of everything written so far.
-    pub fn crc(&self) -> u8 {
+    /// The CRC-16 of everything written so far.
+    pub fn crc(&self) -> u16 {
         self.crc
     }
 }
 
-impl<W: uWrite + ?Sized> uWrite for Crc8Writer<'_, W> {
+impl<W: uWrite + ?Sized> uWrite for Crc16Writer<'_, W> {
     type Error = W::Error;
 
     /// Out of line: every piece of every line is a call here.
     #[inline(never)]
     fn write_str(&mut self, s: &str) -> Result<(), W::Error> {
-        self.crc = crc8_update(self.crc, s.as_bytes());
+        self.crc = crate::error::crc16_update(self.crc, s.as_bytes());
         self.out.write_str(s)
     }
 }
 
-/// Writes one line onto `out`: `text`, then ` *XX` (the CRC-8 of `text`, two upper-case hex
+/// Writes one line onto `out`: `text`, then ` *XXXX` (the CRC-16 of `text`, four upper-case hex
 /// digits) if `checked`, then `\r\n`. Every line a node writes, boot or sink, goes through here
-/// and through a [`Crc8Writer`] around `out` (a boot line's CRC is not written): one writer type,
-/// so a firmware has one copy of ufmt's writers. Always inlined: a caller that writes a line
-/// whose kind it knows keeps only that kind's writes.
+/// and through a [`Crc16Writer`] around `out` (a boot line's CRC is not written): one writer
+/// type, so a firmware has one copy of ufmt's writers. Always inlined: a caller that writes a
+/// line whose kind it knows keeps only that kind's writes, and one call for its end.
 #[inline(always)]
 pub(crate) fn write_line<W: uWrite + ?Sized>(
     out: &mut W,
     checked: bool,
     text: &impl uDisplay,
 ) -> Result<(), W::Error> {
-    let mut w = Crc8Writer::new(out);
+    let mut w = Crc16Writer::new(out);
     text.fmt(&mut Formatter::new(&mut w))?;
+    end_line(&mut w, checked)
+}
+
+/// A line's end: ` *XXXX` (the CRC of what `w` wrote) if `checked`, then `\r\n`. Out of line:
+/// one copy per writer type, however many kinds of line a firmware writes.
+#[inline(never)]
+fn end_line<W: uWrite + ?Sized>(w: &mut Crc16Writer<'_, W>, checked: bool) -> Result<(), W::Error> {
     let crc = w.crc();
-    let f = &mut Formatter::new(&mut w);
+    let f = &mut Formatter::new(w);
     if checked {
         ascii(b' ', f)?;
         ascii(b'*', f)?;
-        Hex(crc).fmt(f)?;
+        Hex((crc >> 8) as u8).fmt(f)?;
+        Hex(crc as u8).fmt(f)?;
     }
     ascii(b'\r', f)?;
     ascii(b'\n', f)

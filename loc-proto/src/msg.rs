@@ -686,7 +686,9 @@ enum Layout {
 }
 
 /// A report's layout from its N, C and flags `cf` (all checked but the window) and its `body`
-/// (the message without its CRC); the size counts the CRC. In 16 bits (N ≤ 8, C ≤ 4).
+/// (the message without its CRC); the size counts the CRC. In 16 bits (N ≤ 8, C ≤ 4). Always
+/// inlined: a sink has one caller of it ([`ReportView::accept`]).
+#[inline(always)]
 fn relay_size(body: &[u8], n: u8, c: u8, cf: u8) -> Layout {
     let base = (9 + c + 4 * n + c * n) as u16;
     let total = c * n;

@@ -111,6 +111,8 @@ pub enum Error {
     Io(PathBuf, std::io::Error),
     /// simavr could not parse the ELF.
     Elf(PathBuf),
+    /// The file is not a whole AVR ELF ([`crate::elf::inspect`]).
+    BadElf(PathBuf, crate::elf::ElfProblem),
     /// simavr does not know the MCU (should not happen).
     Mcu,
     /// The firmware has no UART0 (should not happen on an ATmega328P).
@@ -133,6 +135,7 @@ impl fmt::Display for Error {
         match self {
             Error::Io(p, e) => write!(f, "cannot read firmware {}: {e}", p.display()),
             Error::Elf(p) => write!(f, "simavr cannot load ELF {}", p.display()),
+            Error::BadElf(p, problem) => write!(f, "{}: {problem}", p.display()),
             Error::Mcu => f.write_str("simavr does not know atmega328p"),
             Error::NoUart => f.write_str("simavr core has no UART0"),
             Error::OutOfRange {
@@ -361,7 +364,8 @@ impl Avr {
     pub fn load(firmware: impl AsRef<Path>) -> Result<Avr, Error> {
         install_logger();
         let path = firmware.as_ref().to_path_buf();
-        std::fs::metadata(&path).map_err(|e| Error::Io(path.clone(), e))?;
+        // simavr's loader ends the process on a truncated file: check the file first.
+        crate::elf::inspect(&path)?;
         let cpath = CString::new(path.as_os_str().as_encoded_bytes())
             .map_err(|_| Error::Elf(path.clone()))?;
 

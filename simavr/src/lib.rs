@@ -6,6 +6,7 @@
 //! [`Avr`] for what the harness does about simavr's quirks (sleep, UART pacing, resets, threads).
 
 pub mod avr;
+pub mod elf;
 pub mod medium;
 pub mod network;
 pub mod radio;

@@ -61,6 +61,8 @@ pub trait ReportData {
     fn agent(&self) -> u8;
     /// The superframe sequence number.
     fn seq(&self) -> u16;
+    /// The agent's failed transmissions before this report ([`Report::failed`]).
+    fn failed(&self) -> u8;
     /// The anchors in use, at most [`loc_core::MAX_ANCHORS`].
     fn anchors(&self) -> usize;
     /// The channels in use, at most [`loc_core::MAX_CHANNELS`].
@@ -80,6 +82,9 @@ impl ReportData for Report {
     }
     fn seq(&self) -> u16 {
         self.seq
+    }
+    fn failed(&self) -> u8 {
+        self.failed
     }
     fn anchors(&self) -> usize {
         (self.anchors as usize).min(loc_core::MAX_ANCHORS)
@@ -109,6 +114,9 @@ impl ReportData for ReportView<'_> {
     fn seq(&self) -> u16 {
         ReportView::seq(self)
     }
+    fn failed(&self) -> u8 {
+        ReportView::failed(self)
+    }
     fn anchors(&self) -> usize {
         ReportView::anchors(self).min(loc_core::MAX_ANCHORS)
     }
@@ -135,7 +143,7 @@ pub const DEFAULT_SIGMA: u16 = 4 << 8;
 /// What the status line shows (the uptime, then the counters) and `no_fixes`, which it does
 /// not: one array in the line's order, written in one loop, each counter bumped by its index.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub struct Counters([u32; 8]);
+pub struct Counters([u32; SHOWN + 1]);
 
 /// [`Counters`]' indices.
 const UPTIME: usize = 0;
@@ -145,9 +153,14 @@ const DROPS: usize = 3;
 const CHECKSUM_ERRORS: usize = 4;
 const FOREIGN: usize = 5;
 const FIXES: usize = 6;
-const NO_FIXES: usize = 7;
+const REPEATS: usize = 7;
+const FAILED: usize = 8;
+const NO_FIXES: usize = 9;
 /// How many of [`Counters`] the status line shows (all but `no_fixes`).
-const SHOWN: usize = 7;
+const SHOWN: usize = loc_proto::sink_line::STATUS_FIELDS;
+/// How far back a report's sequence number counts as a repeat of its agent's rather than a
+/// restart of the anchors' sequence.
+pub const REPEAT_WINDOW: u16 = 16;
 
 impl Counters {
     /// Seconds since boot, as the shell told the sink ([`Sink::add_uptime`]).
@@ -177,6 +190,15 @@ impl Counters {
     /// Fixes made.
     pub fn fixes(&self) -> u32 {
         self.0[FIXES]
+    }
+    /// Reports whose sequence number their agent had sent already (one of its last
+    /// [`REPEAT_WINDOW`]): two agents with one id, or a replay.
+    pub fn repeats(&self) -> u32 {
+        self.0[REPEATS]
+    }
+    /// The agents' failed transmissions, as their reports said ([`ReportData::failed`]).
+    pub fn failed(&self) -> u32 {
+        self.0[FAILED]
     }
     /// Reports that gave no fix.
     pub fn no_fixes(&self) -> u32 {
@@ -347,6 +369,8 @@ impl Counters {
             checksum_errors: self.checksum_errors(),
             foreign: self.foreign(),
             fixes: self.fixes(),
+            repeats: self.repeats(),
+            failed: self.failed(),
         }
     }
 }
@@ -399,14 +423,18 @@ impl Sink {
 
     /// `secs` more seconds since boot, for the status line's uptime.
     pub fn add_uptime(&mut self, secs: u8) {
-        let up = &mut self.counters.0[UPTIME];
-        *up = up.wrapping_add(secs as u32);
+        Self::add(&mut self.counters.0[UPTIME], secs.into());
     }
 
-    /// `c + 1` (one copy of the 32-bit increment for every counter).
+    /// `c + n` (one copy of the 32-bit addition for every counter).
     #[inline(never)]
+    fn add(c: &mut u32, n: u16) {
+        *c = c.wrapping_add(n as u32);
+    }
+
+    /// `c + 1`.
     fn bump(c: &mut u32) {
-        *c = c.wrapping_add(1);
+        Self::add(c, 1);
     }
 
     /// A frame that is not a usable report.
@@ -441,6 +469,7 @@ impl Sink {
             let mut anchors = AreaCm::new(0, 0);
             report_inputs_into(r, &mut stats, &mut obs, &mut anchors);
             let area = self.area.unwrap_or(anchors);
+            self.count(r.agent(), r.seq(), r.failed());
             self.locate(r.agent(), r.seq(), area, &stats, &obs, &mut fix)
         };
         then(result.map(|()| &fix))
@@ -459,12 +488,39 @@ impl Sink {
             .area
             .unwrap_or_else(|| anchors_box(&m.anchors[..m.n_anchors]));
         let mut fix = Fix::NONE;
+        self.count(agent, seq, 0);
         self.locate(agent, seq, area, &stats, &obs, &mut fix)
             .map(|()| fix)
     }
 
-    /// The report's counters, the least-squares fit of `stats` fed to the AR(1) smoothers, then
-    /// both estimates of `obs` from one search, into `fix`.
+    /// The counters of agent `agent`'s report `seq`, which says `failed` transmissions failed
+    /// before it: a frame, a report; the reports missing before it (a sequence
+    /// number past the next expected one); a repeat (one of the agent's last
+    /// [`REPEAT_WINDOW`] sequence numbers again: another sender with its id, or a replay); a
+    /// sequence number further back is the anchors' timeline starting over (they were reset)
+    /// and counts as nothing. Out of line: one copy for both paths.
+    #[inline(never)]
+    fn count(&mut self, agent: u8, seq: u16, failed: u8) {
+        let c = &mut self.counters.0;
+        Self::bump(&mut c[FRAMES]);
+        Self::bump(&mut c[REPORTS]);
+        Self::add(&mut c[FAILED], failed.into());
+        let k = agent.wrapping_sub(1) as usize;
+        if let (Some(next), Some(seen)) = (self.next_seq.get_mut(k), self.seen.get_mut(k)) {
+            let gap = seq.wrapping_sub(*next);
+            if *seen && gap < 0x8000 {
+                Self::add(&mut c[DROPS], gap);
+            } else if *seen && next.wrapping_sub(seq) <= REPEAT_WINDOW {
+                Self::bump(&mut c[REPEATS]);
+                return;
+            }
+            *seen = true;
+            *next = seq.wrapping_add(1);
+        }
+    }
+
+    /// The least-squares fit of `stats` fed to the AR(1) smoothers, then both estimates of
+    /// `obs` from one search, into `fix`.
     #[inline(never)]
     fn locate(
         &mut self,
@@ -475,20 +531,6 @@ impl Sink {
         obs: &Observations,
         fix: &mut Fix,
     ) -> Result<(), LocError> {
-        Self::bump(&mut self.counters.0[FRAMES]);
-        Self::bump(&mut self.counters.0[REPORTS]);
-        let k = agent.wrapping_sub(1) as usize;
-        if let (Some(next), Some(seen)) = (self.next_seq.get_mut(k), self.seen.get_mut(k)) {
-            if *seen {
-                let gap = seq.wrapping_sub(*next);
-                // A gap of more than half the sequence space is a late or repeated report.
-                if gap < 0x8000 {
-                    self.counters.0[DROPS] += gap as u32;
-                }
-            }
-            *seen = true;
-            *next = seq.wrapping_add(1);
-        }
         // The least-squares fit from the current model, fed to the smoothers (a round without
         // samples keeps the model).
         let p = &self.params;

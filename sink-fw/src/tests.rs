@@ -104,8 +104,9 @@ fn gaps_in_an_agents_sequence_count_as_drops() {
     for seq in [5u16, 6, 9, 9, 10, 12] {
         let _ = s.on_measurements(3, seq, &m);
     }
-    // 7, 8 and 11 missing; the repeated 9 is no drop.
+    // 7, 8 and 11 missing; the repeated 9 is no drop, but a repeat.
     assert_eq!(s.counters().drops(), 3);
+    assert_eq!(s.counters().repeats(), 1);
     // Across the wrap: 0 missing.
     for seq in [65535u16, 1] {
         let _ = s.on_measurements(5, seq, &m);
@@ -120,6 +121,42 @@ fn gaps_in_an_agents_sequence_count_as_drops() {
     let _ = s.on_measurements(200, 1, &m);
     assert_eq!(s.counters().drops(), 4);
     assert_eq!(s.counters().reports(), 12);
+}
+
+/// Two senders with one agent id (both sending the superframe's sequence number) show as
+/// repeats, not as drops; a sequence number far back is the anchors' timeline starting over
+/// (counted as nothing, and followed from there); a replayed old report within the window is a
+/// repeat too. The agents' failed transmissions add up.
+#[test]
+fn repeats_restarts_and_failures_are_counted() {
+    let mut s = sink();
+    let m = report((500.0, 500.0), &[]);
+    // Two agents with id 1, each reporting superframes 100…109.
+    for seq in 100u16..110 {
+        let _ = s.on_measurements(1, seq, &m);
+        let _ = s.on_measurements(1, seq, &m);
+    }
+    let c = *s.counters();
+    assert_eq!((c.reports(), c.drops(), c.repeats()), (20, 0, 10));
+    // The anchors reset: the sequence starts again at 0; then 1, 2.
+    for seq in [0u16, 1, 2] {
+        let _ = s.on_measurements(1, seq, &m);
+    }
+    assert_eq!((s.counters().drops(), s.counters().repeats()), (0, 10));
+    // A replay of report 0 (3 back) and of one 17 back: a repeat, then a restart.
+    let _ = s.on_measurements(1, 0, &m);
+    assert_eq!(s.counters().repeats(), 11);
+    let _ = s.on_measurements(1, 3u16.wrapping_sub(REPEAT_WINDOW + 1), &m);
+    assert_eq!((s.counters().drops(), s.counters().repeats()), (0, 11));
+    // Failed transmissions, as reports say them.
+    let chans = loc_proto::msg::ChannelList::new(&[1, 12]).unwrap();
+    let mut r = loc_proto::msg::Report::new(2, 7, 4, chans);
+    r.failed = 3;
+    let _ = s.on_report(&r);
+    r.seq = 8;
+    r.failed = 7;
+    let _ = s.on_report(&r);
+    assert_eq!(s.counters().failed(), 10);
 }
 
 #[test]

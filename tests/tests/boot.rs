@@ -60,10 +60,12 @@ fn config_line(role: Role) -> BootLine {
 /// The script of a radio that is already in API mode 2 at 57600 and takes every setting.
 fn api_radio(role: Role) -> ScriptedRadio {
     let (my, ch) = settings(role);
-    let regs: [([u8; 2], Vec<u8>); 3] = [
+    // Encryption off (the default config has no network key).
+    let regs: [([u8; 2], Vec<u8>); 4] = [
         (*b"MY", my.to_be_bytes().to_vec()),
         (*b"ID", DEFAULT_PAN_ID.to_be_bytes().to_vec()),
         (*b"CH", vec![ch]),
+        (*b"EE", vec![0]),
     ];
     let mut s = ScriptedRadio::new(Mode::Escaped)
         // The first frame comes right after the config line, when the window is over.
@@ -104,8 +106,8 @@ fn boots_against_a_radio_in_api_mode(role: Role) {
     assert_eq!(wire, [0x7E, 0x00, 0x04, 0x08, 0x01, 0x41, 0x50, 0x65]);
     assert_eq!(
         radio.frames().len(),
-        if role == Role::Sink { 7 } else { 8 },
-        "AP?, then MY, ID, CH set + read back (then the first channel, for anchors and agents)"
+        if role == Role::Sink { 9 } else { 10 },
+        "AP?, then MY, ID, CH, EE set + read back (then the first channel, for anchors and agents)"
     );
     let lines = parsed_lines(&radio);
     let texts: Vec<&str> = lines.iter().map(|(_, t)| t.as_str()).collect();

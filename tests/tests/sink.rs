@@ -138,6 +138,8 @@ fn the_sink_writes_a_fix_per_report_and_counts_what_it_could_not_use() {
             checksum_errors: 1,
             foreign: 1,
             fixes: 3,
+            repeats: 0,
+            failed: 0,
         }]
     );
 }

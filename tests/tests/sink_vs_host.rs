@@ -487,6 +487,14 @@ fn run(name: &str, base: u64, seed: u64, config: Option<Config>) {
         frames += 1;
     }
     bench.radio.run_for_ms(&mut bench.avr, 300.0);
+    // A status line that fell due meanwhile, whole.
+    if failure.is_none() && bench.avr.time_ms() > bench.next_status_ms - QUIET_BEFORE_STATUS_MS {
+        let after = bench.next_status_ms + QUIET_AFTER_STATUS_MS;
+        bench.status();
+        if let Err(e) = bench.settle(after, &|| "the last status line".into()) {
+            failure = Some(e);
+        }
+    }
     let got = bench.firmware_groups();
     let counters = bench.host.counters();
     println!(

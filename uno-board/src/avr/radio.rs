@@ -24,7 +24,7 @@ pub fn write_line(serial: &mut Serial, line: &BootLine) {
 
 /// The UART as the writer of loc-proto's text lines (`ufmt::uwrite!`): each `str` goes out byte
 /// by byte, blocking. Every line a firmware writes goes through this one writer type (the sink's
-/// lines through loc-proto's CRC-8 adapter around it), so ufmt's code is monomorphised once.
+/// lines through loc-proto's CRC-16 adapter around it), so ufmt's code is monomorphised once.
 impl ufmt::uWrite for Serial {
     type Error = Infallible;
 
