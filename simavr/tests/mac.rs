@@ -8,8 +8,9 @@ use simavr::medium::{Medium, MediumConfig, NodeRadio};
 use simavr::ms_to_cycles;
 use simavr::network::{Network, NetworkConfig, NodeId, NodeSpec, Outcome, TxRecord};
 use simavr::xbee::{
-    encode_frame, frame_air_cycles, time_on_air_ms, Address, Csma, FrameKind, MacFields,
-    Transmission, XBeeConfig, ACK_AIR_US, ACK_WAIT_US, BACKOFF_PERIOD_US, CCA_US, TURNAROUND_US,
+    encode_frame, frame_air_cycles, time_on_air_ms, Address, Csma, FrameKind, MacFields, Security,
+    Transmission, XBeeConfig, XBeeCore, ACK_AIR_US, ACK_WAIT_US, BACKOFF_PERIOD_US, CCA_US,
+    TURNAROUND_US,
 };
 use xbee_api::{Decoder, Frame, Mode, TxStatus};
 
@@ -624,4 +625,55 @@ fn mac_results_do_not_depend_on_the_number_of_threads() {
     assert!(one.0.iter().any(|r| r.tx.mac.attempt > 0));
     assert_eq!(one, run(2));
     assert_eq!(one, run(3));
+}
+
+/// A radio stepped ahead of the medium (a firmware node's radio runs with its MCU, which may
+/// sleep past a packet's end before the medium hands the packet over) acknowledges a turnaround
+/// after the packet's end all the same, not a turnaround after it got to handle it: the sender
+/// waits only [`ACK_WAIT_US`] for it.
+#[test]
+fn the_ack_goes_a_turnaround_after_the_packet_even_when_the_radio_ran_ahead() {
+    let mut cfg = XBeeConfig::api(2);
+    cfg.my = 2;
+    cfg.ch = CH;
+    let pan_id = cfg.id;
+    let mut core = XBeeCore::new_at(cfg, 0);
+    core.set_on_medium(true);
+    core.advance(ms_to_cycles(50.0));
+    assert!(core.is_ready());
+    core.take_output();
+    for (i, ahead_us) in [0u64, 100, 700, 950].into_iter().enumerate() {
+        // Packets 10 ms apart.
+        let end = ms_to_cycles(60.0 + 10.0 * i as f64);
+        core.advance(end + us(ahead_us));
+        let tx = Transmission {
+            channel: CH,
+            pan_id,
+            source: Address::Short(1),
+            source64: 0x0013_A200_0000_0001,
+            dest: Address::Short(2),
+            options: 0,
+            payload: b"report".to_vec(),
+            start_cycle: end - frame_air_cycles(6),
+            end_cycle: end,
+            frame_id: 0,
+            mac: MacFields {
+                kind: FrameKind::Data,
+                seq: ahead_us as u8,
+                ack_request: true,
+                attempt: 0,
+            },
+        };
+        core.receive(&tx, -50, Security::Clear);
+        core.advance(end + us(2000));
+        let acks = core.take_transmissions();
+        assert_eq!(acks.len(), 1, "{ahead_us} µs ahead");
+        assert_eq!(acks[0].mac.kind, FrameKind::Ack);
+        assert_eq!(acks[0].mac.seq, ahead_us as u8);
+        assert_eq!(
+            acks[0].start_cycle,
+            end + us(TURNAROUND_US),
+            "{ahead_us} µs ahead"
+        );
+    }
 }

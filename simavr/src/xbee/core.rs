@@ -433,6 +433,9 @@ struct Arrival {
     security: Security,
     /// Its first cycle on air.
     start: u64,
+    /// The cycle it ended: its ACK goes on air a turnaround later, whenever the radio gets to
+    /// handle it (a firmware node's radio may have run ahead of the medium by then).
+    end: u64,
     /// Its MAC sequence number.
     seq: u8,
     /// Whether it asks for an ACK.
@@ -881,6 +884,7 @@ impl XBeeCore {
             packet,
             security,
             start: at.saturating_sub(air),
+            end: at,
             seq: 0,
             ack_request: false,
         };
@@ -902,6 +906,7 @@ impl XBeeCore {
                 packet: RxPacket::from_transmission(tx, rssi_dbm),
                 security,
                 start: tx.start_cycle,
+                end: tx.end_cycle,
                 seq: tx.mac.seq,
                 ack_request: tx.mac.ack_request,
             })),
@@ -1239,6 +1244,7 @@ impl XBeeCore {
             packet: mut p,
             security,
             start,
+            end,
             seq,
             ack_request,
         } = a;
@@ -1252,7 +1258,7 @@ impl XBeeCore {
             self.stats.rx_filtered += 1;
             return;
         }
-        let overlaps = self.on_air.iter().any(|&(s, e)| s < self.now && e > start);
+        let overlaps = self.on_air.iter().any(|&(s, e)| s < end && e > start);
         if overlaps || self.cmd_line.is_some() {
             self.stats.rx_lost += 1;
             return;
@@ -1279,7 +1285,7 @@ impl XBeeCore {
             }
         }
         if ack_request && !p.dest.is_broadcast() {
-            self.send_ack(p.source, seq);
+            self.send_ack(p.source, seq, end);
             if self.duplicate(p.source, seq) {
                 self.stats.rx_duplicates += 1;
                 return;

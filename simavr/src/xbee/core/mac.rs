@@ -19,7 +19,8 @@ use crate::avr::F_CPU;
 /// One symbol of the 2.4 GHz PHY (O-QPSK, 62.5 ksymbol/s, two symbols a byte), µs.
 const SYMBOL_US: u64 = 16;
 /// One backoff period (aUnitBackoffPeriod, 20 symbols), µs.
-pub const BACKOFF_PERIOD_US: u64 = 20 * SYMBOL_US;
+pub const BACKOFF_PERIOD_US: u64 = xbee_api::BACKOFF_PERIOD_US as u64;
+const _: () = assert!(BACKOFF_PERIOD_US == 20 * SYMBOL_US);
 /// A clear channel assessment (8 symbols), µs.
 pub const CCA_US: u64 = 8 * SYMBOL_US;
 /// Receive-to-transmit turnaround (aTurnaroundTime, 12 symbols), µs: after a clear CCA before
@@ -340,15 +341,16 @@ impl XBeeCore {
         self.complete(self.now, TxStatus::SUCCESS);
     }
 
-    /// Acknowledges a data frame from `source` with sequence number `seq` that ended now: the
-    /// ACK goes on air after the turnaround, unless the radio is transmitting then.
-    pub(super) fn send_ack(&mut self, source: Address, seq: u8) {
-        let start = self.now + cycles(TURNAROUND_US);
+    /// Acknowledges a data frame from `source` with sequence number `seq` that ended at cycle
+    /// `data_end`: the ACK goes on air the turnaround after it, unless the radio is
+    /// transmitting then.
+    pub(super) fn send_ack(&mut self, source: Address, seq: u8, data_end: u64) {
+        let start = data_end + cycles(TURNAROUND_US);
         let end = start + cycles(ACK_AIR_US);
-        if self.on_air.iter().any(|&(s, e)| s < end && e > self.now) {
+        if self.on_air.iter().any(|&(s, e)| s < end && e > data_end) {
             return;
         }
-        self.note_on_air(self.now, end);
+        self.note_on_air(data_end, end);
         self.transmissions.push(Transmission {
             channel: self.channel,
             pan_id: self.active.id(),
