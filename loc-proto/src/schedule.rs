@@ -214,10 +214,27 @@ pub const REPORT_SUBSLOTS: u8 = 2;
 /// agent's UART and ≈ 2.9 ms on air, after the sink-channel switch. Larger reports get longer
 /// sub-slots ([`report_slot_us`]).
 pub const MIN_REPORT_SLOT_US: u32 = 20_000;
-/// What a report sub-slot leaves after the guard and the report's way to the sink's MCU
-/// ([`packet_latency_us`] and [`SECURITY_US`]); the report is on air well before, and the agent
+/// What a report sub-slot leaves after the guard, the agent radio's backoff
+/// ([`AGENT_BACKOFF_US`]) and the report's way to the sink's MCU ([`packet_latency_us`] and
+/// [`SECURITY_US`]); the report is on air well before, and the agent
 /// is back on its first channel before the next superframe's first beacon reaches its radio.
 const REPORT_MARGIN_US: u32 = 1_000;
+/// The agent radio's `RN`, the smallest backoff exponent of its CSMA-CA, set at bring-up: its
+/// report waits 0 or 1 backoff period at random before the channel check, and so does each
+/// retry. With the factory `RN` = 0 two senders that start within the check's 0.3 ms (two agents
+/// with one id, synchronised by the same beacons, or a foreign device) collide on every attempt
+/// and the sink hears neither; with 1, one of them defers in half the attempts and both reports
+/// get through, so the sink can count the repeat. Anchors and the sink keep 0: a beacon goes on
+/// air when its slot says (the slot rule has no room for a backoff), and the sink sends no data.
+pub const AGENT_BACKOFF_EXPONENT: u8 = 1;
+/// The agent radio's `CA`, the level from which its channel check finds the channel busy, −dBm:
+/// −80 dBm, the most sensitive the S1 allows. The factory −44 dBm hears only radios within
+/// about a metre, so in a room two senders would not hear each other and would collide instead
+/// of one waiting for the other.
+pub const AGENT_CCA_THRESHOLD: u8 = 0x50;
+/// The longest wait [`AGENT_BACKOFF_EXPONENT`] puts before a report's first channel check, µs:
+/// part of what a report sub-slot must hold.
+pub const AGENT_BACKOFF_US: u32 = ((1 << AGENT_BACKOFF_EXPONENT) - 1) * xbee_api::BACKOFF_PERIOD_US;
 /// One byte on the 57600-baud 8N1 UART between MCU and radio (10 bit times), ns.
 pub const UART_BYTE_NS: u32 = 173_611;
 /// From the end of a packet on air to the first byte of its RX frame on the receiving radio's
@@ -327,7 +344,8 @@ pub const fn report_slot_us(anchors: u8, channels: u8, slot_us: u32) -> u32 {
     } else {
         crate::msg::MAX_PAYLOAD
     } as u32;
-    let need = GUARD_US + packet_latency_us(size) + SECURITY_US + REPORT_MARGIN_US;
+    let need =
+        GUARD_US + AGENT_BACKOFF_US + packet_latency_us(size) + SECURITY_US + REPORT_MARGIN_US;
     let min = if need > MIN_REPORT_SLOT_US {
         need
     } else {
@@ -730,8 +748,11 @@ mod tests {
                 let size = crate::msg::Report::max_size(anchors.into(), channels.into());
                 assert!(size <= crate::msg::MAX_PAYLOAD);
                 let sub = report_slot_us(anchors, channels, min_slot_ms(anchors) as u32 * 1000);
-                let need =
-                    GUARD_US + packet_latency_us(size as u32) + SECURITY_US + REPORT_MARGIN_US;
+                let need = GUARD_US
+                    + AGENT_BACKOFF_US
+                    + packet_latency_us(size as u32)
+                    + SECURITY_US
+                    + REPORT_MARGIN_US;
                 assert!(
                     sub >= need && sub >= MIN_REPORT_SLOT_US,
                     "{anchors}×{channels}"

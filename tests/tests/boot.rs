@@ -15,6 +15,7 @@
 use hoploc_tests::{boot, led_on};
 use loc_proto::line::{BootLine, ConfigSource, RadioFound};
 use loc_proto::provision::PROVISION_WINDOW_MS;
+use loc_proto::schedule::{AGENT_BACKOFF_EXPONENT, AGENT_CCA_THRESHOLD};
 use loc_proto::{xbee_channel, Role, DEFAULT_PAN_ID};
 use simavr::{cycles_to_ms, ms_to_cycles, Avr, Match, ScriptedRadio};
 use xbee_api::Mode;
@@ -57,16 +58,31 @@ fn config_line(role: Role) -> BootLine {
     }
 }
 
-/// The script of a radio that is already in API mode 2 at 57600 and takes every setting.
-fn api_radio(role: Role) -> ScriptedRadio {
+/// The registers bring-up sets and reads back on a `role` node, in order, with their values:
+/// its address, the PAN, its first channel, the channel access (an agent backs off and hears
+/// the room, the others send when their slot says), encryption off (the default config has no
+/// network key).
+fn registers(role: Role) -> Vec<([u8; 2], Vec<u8>)> {
     let (my, ch) = settings(role);
-    // Encryption off (the default config has no network key).
-    let regs: [([u8; 2], Vec<u8>); 4] = [
+    let mut regs = vec![
         (*b"MY", my.to_be_bytes().to_vec()),
         (*b"ID", DEFAULT_PAN_ID.to_be_bytes().to_vec()),
         (*b"CH", vec![ch]),
-        (*b"EE", vec![0]),
     ];
+    if role == Role::Agent {
+        regs.push((*b"RN", vec![AGENT_BACKOFF_EXPONENT]));
+        regs.push((*b"CA", vec![AGENT_CCA_THRESHOLD]));
+    } else {
+        regs.push((*b"RN", vec![0]));
+    }
+    regs.push((*b"EE", vec![0]));
+    regs
+}
+
+/// The script of a radio that is already in API mode 2 at 57600 and takes every setting.
+fn api_radio(role: Role) -> ScriptedRadio {
+    let (_, ch) = settings(role);
+    let regs = registers(role);
     let mut s = ScriptedRadio::new(Mode::Escaped)
         // The first frame comes right after the config line, when the window is over.
         .expect(Match::data(&at(1, b"AP", &[])), FIRST_FRAME_MS)
@@ -106,8 +122,8 @@ fn boots_against_a_radio_in_api_mode(role: Role) {
     assert_eq!(wire, [0x7E, 0x00, 0x04, 0x08, 0x01, 0x41, 0x50, 0x65]);
     assert_eq!(
         radio.frames().len(),
-        if role == Role::Sink { 9 } else { 10 },
-        "AP?, then MY, ID, CH, EE set + read back (then the first channel, for anchors and agents)"
+        1 + 2 * registers(role).len() + usize::from(role != Role::Sink),
+        "AP?, then each register set + read back (then the first channel, for anchors and agents)"
     );
     let lines = parsed_lines(&radio);
     let texts: Vec<&str> = lines.iter().map(|(_, t)| t.as_str()).collect();

@@ -400,7 +400,16 @@ pub struct BringUpConfig {
     /// `CH` to set, if any: 0x0B…0x1A on the S1; channel 0x0B does not exist on the S1 Pro
     /// (0x0C…0x17), which answers it with an error.
     pub channel: Option<u8>,
-    /// Encryption (`EE`, `KY`) to set, after `MY`, `ID` and `CH`.
+    /// `RN` to set, if any: the smallest backoff exponent of the radio's CSMA-CA (0…3). With
+    /// `RN` = 0 (the factory value) a transmission goes out without a random wait before its
+    /// first channel check, and so does each retry: two radios that start sending within the
+    /// check's 0.3 ms collide on every attempt. `RN` = n waits 0…2^n − 1 backoff periods
+    /// ([`crate::BACKOFF_PERIOD_US`]) first, at most (2^n − 1) × 0.32 ms.
+    pub backoff_exponent: Option<u8>,
+    /// `CA` to set, if any: the level from which the channel check finds the channel busy, in
+    /// −dBm (0x24…0x50). The factory 0x2C (−44 dBm) hears only radios within about a metre.
+    pub cca_threshold: Option<u8>,
+    /// Encryption (`EE`, `KY`) to set, after the others.
     pub encryption: Encryption,
     /// Silence before and after `+++`. Must exceed the radio's `GT` (default 1000 ms).
     /// (16 bits: bring-up's waits are timed in 16-bit arithmetic, half the AVR code.)
@@ -418,6 +427,8 @@ impl BringUpConfig {
             my: None,
             pan_id: None,
             channel: None,
+            backoff_exponent: None,
+            cca_threshold: None,
             encryption: Encryption::Leave,
             guard_ms: 1100,
             timeout_ms: 500,
@@ -1097,10 +1108,10 @@ where
     M: ApiMode,
 {
     /// Radio bring-up: makes sure the radio talks API mode [`Radio::mode`] at 57600 baud, then
-    /// sets `MY`, `ID` and `CH` as `config` asks and reads them back, then encryption
-    /// ([`BringUpConfig::encryption`]): [`Encryption::Off`] sets `EE`=0 and reads it back,
-    /// [`Encryption::Key`] sets `KY` (write-only: no read back) and then `EE`=1, read back. None
-    /// of these is written to the radio's non-volatile memory (`WR`): bring-up sets them at every
+    /// sets `MY`, `ID`, `CH`, `RN` and `CA` as `config` asks and reads them
+    /// back, then encryption ([`BringUpConfig::encryption`]): [`Encryption::Off`] sets `EE`=0
+    /// and reads it back, [`Encryption::Key`] sets `KY` (write-only: no read back) and then
+    /// `EE`=1, read back. None of these is written to the radio's non-volatile memory (`WR`): bring-up sets them at every
     /// boot.
     ///
     /// 1. At 57600, query `AP` in API mode. If the radio answers with our mode: done
@@ -1143,12 +1154,14 @@ where
                 baud: self.configure_in_command_mode(cfg)?,
             };
         }
-        // The four registers as data through one loop: one copy of the set-and-read-back.
-        for i in 0..4u8 {
+        // The six registers as data through one loop: one copy of the set-and-read-back.
+        for i in 0..6u8 {
             let (command, value) = match i {
                 0 => (*b"MY", cfg.my),
                 1 => (*b"ID", cfg.pan_id),
                 2 => (*b"CH", cfg.channel.map(u16::from)),
+                3 => (*b"RN", cfg.backoff_exponent.map(u16::from)),
+                4 => (*b"CA", cfg.cca_threshold.map(u16::from)),
                 // `KY` cannot be read back: it is only set, before `EE`=1.
                 _ => match cfg.encryption {
                     Encryption::Leave => continue,
@@ -1160,7 +1173,7 @@ where
                 },
             };
             let Some(value) = value else { continue };
-            // `CH` and `EE` are one byte, `MY` and `ID` two.
+            // All but `MY` and `ID` are one byte.
             let bytes = value.to_be_bytes();
             let param = if i >= 2 { &bytes[1..] } else { &bytes[..] };
             self.at_dyn(command, param, cfg.timeout_ms, None, None)?;

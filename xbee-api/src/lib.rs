@@ -50,6 +50,10 @@ pub const MAX_RF_PAYLOAD_ENCRYPTED: usize = 95;
 /// [`MAX_RF_PAYLOAD`] to [`MAX_RF_PAYLOAD_ENCRYPTED`], and it makes an encrypted packet 0.16 ms
 /// longer on air.
 pub const SECURITY_HEADER_BYTES: usize = MAX_RF_PAYLOAD - MAX_RF_PAYLOAD_ENCRYPTED;
+/// One backoff period of the 802.15.4 2.4 GHz PHY's CSMA-CA (aUnitBackoffPeriod: 20 symbols of
+/// 16 µs), µs. Before each channel check a radio waits 0…2^BE − 1 of them, BE starting at the
+/// radio's `RN` (0 on a factory-fresh S1: no wait at all before the first check).
+pub const BACKOFF_PERIOD_US: u32 = 320;
 /// Worst-case encoded size of a frame on the wire (every byte after the start escaped).
 pub const MAX_ENCODED: usize = 1 + 2 * (2 + MAX_FRAME_DATA + 1);
 

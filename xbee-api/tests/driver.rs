@@ -700,6 +700,56 @@ const KEY: [u8; 16] = [
 ];
 
 #[test]
+fn bring_up_sets_the_channel_access_after_ch_and_before_encryption() {
+    for mode in MODES {
+        let (m, mut radio) = setup(ap_of(mode), 57600, mode);
+        let cfg = BringUpConfig {
+            channel: Some(0x0E),
+            backoff_exponent: Some(1),
+            cca_threshold: Some(0x50),
+            encryption: Encryption::Off,
+            ..fast()
+        };
+        assert_eq!(radio.bring_up(&cfg), Ok(BringUp::AlreadyApi));
+        let m = m.borrow();
+        assert_eq!(
+            m.host_frames(),
+            [
+                "ATAP id=1 []",
+                "ATCH id=2 [0E]",
+                "ATCH id=3 []",
+                "ATRN id=4 [01]",
+                "ATRN id=5 []",
+                "ATCA id=6 [50]",
+                "ATCA id=7 []",
+                "ATEE id=8 [00]",
+                "ATEE id=9 []",
+            ],
+            "{mode:?}"
+        );
+        assert_eq!((m.rn, m.ca), (1, 0x50));
+    }
+    // Left alone by default.
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().rn = 3;
+    assert_eq!(radio.bring_up(&fast()), Ok(BringUp::AlreadyApi));
+    assert_eq!((m.borrow().rn, m.borrow().ca), (3, 0x2C));
+    // A value the radio refuses (`RN` is 0…3) stops bring-up with the command.
+    let (_, mut radio) = setup(2, 57600, Mode::Escaped);
+    let cfg = BringUpConfig {
+        backoff_exponent: Some(4),
+        ..fast()
+    };
+    assert_eq!(
+        radio.bring_up(&cfg),
+        Err(Error::At {
+            command: *b"RN",
+            status: AtStatus::INVALID_PARAMETER
+        })
+    );
+}
+
+#[test]
 fn bring_up_leaves_encryption_alone_by_default() {
     assert_eq!(BringUpConfig::new().encryption, Encryption::Leave);
     assert_eq!(BringUpConfig::default().encryption, Encryption::Leave);

@@ -4,6 +4,7 @@
 use loc_proto::config::{read_into, write_config_line, Config, NetworkKey};
 use loc_proto::line::ConfigSource;
 use loc_proto::provision::{write_answer, ProvisionParser, PROVISION_WINDOW_MS, WRITE_FAILED};
+use loc_proto::schedule::{AGENT_BACKOFF_EXPONENT, AGENT_CCA_THRESHOLD};
 use loc_proto::{xbee_channel, Role};
 use xbee_api::driver::{BringUpConfig, Encryption};
 
@@ -12,7 +13,10 @@ use embedded_hal::digital::{OutputPin, StatefulOutputPin};
 
 /// The radio settings of `config`: `MY` = the role's address of the node id, `ID` = the PAN,
 /// `CH` = the first anchor channel (anchors, agents: where the first beacons go) or the sink
-/// channel (the sink: where reports come), and the encryption: on with the network key
+/// channel (the sink: where reports come), the channel access (on an agent `RN` =
+/// [`AGENT_BACKOFF_EXPONENT`] and `CA` = [`AGENT_CCA_THRESHOLD`], so that two senders of one
+/// sub-slot take turns rather than collide; on the others `RN` = 0, so that a beacon goes on
+/// air when its slot says, whatever a radio came with), and the encryption: on with the network key
 /// (`KY`, `EE` = 1) or off (`EE` = 0), never left as a radio had it.
 pub fn radio_config(config: &Config) -> BringUpConfig {
     // Channel 0 (no anchor channel) is no testbed channel: `xbee_channel` says `None`.
@@ -24,6 +28,14 @@ pub fn radio_config(config: &Config) -> BringUpConfig {
         my: Some(config.role.address(config.id)),
         pan_id: Some(config.pan_id),
         channel: xbee_channel(channel),
+        backoff_exponent: Some(match config.role {
+            Role::Agent => AGENT_BACKOFF_EXPONENT,
+            Role::Anchor | Role::Sink => 0,
+        }),
+        cca_threshold: match config.role {
+            Role::Agent => Some(AGENT_CCA_THRESHOLD),
+            Role::Anchor | Role::Sink => None,
+        },
         encryption: Encryption::Off,
         ..BringUpConfig::new()
     };

@@ -115,6 +115,10 @@ pub struct Model {
     pub ch: u8,
     /// `EE`: encryption on (1) or off (0).
     pub ee: u8,
+    /// `RN`: the CSMA-CA's smallest backoff exponent, 0…3.
+    pub rn: u8,
+    /// `CA`: the channel check's busy level, −dBm, 0x24…0x50.
+    pub ca: u8,
     /// `KY` as last set (write-only: a query answers no value).
     pub ky: Option<Vec<u8>>,
     /// Answers an `EE` query with this value instead of `EE`.
@@ -183,6 +187,8 @@ impl Model {
             id: 0x3332,
             ch: 0x0C,
             ee: 0,
+            rn: 0,
+            ca: 0x2C,
             ky: None,
             ee_reads: None,
             ky_status: None,
@@ -431,6 +437,8 @@ impl Model {
             (b"CH", true) => (AtStatus::OK, vec![self.ch]),
             (b"AP", true) => (AtStatus::OK, vec![self.ap]),
             (b"EE", true) => (AtStatus::OK, vec![self.ee_reads.unwrap_or(self.ee)]),
+            (b"RN", true) => (AtStatus::OK, vec![self.rn]),
+            (b"CA", true) => (AtStatus::OK, vec![self.ca]),
             (b"KY", true) => ok,
             (b"MY", false) if v <= 0xFFFF => {
                 self.my = v as u16;
@@ -447,6 +455,14 @@ impl Model {
                 ok
             }
             (b"AP", false) if v <= 2 => ok,
+            (b"RN", false) if v <= 3 => {
+                self.rn = v as u8;
+                ok
+            }
+            (b"CA", false) if (0x24..=0x50).contains(&v) => {
+                self.ca = v as u8;
+                ok
+            }
             (b"EE", false) if v <= 1 => {
                 self.ee = v as u8;
                 ok
@@ -462,7 +478,7 @@ impl Model {
                 self.writes += 1;
                 ok
             }
-            (b"MY" | b"ID" | b"CH" | b"AP" | b"EE" | b"KY", false) => bad,
+            (b"MY" | b"ID" | b"CH" | b"AP" | b"EE" | b"KY" | b"RN" | b"CA", false) => bad,
             _ => (AtStatus::INVALID_COMMAND, vec![]),
         }
     }
