@@ -83,6 +83,113 @@ fn and_list(items: &[String]) -> String {
     }
 }
 
+/// The thesis' Table 3.1: trilateration with 3 anchors at σ = 4 dB on channel 1, metres. The
+/// cell that tells clipped baselines from unclipped ones (unclipped it comes out near 6 m).
+pub const THESIS_TRLT3_SIGMA4_CH1_M: f64 = 3.36;
+
+/// The page's section on the thesis' settings: which ones reproduce its tables and why, and
+/// how this page's configuration differs from them.
+fn thesis_settings(result: &StudyResult) -> Vec<String> {
+    let c = &result.config;
+    let thesis = crate::study::Config::default();
+    let t = thesis.summary(c.points);
+    let sigmas: Vec<f64> = result.tables.iter().map(|t| t.sigma).collect();
+    let list = |v: &[f64]| {
+        let v: Vec<String> = v.iter().map(|x| format!("{} dB", num(*x))).collect();
+        v.join(", ")
+    };
+    let mut differs = Vec::new();
+    if (c.width, c.height) != (t.width, t.height) {
+        differs.push(format!(
+            "the area is {} m × {} m (thesis: {} m × {} m)",
+            num(c.width),
+            num(c.height),
+            num(t.width),
+            num(t.height)
+        ));
+    }
+    if c.anchor_counts != t.anchor_counts {
+        differs.push(format!(
+            "the anchor layouts are {:?} (thesis: {:?})",
+            c.anchor_counts, t.anchor_counts
+        ));
+    }
+    if c.runs != t.runs {
+        differs.push(format!("{} runs per point (thesis: {})", c.runs, t.runs));
+    }
+    if sigmas != thesis.sigmas {
+        differs.push(format!(
+            "σ is {} (thesis: {})",
+            list(&sigmas),
+            list(&thesis.sigmas)
+        ));
+    }
+    if c.channels != t.channels {
+        differs.push(format!("{} channels (thesis: {})", c.channels, t.channels));
+    }
+    if (c.p0, c.alpha) != (t.p0, t.alpha) {
+        differs.push(format!(
+            "the truth is P0 = {} dBm, α = {} (thesis: {} dBm, {})",
+            num(c.p0),
+            num(c.alpha),
+            num(t.p0),
+            num(t.alpha)
+        ));
+    }
+    if c.params != t.params {
+        differs.push(format!(
+            "P0, α and σ are not known to the estimators ({}; thesis: known)",
+            params_row(result)
+        ));
+    }
+    if c.search != t.search {
+        differs.push(format!(
+            "the MLE searches with `{}` (thesis: `{}`)",
+            c.search, t.search
+        ));
+    }
+    if c.clip != t.clip {
+        differs.push("the baselines are not clipped to the area (thesis: clipped)".into());
+    }
+    let mut out = vec![
+        "`hoploc simulate` without flags runs the thesis' study: a 10 m × 10 m area, 3 and 4 \
+         corner anchors, 361 agent positions × 100 runs, σ = 2 and 4 dB, two channels with \
+         independent noise, P0 = −40 dBm and α = 3 known to the estimators, the thesis' \
+         coarse-to-fine MLE search, and the baselines' (trilateration, quadlateration, MDS) \
+         estimates clipped to the area. The clipping matters: the thesis' Tables 3.1 and 3.3 \
+         are reproduced only with it, because at σ = 4 dB a trilateration often lands metres \
+         outside the room and, unclipped (`--no-clip`), counts with its whole error."
+            .to_string(),
+    ];
+    let trlt = result
+        .tables
+        .iter()
+        .find(|t| t.sigma == 4.0)
+        .and_then(|t| {
+            t.rows
+                .iter()
+                .find(|r| r.anchors == 3 && r.kind == RowKind::Estimator(Algo::Trlt))
+        })
+        .and_then(|r| {
+            let ci = result.columns.iter().position(|l| l == "Ch1")?;
+            View::rmse(r, ci)
+        });
+    if let Some(v) = trlt {
+        out.push(format!(
+            "TRLT-3 at σ = 4 dB on channel 1, the cell that tells the two apart: {} here, {} in \
+             the thesis' Table 3.1.",
+            m(v),
+            m(THESIS_TRLT3_SIGMA4_CH1_M)
+        ));
+    }
+    out.push(if differs.is_empty() {
+        "This page uses the thesis' settings.".to_string()
+    } else {
+        format!("This page differs from them: {}.", and_list(&differs))
+    });
+    out
+}
+
 /// The rows of one σ table with `n` anchors, and the column labels.
 struct View<'a> {
     table: &'a Table,
@@ -583,6 +690,11 @@ pub fn markdown(result: &StudyResult, command: &str) -> String {
         let _ = writeln!(s, "| {k} | {v} |");
     }
     s.push('\n');
+
+    let _ = writeln!(s, "## The thesis' settings\n");
+    for line in thesis_settings(result) {
+        let _ = writeln!(s, "{line}\n");
+    }
 
     // What it shows.
     let _ = writeln!(s, "## What the study shows\n");

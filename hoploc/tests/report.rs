@@ -1121,6 +1121,19 @@ fn committed_study_pages_agree_with_themselves() {
         assert!(p.config["Agent positions × runs"].contains("361 points"));
         assert!(p.config["Agent positions × runs"].contains("× 100 runs"));
         assert!(p.config["Parameters"].starts_with(params));
+        // Both are the thesis' study with clipped baselines; the estimated one says it differs
+        // in its parameters, and nothing else.
+        assert_eq!(p.config["Baselines clipped to the area"], "yes");
+        let settings = between(&md, "## The thesis' settings\n", "\n## ").unwrap();
+        if params == "known" {
+            assert!(settings.contains("This page uses the thesis' settings."));
+        } else {
+            let d = between(settings, "This page differs from them: ", ".\n").unwrap();
+            assert!(
+                d.starts_with("P0, α and σ are not known") && !d.contains(" and the "),
+                "{d}"
+            );
+        }
         check_structure(
             &p,
             &dir,

@@ -433,6 +433,51 @@ fn area_and_channels_flags() {
     assert!(quad.as_f64().unwrap() <= 30f64.hypot(20.0));
 }
 
+/// What a user gets by asking for the thesis' study (`hoploc simulate`, no flags) reproduces
+/// the thesis' Table 3.1 where clipping decides it: TRLT-3 at σ = 4 dB on channel 1 within
+/// three Monte Carlo standard errors of the thesis' 3.36 m (the thesis' own run had its noise
+/// too: at most 0.1 m apart). `--no-clip` leaves trilaterations outside the room, and the cell
+/// comes out far above it; `--clip` is still accepted and changes nothing.
+#[test]
+fn the_default_study_is_the_thesis_and_clips_the_baselines() {
+    let trlt = |extra: &[&str]| {
+        let mut args = vec![
+            "simulate",
+            "--sigma",
+            "4",
+            "--anchors",
+            "3",
+            "--estimator",
+            "TRLT",
+            "--no-floor",
+            "--format",
+            "json",
+        ];
+        args.extend_from_slice(extra);
+        let v: serde_json::Value = serde_json::from_str(&ok(&args)).unwrap();
+        let c = &v["tables"][0]["rows"][0]["cells"][0];
+        assert_eq!(v["tables"][0]["rows"][0]["label"], "TRLT-3");
+        (
+            v["config"]["clip"].as_bool().unwrap(),
+            c["rmse"].as_f64().unwrap(),
+            c["rmse_se"].as_f64().unwrap(),
+        )
+    };
+    let thesis = hoploc::report::THESIS_TRLT3_SIGMA4_CH1_M;
+    let (clip, rmse, se) = trlt(&[]);
+    assert!(clip);
+    assert!(
+        (rmse - thesis).abs() <= (3.0 * se).max(0.1),
+        "{rmse:.3} ± {se:.3} m against the thesis' {thesis} m"
+    );
+    assert_eq!(trlt(&["--clip"]), (true, rmse, se));
+    let (clip, unclipped, _) = trlt(&["--no-clip"]);
+    assert!(!clip);
+    assert!(unclipped > 1.5 * thesis, "{unclipped:.3} m unclipped");
+    let (ok, _, err) = hoploc(&["simulate", "--clip", "--no-clip"]);
+    assert!(!ok && err.contains("cannot be used with"), "{err}");
+}
+
 #[test]
 fn windowed_mmse_only_on_request() {
     // The thesis study's estimators (and so the committed docs/study pages) are unchanged.
