@@ -99,6 +99,15 @@ pub struct MediumSpec {
     /// When the drift starts, s of simulated time.
     #[serde(default)]
     pub drift_start_s: f64,
+    /// Every wire or chip antenna is its own unit, its pattern varied around its kind's
+    /// (`simavr::medium`'s model; default true). False: every antenna has its kind's nominal
+    /// pattern (for runs whose levels must be exact).
+    #[serde(default = "yes")]
+    pub antenna_unit_variation: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// Antenna kinds of a scenario file.
@@ -108,9 +117,9 @@ pub enum AntennaKind {
     /// 0 dB everywhere.
     #[default]
     Isotropic,
-    /// The XBee whip (3 dB ripple).
+    /// The XBee whip (nearly omnidirectional, 3 dB ripple).
     Wire,
-    /// The XBee chip antenna (11 dB ripple, one lobe).
+    /// The XBee chip antenna (11 dB ripple, one lobe, weakest at about 225°).
     Chip,
 }
 
@@ -544,13 +553,13 @@ impl Scenario {
 
     /// The best level a packet can arrive with from `a` to `b`, dBm: the mean path loss at
     /// their distance, plus three standard deviations of shadowing and fading together, plus
-    /// both antennas' peak gain (drift left out).
+    /// both antennas' largest gain ([`Antenna::max_gain_db`], any unit; drift left out).
     pub fn best_level_dbm(&self, a: [f64; 2], b: [f64; 2], antennas: [AntennaKind; 2]) -> f64 {
         let m = &self.medium;
         let min_d = MediumConfig::default().min_distance_m;
         let d = (a[0] - b[0]).hypot(a[1] - b[1]).max(min_d);
         let spread = 3.0 * m.sigma_db.hypot(m.fading_sigma_db);
-        let peak = |k: AntennaKind| Antenna::from(k).ripple_db() / 2.0;
+        let peak = |k: AntennaKind| Antenna::from(k).max_gain_db();
         m.p0_dbm - 10.0 * m.alpha * d.log10() + spread + peak(antennas[0]) + peak(antennas[1])
     }
 
@@ -612,6 +621,7 @@ impl Scenario {
             sensitivity_dbm: m.sensitivity_dbm,
             drift_db_per_min: m.drift_db_per_min,
             drift_start_ms: m.drift_start_s * 1000.0,
+            antenna_unit_variation: m.antenna_unit_variation,
             seed: self.seed,
             ..MediumConfig::default()
         }

@@ -20,11 +20,22 @@
 //!   [`MediumConfig::drift_db_per_min`] for every node plus [`NodeRadio::drift_db_per_min`] of
 //!   the sender, counted from [`MediumConfig::drift_start_ms`] and taken at the packet's start
 //!   (the thesis' experiment 3; negative rates lower the level).
-//! * Antenna gains ([`Antenna::gain_db`]): `θ_ab` is the bearing of `b` seen from `a`
-//!   (degrees, counter-clockwise from +x), `φ_a` the orientation of `a`. Every pattern has zero
-//!   mean over azimuth, so `P0` is the azimuth-averaged level: isotropic 0 dB; wire
-//!   `1.5·cos 2θ` (3 dB peak to peak, two lobes, as the whip's ripple over the board);
-//!   chip `5.5·cos θ` (11 dB peak to peak, one lobe towards the orientation).
+//! * Antenna gains ([`Medium::antenna_gain_db`]): `θ_ab` is the bearing of `b` seen from `a`
+//!   (degrees, counter-clockwise from +x), `φ_a` the orientation of `a`. A pattern is a sum of
+//!   the first three azimuth harmonics, `G(θ) = Σ a_k·cos(kθ − ψ_k)`, so it has zero mean over
+//!   azimuth and `P0` is the azimuth-averaged level. The odd harmonics make the front differ
+//!   from the back, the even ones make the pattern differ from its own mirror image: with odd
+//!   harmonics alone two antennas pointing the same way would cancel on every link
+//!   (`G(θ) + G(θ + 180°) = 0`), which no real antenna pair does. Each kind has a nominal
+//!   pattern ([`Antenna::harmonics`]): isotropic 0 dB; wire (the whip, nearly omnidirectional
+//!   in azimuth, its ripple from the board and the shield) 3 dB peak to peak, strongest towards
+//!   its orientation, 1.6 dB weaker behind; chip 11 dB peak to peak, one lobe towards its
+//!   orientation and the deepest point at about 225° (where the thesis measured the chip
+//!   antenna's largest RSSI difference from 0°). Every unit is its own: with
+//!   [`MediumConfig::antenna_unit_variation`] each node's harmonics differ from the nominal
+//!   ones by a factor `1 + N(0, UNIT_AMPLITUDE_SIGMA²)` in amplitude and `N(0,
+//!   UNIT_PHASE_SIGMA_DEG²)` in phase, drawn once per node ([`UNIT_AMPLITUDE_SIGMA`],
+//!   [`UNIT_PHASE_SIGMA_DEG`]).
 //! * `F_ab(ch)`: a static offset per link and channel, N(0, [`MediumConfig::fading_sigma_db`]²),
 //!   the same both ways (a → b and b → a) and for the whole run: frequency-selective multipath,
 //!   which is what makes several channels worth measuring.
@@ -68,39 +79,75 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 use crate::avr::cycles_to_ms;
 use crate::xbee::{Security, Transmission};
 
-/// An antenna kind and its gain pattern over azimuth (see the module docs).
+/// An antenna kind and its nominal gain pattern over azimuth (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Antenna {
     /// 0 dB in every direction.
     #[default]
     Isotropic,
-    /// The XBee's whip: `1.5·cos 2θ` dB, 3 dB peak to peak.
+    /// The XBee's whip: nearly omnidirectional, 3 dB peak to peak.
     Wire,
-    /// The XBee's chip antenna: `5.5·cos θ` dB, 11 dB peak to peak, strongest towards the
-    /// orientation.
+    /// The XBee's chip antenna: 11 dB peak to peak, strongest towards the orientation, weakest
+    /// at about 225°.
     Chip,
 }
 
+/// Relative σ of a unit's harmonic amplitudes around its kind's nominal ones.
+pub const UNIT_AMPLITUDE_SIGMA: f64 = 0.15;
+/// σ of a unit's harmonic phases around its kind's nominal ones, degrees.
+pub const UNIT_PHASE_SIGMA_DEG: f64 = 10.0;
+
+/// Harmonics of a pattern: `(a_k dB, ψ_k degrees)` for k = 1, 2, 3.
+pub type Harmonics = [(f64, f64); 3];
+
 impl Antenna {
-    /// Peak-to-peak ripple of the pattern over azimuth, dB.
-    pub fn ripple_db(self) -> f64 {
+    /// The nominal pattern's harmonics `(a_k dB, ψ_k degrees)`, k = 1, 2, 3: `G(θ) = Σ
+    /// a_k·cos(kθ − ψ_k)`.
+    pub fn harmonics(self) -> Harmonics {
         match self {
-            Antenna::Isotropic => 0.0,
-            Antenna::Wire => 3.0,
-            Antenna::Chip => 11.0,
+            Antenna::Isotropic => [(0.0, 0.0); 3],
+            Antenna::Wire => [(0.5, 0.0), (1.1, 0.0), (0.3, 0.0)],
+            Antenna::Chip => [(5.25, 0.0), (1.5, 330.0), (1.0, 150.0)],
         }
     }
 
-    /// Gain in dB towards `azimuth_deg`, measured from the antenna's orientation
+    /// Peak-to-peak ripple of the nominal pattern over azimuth, dB (sampled every 0.1°).
+    pub fn ripple_db(self) -> f64 {
+        let (min, max) = (0..3600).fold((f64::MAX, f64::MIN), |(lo, hi), k| {
+            let g = self.gain_db(f64::from(k) / 10.0);
+            (lo.min(g), hi.max(g))
+        });
+        max - min
+    }
+
+    /// An upper bound of any unit's gain in any direction, dB: the harmonics' amplitudes at
+    /// three σ of unit variation, added up.
+    pub fn max_gain_db(self) -> f64 {
+        self.harmonics()
+            .iter()
+            .map(|&(a, _)| a * (1.0 + 3.0 * UNIT_AMPLITUDE_SIGMA))
+            .sum()
+    }
+
+    /// The nominal gain in dB towards `azimuth_deg`, measured from the antenna's orientation
     /// (counter-clockwise). Zero mean over a full turn.
     pub fn gain_db(self, azimuth_deg: f64) -> f64 {
-        let th = azimuth_deg.to_radians();
-        match self {
-            Antenna::Isotropic => 0.0,
-            Antenna::Wire => 0.5 * self.ripple_db() * (2.0 * th).cos(),
-            Antenna::Chip => 0.5 * self.ripple_db() * th.cos(),
-        }
+        pattern_db(&self.harmonics(), azimuth_deg)
     }
+}
+
+/// `Σ a_k·cos(kθ − ψ_k)` in dB, `θ` = `azimuth_deg`.
+fn pattern_db(h: &Harmonics, azimuth_deg: f64) -> f64 {
+    h.iter()
+        .zip(1u32..)
+        .map(|(&(a, psi), k)| {
+            if a == 0.0 {
+                0.0
+            } else {
+                a * (f64::from(k) * azimuth_deg - psi).to_radians().cos()
+            }
+        })
+        .sum()
 }
 
 /// Where a node is and how its antenna points.
@@ -146,12 +193,16 @@ pub struct MediumConfig {
     pub drift_db_per_min: f64,
     /// Drift starts at this time, ms.
     pub drift_start_ms: f64,
+    /// Every antenna is its own unit: its pattern's harmonics differ from its kind's nominal
+    /// ones (see the module docs). Off, every antenna has its kind's nominal pattern.
+    pub antenna_unit_variation: bool,
     /// Seed of every random draw.
     pub seed: u64,
 }
 
 impl Default for MediumConfig {
-    /// P0 −40 dBm, α 3, σ 2 dB, fading σ 3 dB, sensitivity −92 dBm, no drift, seed 1.
+    /// P0 −40 dBm, α 3, σ 2 dB, fading σ 3 dB, sensitivity −92 dBm, no drift, antennas as
+    /// units, seed 1.
     fn default() -> Self {
         MediumConfig {
             p0_dbm: -40.0,
@@ -162,18 +213,20 @@ impl Default for MediumConfig {
             min_distance_m: 0.1,
             drift_db_per_min: 0.0,
             drift_start_ms: 0.0,
+            antenna_unit_variation: true,
             seed: 1,
         }
     }
 }
 
 impl MediumConfig {
-    /// The default path loss without any randomness: no shadowing, no fading (antennas are
-    /// the nodes' choice; use [`Antenna::Isotropic`] for exact levels).
+    /// The default path loss without any randomness: no shadowing, no fading, every antenna
+    /// its kind's nominal pattern.
     pub fn noise_free() -> Self {
         MediumConfig {
             sigma_db: 0.0,
             fading_sigma_db: 0.0,
+            antenna_unit_variation: false,
             ..MediumConfig::default()
         }
     }
@@ -234,6 +287,8 @@ struct Pending {
 pub struct Medium {
     cfg: MediumConfig,
     nodes: Vec<NodeRadio>,
+    /// Per node, its unit's variation of each harmonic: (amplitude factor, phase offset °).
+    units: Vec<Harmonics>,
     /// Transmissions not yet resolved.
     pending: Vec<Pending>,
     /// Resolved transmissions that may still overlap a pending one: (channel, start, end).
@@ -259,6 +314,7 @@ fn normal(seed: u64, key: &[u64]) -> f64 {
 }
 
 const KEY_FADING: u64 = 0xFAD1;
+const KEY_UNIT: u64 = 0xA27E;
 const KEY_SHADOW: u64 = 0x5AAD;
 
 impl Medium {
@@ -267,6 +323,7 @@ impl Medium {
         Medium {
             cfg,
             nodes: Vec::new(),
+            units: Vec::new(),
             pending: Vec::new(),
             history: Vec::new(),
             seq: 0,
@@ -285,8 +342,16 @@ impl Medium {
 
     /// Adds a node; returns its id.
     pub fn add_node(&mut self, node: NodeRadio) -> RadioId {
+        let id = self.nodes.len();
+        let mut unit = [(1.0, 0.0); 3];
+        for (k, (amp, psi)) in unit.iter_mut().enumerate() {
+            let key = |what: u64| [KEY_UNIT, id as u64, k as u64, what];
+            *amp = (1.0 + UNIT_AMPLITUDE_SIGMA * normal(self.cfg.seed, &key(0))).max(0.0);
+            *psi = UNIT_PHASE_SIGMA_DEG * normal(self.cfg.seed, &key(1));
+        }
         self.nodes.push(node);
-        self.nodes.len() - 1
+        self.units.push(unit);
+        id
     }
 
     /// Number of nodes.
@@ -320,10 +385,28 @@ impl Medium {
     /// Gain of `a`'s antenna towards `b`, dB.
     pub fn antenna_gain_db(&self, a: RadioId, b: RadioId) -> f64 {
         let (na, nb) = (&self.nodes[a], &self.nodes[b]);
+        if na.antenna == Antenna::Isotropic {
+            return 0.0;
+        }
         let bearing = (nb.position[1] - na.position[1])
             .atan2(nb.position[0] - na.position[0])
             .to_degrees();
-        na.antenna.gain_db(bearing - na.orientation_deg)
+        pattern_db(&self.unit_harmonics(a), bearing - na.orientation_deg)
+    }
+
+    /// Node `a`'s own pattern: its kind's nominal harmonics, varied as a unit when
+    /// [`MediumConfig::antenna_unit_variation`] is on (drawn from the seed and the node's id
+    /// when it was added, so a node keeps its unit whatever else happens, also when it is
+    /// turned or given another antenna kind).
+    pub fn unit_harmonics(&self, a: RadioId) -> Harmonics {
+        let mut h = self.nodes[a].antenna.harmonics();
+        if self.cfg.antenna_unit_variation {
+            for ((amp, psi), (f, d)) in h.iter_mut().zip(self.units[a]) {
+                *amp *= f;
+                *psi += d;
+            }
+        }
+        h
     }
 
     /// The static fading offset of the link {a, b} on `channel` (the same both ways), dB.
@@ -631,18 +714,31 @@ mod tests {
 
     #[test]
     fn antenna_patterns_have_their_ripple_and_zero_mean() {
-        for (a, ripple) in [
-            (Antenna::Isotropic, 0.0),
-            (Antenna::Wire, 3.0),
-            (Antenna::Chip, 11.0),
+        for (a, lo, hi) in [
+            (Antenna::Isotropic, 0.0, 0.0),
+            (Antenna::Wire, 2.9, 3.2),
+            (Antenna::Chip, 10.8, 11.4),
         ] {
+            let r = a.ripple_db();
+            assert!((lo..=hi).contains(&r), "{a:?}: {r}");
             let g: Vec<f64> = (0..3600).map(|k| a.gain_db(k as f64 / 10.0)).collect();
-            let max = g.iter().cloned().fold(f64::MIN, f64::max);
-            let min = g.iter().cloned().fold(f64::MAX, f64::min);
-            assert!((max - min - ripple).abs() < 1e-9, "{a:?}: {}", max - min);
             assert!(g.iter().sum::<f64>().abs() / 3600.0 < 1e-9);
+            assert!(g.iter().all(|&v| v <= a.max_gain_db() + 1e-9));
         }
-        // Chip: strongest towards its orientation, weakest behind.
+        // Chip: strongest towards its orientation, weakest near 225°, the back (180°) between.
+        let chip = |az: f64| Antenna::Chip.gain_db(az);
+        let deepest = (0..3600)
+            .map(|k| k as f64 / 10.0)
+            .min_by(|&x, &y| chip(x).total_cmp(&chip(y)))
+            .unwrap();
+        assert!((215.0..=235.0).contains(&deepest), "{deepest}");
+        assert!((0..3600).all(|k| chip(k as f64 / 10.0) <= chip(0.0) + 1e-9));
+        assert!(chip(180.0) > chip(deepest) + 1.0 && chip(180.0) < chip(0.0) - 5.0);
+        // Wire: nearly omnidirectional, its front above its back.
+        let wire = |az: f64| Antenna::Wire.gain_db(az);
+        assert!(wire(0.0) - wire(180.0) > 1.0);
+        // Both ends count: a chip node turned to 90° seen from three sides, and the receiver's
+        // pattern too.
         let mut m = Medium::new(MediumConfig::noise_free());
         m.add_node(NodeRadio {
             antenna: Antenna::Chip,
@@ -652,11 +748,81 @@ mod tests {
         m.add_node(NodeRadio::at(0.0, 1.0));
         m.add_node(NodeRadio::at(0.0, -1.0));
         m.add_node(NodeRadio::at(1.0, 0.0));
-        assert!((m.mean_level_dbm(0, 1, 0x0B, 0) - -34.5).abs() < 1e-9);
-        assert!((m.mean_level_dbm(0, 2, 0x0B, 0) - -45.5).abs() < 1e-9);
-        assert!((m.mean_level_dbm(0, 3, 0x0B, 0) - -40.0).abs() < 1e-9);
-        // Both ends count: the receiver's pattern too.
-        assert!((m.mean_level_dbm(1, 0, 0x0B, 0) - -34.5).abs() < 1e-9);
+        for (to, az) in [(1, 0.0), (2, 180.0), (3, 270.0)] {
+            let want = -40.0 + chip(az);
+            assert!(
+                (m.mean_level_dbm(0, to, 0x0B, 0) - want).abs() < 1e-9,
+                "{to}"
+            );
+            assert!(
+                (m.mean_level_dbm(to, 0, 0x0B, 0) - want).abs() < 1e-9,
+                "{to}"
+            );
+        }
+    }
+
+    /// Two antennas of one kind pointing the same way: the link's gain `G(θ) + G(θ + 180°)`
+    /// is not 0 everywhere (it is with a pattern of odd harmonics only), and varies with the
+    /// bearing by several dB for chip antennas.
+    #[test]
+    fn equal_orientations_do_not_cancel() {
+        for (a, min_spread) in [(Antenna::Wire, 1.0), (Antenna::Chip, 4.0)] {
+            let link: Vec<f64> = (0..360)
+                .map(|k| a.gain_db(k as f64) + a.gain_db(k as f64 + 180.0))
+                .collect();
+            let lo = link.iter().cloned().fold(f64::MAX, f64::min);
+            let hi = link.iter().cloned().fold(f64::MIN, f64::max);
+            assert!(hi - lo >= min_spread, "{a:?}: {lo}…{hi}");
+        }
+    }
+
+    /// With unit variation every antenna is its own: two chip nodes' patterns differ, each
+    /// stays within its kind's bound and keeps zero mean, the draws follow the seed, and a
+    /// node keeps its unit when turned. Off, every antenna is nominal.
+    #[test]
+    fn every_antenna_is_its_own_unit() {
+        let pattern = |m: &Medium, id: RadioId| -> Vec<f64> {
+            let h = m.unit_harmonics(id);
+            (0..360).map(|k| pattern_db(&h, k as f64)).collect()
+        };
+        let chips = |cfg: MediumConfig| {
+            let mut m = Medium::new(cfg);
+            for i in 0..4 {
+                m.add_node(NodeRadio {
+                    antenna: Antenna::Chip,
+                    ..NodeRadio::at(i as f64, 0.0)
+                });
+            }
+            m
+        };
+        let m = chips(MediumConfig::default());
+        let p: Vec<Vec<f64>> = (0..4).map(|i| pattern(&m, i)).collect();
+        for i in 0..4 {
+            assert!(p[i].iter().sum::<f64>().abs() / 360.0 < 1e-9);
+            assert!(p[i].iter().all(|&v| v.abs() <= Antenna::Chip.max_gain_db()));
+            for j in 0..i {
+                let diff = p[i].iter().zip(&p[j]).map(|(a, b)| (a - b).abs());
+                assert!(diff.fold(0.0, f64::max) > 0.3, "units {i} and {j} alike");
+            }
+        }
+        // The same seed, the same units; another seed, others.
+        assert_eq!(pattern(&chips(MediumConfig::default()), 2), p[2]);
+        let other = chips(MediumConfig {
+            seed: 7,
+            ..MediumConfig::default()
+        });
+        assert_ne!(pattern(&other, 2), p[2]);
+        // Turned, a node keeps its unit.
+        let mut turned = chips(MediumConfig::default());
+        turned.node_mut(2).orientation_deg = 45.0;
+        assert_eq!(pattern(&turned, 2), p[2]);
+        // Off: nominal.
+        let nominal = chips(MediumConfig {
+            antenna_unit_variation: false,
+            ..MediumConfig::default()
+        });
+        let want: Vec<f64> = (0..360).map(|k| Antenna::Chip.gain_db(k as f64)).collect();
+        assert_eq!(pattern(&nominal, 1), want);
     }
 
     #[test]
