@@ -411,7 +411,7 @@ pub fn evaluate(tables: &BTreeMap<String, Tables>) -> Vec<Finding> {
         if let (Some(s), Some(m)) = (gap(single), gap(|r| !single(r))) {
             let _ = write!(
                 emu,
-                "mean |chip − wire|: single channel {} m, multichannel {} m",
+                "mean absolute chip − wire difference: single channel {} m, multichannel {} m",
                 f2(s),
                 f2(m)
             );
@@ -422,7 +422,7 @@ pub fn evaluate(tables: &BTreeMap<String, Tables>) -> Vec<Finding> {
         id: "F2b",
         thesis: "With refinements the chip/wire difference shrinks at the other positions.",
         criterion: "With 3 anchors, at the four positions other than (5.0,5.0), the mean \
-                    |chip − wire| difference of the MLE's RMSE is smaller with its best \
+                    absolute chip − wire difference of the MLE's RMSE is smaller with its best \
                     multichannel refinement than with its better single channel.",
         emulation: emu,
         verdict: v,
@@ -584,7 +584,7 @@ pub fn evaluate(tables: &BTreeMap<String, Tables>) -> Vec<Finding> {
             .reduce(f64::max);
         if let (Some(s), Some(h)) = (lo_single, hi_multi) {
             let list: Vec<String> = m.iter().map(|(r, b)| format!("{r} {}", f2(*b))).collect();
-            let _ = write!(emu, "mean |bias| (m): {}", list.join(", "));
+            let _ = write!(emu, "mean bias length (m): {}", list.join(", "));
             v = Some(s > h);
         }
     }
