@@ -74,6 +74,11 @@ pub fn threads(s: &str) -> Result<usize, String> {
     int_in(s, 1, 256, " threads")
 }
 
+/// A count of estimates: 1…100 000.
+pub fn count(s: &str) -> Result<u32, String> {
+    int_in(s, 1, 100_000, "")
+}
+
 /// The largest room or coordinate the host tools take, metres.
 pub const MAX_METRES: f64 = 10_000.0;
 

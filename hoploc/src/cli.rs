@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand};
 
-use crate::{demo, firmware, footprint, monitor, provision, replay, simulate};
+use crate::{demo, experiments, firmware, footprint, monitor, provision, replay, simulate};
 
 /// hoploc: multichannel RSSI localization testbed for Arduino Uno + XBee radios.
 #[derive(Parser, Debug)]
@@ -50,8 +50,22 @@ pub enum Command {
     ///     hoploc demo exp3 --seed 7 --out-dir exp3-plots
     ///     hoploc demo exp1 --seconds 30 --live-every 0.5
     ///     hoploc demo --boot --seconds 10      # the firmware booting, as a timeline
+    ///     hoploc demo exp1-4a --sink host --report exp1-4a-report   # every algorithm × refinement
     #[command(verbatim_doc_comment)]
     Demo(demo::Args),
+    /// Run the thesis' Chapter 4 experiments on the emulated testbed and write one page that
+    /// puts each of the thesis' findings next to what the emulation shows.
+    ///
+    /// Runs experiment 1 (wire and chip antennas, 3 and 4 anchors: exp1-3a, exp1-4a,
+    /// exp1-chip-3a, exp1-chip-4a) and experiment 3 (exp3); locates every report the sink
+    /// received with every algorithm × channel refinement (as `hoploc demo --report`), and
+    /// writes DIR/README.md (findings with their criteria, ✓ or ✗, and the tables) and one
+    /// directory per run. The same command gives the same page. Examples:
+    ///
+    ///     hoploc experiments --report docs/experiments
+    ///     hoploc experiments --report /tmp/quick --estimates 30 --only exp1-3a,exp1-chip-3a
+    #[command(verbatim_doc_comment)]
+    Experiments(experiments::Args),
     /// Print each firmware's flash, static SRAM and stack peak (measured in simavr) against the
     /// budgets: 28 672 B flash, static SRAM + stack ≤ 1 536 B. Fails if one is over.
     ///
@@ -128,6 +142,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
         Command::Demo(args) => demo::run(&args),
+        Command::Experiments(args) => experiments::run(&args),
         Command::Footprint { firmware_dir } => {
             footprint::run(&firmware_dir.unwrap_or_else(firmware::default_dir))
         }

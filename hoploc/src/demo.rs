@@ -221,6 +221,13 @@ pub struct Args {
     /// [0…1].
     #[arg(long, default_value_t = 0.0, value_parser = arg::probability)]
     pub uart_errors: f64,
+    /// After the run, every report the sink received located on the host by every algorithm ×
+    /// channel refinement of the thesis (MLE, MDS, trilateration/quadlateration; each channel,
+    /// Max, Linear avg, Extended), with the sink's online P0/α: README.md with RMSE and MLE
+    /// bias tables, bar charts, estimates.csv and, with drift or a long stop, time series,
+    /// written into this directory (e.g. `hoploc demo exp1-4a --report exp1-report`).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
     /// The boot timeline instead: the anchor, agent and sink firmware boot, each on a
     /// factory-fresh XBee, and configure it through command mode and API frames.
     #[arg(long)]
@@ -526,6 +533,11 @@ pub fn run(args: &Args) -> Result<(), String> {
     )?;
     log_file.append(&tb.sink_log()[log_written..])?;
     files.push(log_path);
+    if let Some(dir) = &args.report {
+        let a = crate::thesis::analyze(&s, &obs, &tb.take_reports());
+        let command = crate::report::command_line(std::env::args().skip(1));
+        files.extend(crate::thesis::write_report(&a, dir, &command)?);
+    }
     outln!(out, "\nwritten:");
     for f in files {
         outln!(out, "  {}", f.display());

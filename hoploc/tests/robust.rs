@@ -100,6 +100,8 @@ fn command_line() -> impl Strategy<Value = (Vec<String>, String)> {
         ("demo", "--threads"),
         ("demo", "--uart-errors"),
         ("demo", "--seed"),
+        ("experiments", "--estimates"),
+        ("experiments", "--threads"),
         ("monitor", "--seconds"),
         ("monitor", "--baud"),
         ("monitor", "--truth"),
@@ -139,6 +141,9 @@ fn command_line() -> impl Strategy<Value = (Vec<String>, String)> {
             if cmd == "replay" {
                 line.push("log".into());
             }
+            if cmd == "experiments" {
+                line.extend(["--report", "dir"].map(String::from));
+            }
             if cmd == "provision" {
                 line.extend(["--port", "/dev/null", "--role", "anchor"].map(String::from));
                 if flag != "--id" {
@@ -173,6 +178,10 @@ proptest! {
                 prop_assert!(in_range(a.live_every, 0.0, 86_400.0), "{value}");
                 prop_assert!((1..=256).contains(&a.threads), "{value}");
                 prop_assert!(in_range(a.uart_errors, 0.0, 1.0), "{value}");
+            }
+            Cmd::Experiments(a) => {
+                prop_assert!((1..=256).contains(&a.threads), "{value}");
+                prop_assert!(a.estimates.is_none_or(|n| (1..=100_000).contains(&n)), "{value}");
             }
             Cmd::Monitor(a) => {
                 prop_assert!(a.seconds.is_none_or(|s| in_range(s, 0.001, 365.0 * 86_400.0)), "{value}");
