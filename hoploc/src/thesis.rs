@@ -704,40 +704,51 @@ where
         }
         v
     };
-    let ymax = rows
+    // Headroom above the tallest bar for each group's position label and the legend.
+    let top = rows
         .iter()
         .flat_map(|r| r.cells.iter().flatten())
-        .fold(0.5f64, |m, v| m.max(*v))
-        * 1.1;
+        .fold(0.5f64, |m, v| m.max(*v));
+    let ymax = top * 1.8;
     let npos = t.positions.len().max(1);
     let group = refs.len() as f64 + 1.0;
     for (area, algo) in root.split_evenly((panels.len(), 1)).iter().zip(panels) {
         let mut chart = ChartBuilder::on(area)
             .caption(algo, ("sans-serif", 15))
             .margin(8)
-            .x_label_area_size(28)
+            .x_label_area_size(20)
             .y_label_area_size(44)
             .build_cartesian_2d(0.0..npos as f64 * group, 0.0..ymax)
             .map_err(err)?;
-        let positions = t.positions.clone();
         chart
             .configure_mesh()
             .disable_x_mesh()
             .max_light_lines(1)
-            .x_labels(npos * 4)
-            .x_label_formatter(&move |x| {
-                let k = (x / group).floor() as usize;
-                let mid = k as f64 * group + (group - 1.0) / 2.0;
-                if (x - mid).abs() < 0.26 && k < positions.len() {
-                    xy(positions[k])
-                } else {
-                    String::new()
-                }
-            })
+            .x_label_formatter(&|_| String::new())
+            .x_desc("agent position (above each group of bars)")
             .y_desc(ylabel)
             .label_style(("sans-serif", 12))
             .axis_desc_style(("sans-serif", 12))
             .draw()
+            .map_err(err)?;
+        // Each group's position, above its tallest bar.
+        let tallest = |k: usize| {
+            rows.iter()
+                .filter(|r| &r.algo == algo)
+                .filter_map(|r| r.cells.get(k).copied().flatten())
+                .fold(0.0f64, f64::max)
+        };
+        chart
+            .draw_series((0..t.positions.len()).map(|k| {
+                Text::new(
+                    xy(t.positions[k]),
+                    (
+                        k as f64 * group + 0.1,
+                        tallest(k) + 0.04 * ymax + 0.06 * ymax,
+                    ),
+                    ("sans-serif", 12).into_font(),
+                )
+            }))
             .map_err(err)?;
         for (ri, refinement) in refs.iter().enumerate() {
             let Some(row) = rows
