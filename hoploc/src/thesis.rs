@@ -413,39 +413,33 @@ pub fn cell(v: Option<f64>) -> String {
 pub fn tables_markdown(t: &Tables) -> String {
     let mut s = String::new();
     let head: Vec<String> = t.positions.iter().map(|p| xy(*p)).collect();
-    let _ = writeln!(
-        s,
-        "#### RMSE (m)\n\n| algorithm | refinement | {} |\n|---|---|{}",
-        head.join(" | "),
-        "---:|".repeat(head.len())
-    );
-    for r in &t.rmse {
-        let cells: Vec<String> = r.cells.iter().map(|c| cell(*c)).collect();
+    for (title, note, rows) in [
+        ("RMSE (m)", "", &t.rmse),
+        (
+            "MLE bias (m)",
+            "The length of the mean error vector of the MLE (sink's P0/α) per refinement.\n\n",
+            &t.bias,
+        ),
+    ] {
         let _ = writeln!(
             s,
-            "| {} | {} | {} |",
-            r.algo,
-            r.refinement,
-            cells.join(" | ")
+            "#### {title}\n\n{note}| algorithm | refinement | {} |\n|---|---|{}",
+            head.join(" | "),
+            "---:|".repeat(head.len())
         );
+        for r in rows {
+            let cells: Vec<String> = r.cells.iter().map(|c| cell(*c)).collect();
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} |",
+                r.algo,
+                r.refinement,
+                cells.join(" | ")
+            );
+        }
+        s.push('\n');
     }
-    let _ = writeln!(
-        s,
-        "\n#### MLE bias (m)\n\nThe length of the mean error vector of the MLE (sink's P0/α) per \
-         refinement.\n\n| algorithm | refinement | {} |\n|---|---|{}",
-        head.join(" | "),
-        "---:|".repeat(head.len())
-    );
-    for r in &t.bias {
-        let cells: Vec<String> = r.cells.iter().map(|c| cell(*c)).collect();
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} |",
-            r.algo,
-            r.refinement,
-            cells.join(" | ")
-        );
-    }
+    s.pop();
     let counts: Vec<String> = t.counts.iter().map(|c| c.to_string()).collect();
     let _ = writeln!(
         s,
