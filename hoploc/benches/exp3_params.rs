@@ -1,10 +1,11 @@
-//! Experiment 3 (scenarios/exp3.toml and exp3-fading.toml) taken apart: how the RMSE of online
-//! P0/α estimation and of fixed parameters depends on the drift, the static per-link offsets
-//! (fading σ, wire antennas' ripple), the shadowing σ, and the fit mode. Each variant runs
-//! exp3 (`exp3`) or exp3-fading changed in one or two ways (the others) on the emulated
-//! testbed (anchors and agent as firmware in simavr, host sink); every report the host sink
-//! receives is then located on the host in f64 (`loc_core`, Extended refinement, the thesis
-//! search, least-squares fit within the thesis bounds, default AR(1)) with
+//! Experiment 3 (scenarios/exp3.toml, exp3-fading.toml, exp3-ideal.toml) taken apart: how the
+//! RMSE of online P0/α estimation and of fixed parameters depends on the drift, the static
+//! per-link offsets (fading σ, the antennas' patterns), the shadowing σ, and the fit mode. Each
+//! variant runs exp3 (`exp3`), exp3-ideal (`exp3-ideal`) or exp3-fading changed in one or two
+//! ways (the others) on the emulated testbed (anchors and agent as firmware in simavr, host
+//! sink); every report the host sink receives is then located on the host in f64 (`loc_core`,
+//! Extended refinement, the thesis search, least-squares fit within the thesis bounds, default
+//! AR(1)) with
 //! * `fixed`: P0 and α at the scenario's starting values (−40 dBm, 3), as MLE-fixed;
 //! * `P0only`: P0 fitted online from the relayed anchor-to-anchor RSSI, α fixed at 3;
 //! * `P0+α`: both fitted online (the sink's mode; `sink` is the sink's own fixed-point MLE);
@@ -47,6 +48,10 @@ const VARIANTS: &[Variant] = &[
     Variant {
         name: "exp3",
         change: |s| *s = Scenario::load(&scenario::resolve("exp3")).expect("exp3"),
+    },
+    Variant {
+        name: "exp3-ideal",
+        change: |s| *s = Scenario::load(&scenario::resolve("exp3-ideal")).expect("exp3-ideal"),
     },
     Variant {
         name: "exp3-fading",
@@ -258,7 +263,8 @@ fn main() {
         .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect());
     let dir = firmware::default_dir();
     firmware::ensure_built(&dir).expect("firmware");
-    // The variants change exp3-fading (exp1's harsher medium), step by step towards exp3's.
+    // The variants change exp3-fading (the hallway with wire antennas), step by step towards
+    // exp3-ideal's room.
     let base = Scenario::load(&scenario::resolve("exp3-fading")).expect("exp3-fading");
     println!(
         "exp3_params: exp3 variants on the testbed (host sink), reports located on the host; \
@@ -325,6 +331,7 @@ fn main() {
     println!(
         "variants: drift dB/min, fad = static fading σ dB, σ = shadowing dB; static0 = no fading \
          and isotropic antennas (no static per-link offset at all); others keep exp3-fading's \
-         wire antennas (≈ 3 dB ripple); exp3 = fading 0.5, isotropic, σ 1"
+         wire antennas (≈ 3 dB ripple); exp3 = the hallway with chip antennas; exp3-ideal = \
+         fading 0.5, isotropic, σ 1"
     );
 }

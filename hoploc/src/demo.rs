@@ -186,7 +186,8 @@ pub fn run_boot(firmware_dir: &Path, seconds: f64) -> Result<(), String> {
 /// `hoploc demo`'s options.
 #[derive(Clone, Debug, clap::Args)]
 pub struct Args {
-    /// A scenario: a name from scenarios/ (room10, exp1, exp1-chip, exp2, exp3, exp3-fading) or
+    /// A scenario: a name from scenarios/ (room10, exp1, exp1-chip, exp2, exp3, exp3-fading,
+    /// exp3-ideal, and the thesis-length exp1-3a, exp1-4a, exp1-chip-3a, exp1-chip-4a) or
     /// a path to a scenario file (format: scenarios/README.md).
     #[arg(default_value = "room10")]
     pub scenario: String,

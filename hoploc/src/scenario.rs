@@ -864,7 +864,7 @@ path = [ { position = [5.0, 5.0], dwell_s = 10.0 }, { position = [2.0, 3.0], dwe
     #[test]
     fn every_shipped_scenario_loads() {
         let files = shipped();
-        for name in ["exp1", "exp2", "exp3", "room10"] {
+        for name in ["exp1", "exp2", "exp3", "exp3-ideal", "room10"] {
             assert!(files.contains(&resolve(name)), "{name} missing: {files:?}");
         }
         for f in files {
