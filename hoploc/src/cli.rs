@@ -57,7 +57,8 @@ pub enum Command {
     /// puts each of the thesis' findings next to what the emulation shows.
     ///
     /// Runs experiment 1 (wire and chip antennas, 3 and 4 anchors: exp1-3a, exp1-4a,
-    /// exp1-chip-3a, exp1-chip-4a) and experiment 3 (exp3); locates every report the sink
+    /// exp1-chip-3a, exp1-chip-4a), experiment 2 (3 and 4 anchors, the agent's chip antenna at 0°
+    /// and at 225°: exp2-3a, exp2-4a, exp2-3a-225, exp2-4a-225) and experiment 3 (exp3); locates every report the sink
     /// received with every algorithm × channel refinement (as `hoploc demo --report`), and
     /// writes DIR/README.md (findings with their criteria, ✓ or ✗, and the tables) and one
     /// directory per run. The same command gives the same page. Examples:
