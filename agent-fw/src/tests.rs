@@ -191,7 +191,7 @@ fn agents_report_every_superframe_in_their_sub_slots() {
             }
             assert_eq!(c.positions[..4], POS.map(|[x, y]| Position { x, y }));
             assert_eq!(c.positions[4], Position::default());
-            // It encodes: 61 bytes for 4 anchors × 2 channels with the relay matrix.
+            // It encodes with the relay matrix and decodes back to itself.
             let mut buf = [0; 100];
             assert_eq!(c.encode(&mut buf), Ok(61));
             assert_eq!(Report::decode(&buf[..61]), Ok(*c));

@@ -773,6 +773,52 @@ where
     root.present().map_err(err)
 }
 
+/// One panel of [`draw_series`]: each series' points as small dots in its colour, over `x`
+/// and `y`, with a legend.
+fn scatter_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    caption: &str,
+    y_desc: &str,
+    (x, y): (std::ops::Range<f64>, std::ops::Range<f64>),
+    series: &[(String, Vec<(f64, f64)>)],
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 14))
+        .margin(8)
+        .x_label_area_size(24)
+        .y_label_area_size(44)
+        .build_cartesian_2d(x, y)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .max_light_lines(1)
+        .y_desc(y_desc)
+        .label_style(("sans-serif", 12))
+        .axis_desc_style(("sans-serif", 12))
+        .draw()
+        .map_err(err)?;
+    for (k, (label, points)) in series.iter().enumerate() {
+        let c = COLORS[k % COLORS.len()];
+        chart
+            .draw_series(points.iter().map(|&p| Circle::new(p, 1, c.filled())))
+            .map_err(err)?
+            .label(label.as_str())
+            .legend(move |(x, y)| Circle::new((x, y), 3, c.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE)
+        .label_font(("sans-serif", 11))
+        .draw()
+        .map_err(err)?;
+    Ok(())
+}
+
 /// Three panels over time: the anchor-to-anchor RSSI, each algorithm's error (the last
 /// refinement; the baselines the last they have), the sink's P0 and α.
 fn draw_series<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, a: &Analysis) -> Result<(), String>
@@ -801,43 +847,25 @@ where
     } else {
         (-100.0, 0.0)
     };
-    let mut chart = ChartBuilder::on(&panels[0])
-        .caption(
-            "anchor-to-anchor RSSI (mean over both directions and channels)",
-            ("sans-serif", 14),
-        )
-        .margin(8)
-        .x_label_area_size(24)
-        .y_label_area_size(44)
-        .build_cartesian_2d(t0..t1, lo..hi)
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .max_light_lines(1)
-        .y_desc("RSSI (dBm)")
-        .label_style(("sans-serif", 12))
-        .axis_desc_style(("sans-serif", 12))
-        .draw()
-        .map_err(err)?;
-    for (k, (i, j)) in a.pairs.iter().enumerate() {
-        let c = COLORS[k % COLORS.len()];
-        chart
-            .draw_series(
-                samples
-                    .iter()
-                    .filter_map(|s| s.a2a[k].map(|v| Circle::new((s.time_s, v), 1, c.filled()))),
-            )
-            .map_err(err)?
-            .label(format!("anchors {i}–{j}"))
-            .legend(move |(x, y)| Circle::new((x, y), 3, c.filled()));
-    }
-    chart
-        .configure_series_labels()
-        .border_style(BLACK)
-        .background_style(WHITE)
-        .label_font(("sans-serif", 11))
-        .draw()
-        .map_err(err)?;
+    let series: Vec<(String, Vec<(f64, f64)>)> = a
+        .pairs
+        .iter()
+        .enumerate()
+        .map(|(k, (i, j))| {
+            let points = samples
+                .iter()
+                .filter_map(|s| s.a2a[k].map(|v| (s.time_s, v)))
+                .collect();
+            (format!("anchors {i}–{j}"), points)
+        })
+        .collect();
+    scatter_panel(
+        &panels[0],
+        "anchor-to-anchor RSSI (mean over both directions and channels)",
+        "RSSI (dBm)",
+        (t0..t1, lo..hi),
+        &series,
+    )?;
     // Error per algorithm.
     let last = a.refinements.last().cloned().unwrap_or_default();
     let base_last = a
@@ -865,44 +893,25 @@ where
         .map(Est::error)
         .fold(1.0, f64::max)
         * 1.05;
-    let mut chart = ChartBuilder::on(&panels[1])
-        .caption(
-            "error of each algorithm (sink's P0/α unless named)",
-            ("sans-serif", 14),
-        )
-        .margin(8)
-        .x_label_area_size(24)
-        .y_label_area_size(44)
-        .build_cartesian_2d(t0..t1, 0.0..emax)
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .max_light_lines(1)
-        .y_desc("error (m)")
-        .label_style(("sans-serif", 12))
-        .axis_desc_style(("sans-serif", 12))
-        .draw()
-        .map_err(err)?;
-    for (k, (algo, refinement)) in series.iter().enumerate() {
-        let c = COLORS[k % COLORS.len()];
-        chart
-            .draw_series(
-                a.ests
-                    .iter()
-                    .filter(|e| e.time_s >= t0 && &e.algo == algo && e.refinement == *refinement)
-                    .map(|e| Circle::new((e.time_s, e.error()), 1, c.filled())),
-            )
-            .map_err(err)?
-            .label(format!("{algo} ({refinement})"))
-            .legend(move |(x, y)| Circle::new((x, y), 3, c.filled()));
-    }
-    chart
-        .configure_series_labels()
-        .border_style(BLACK)
-        .background_style(WHITE)
-        .label_font(("sans-serif", 11))
-        .draw()
-        .map_err(err)?;
+    let points: Vec<(String, Vec<(f64, f64)>)> = series
+        .iter()
+        .map(|(algo, refinement)| {
+            let points = a
+                .ests
+                .iter()
+                .filter(|e| e.time_s >= t0 && &e.algo == algo && e.refinement == *refinement)
+                .map(|e| (e.time_s, e.error()))
+                .collect();
+            (format!("{algo} ({refinement})"), points)
+        })
+        .collect();
+    scatter_panel(
+        &panels[1],
+        "error of each algorithm (sink's P0/α unless named)",
+        "error (m)",
+        (t0..t1, 0.0..emax),
+        &points,
+    )?;
     // P0 and α.
     let (plo, phi) = samples
         .iter()

@@ -210,9 +210,9 @@ pub const GUARD_US: u32 = 3_000;
 pub const SYNC_ERROR_US: u32 = 1_000;
 /// Report sub-slots per superframe: agents 1…`REPORT_SUBSLOTS` report, one sub-slot each.
 pub const REPORT_SUBSLOTS: u8 = 2;
-/// The shortest report sub-slot, µs: a 4-anchor × 2-channel report (61 B) takes ≈ 12 ms over the
-/// agent's UART and ≈ 2.9 ms on air, after the sink-channel switch. Larger reports get longer
-/// sub-slots ([`report_slot_us`]).
+/// The shortest report sub-slot, µs: it holds a 4-anchor × 2-channel report's way over the
+/// agent's UART and the air after the sink-channel switch, with room to spare. Larger reports
+/// get longer sub-slots ([`report_slot_us`]).
 pub const MIN_REPORT_SLOT_US: u32 = 20_000;
 /// What a report sub-slot leaves after the guard, the agent radio's backoff
 /// ([`AGENT_BACKOFF_US`]) and the report's way to the sink's MCU ([`packet_latency_us`] and
@@ -761,7 +761,7 @@ mod tests {
                 assert_eq!(report_slot_us(anchors, channels, 62_000), 62_000);
             }
         }
-        // The largest report (100 bytes) needs more than the shortest sub-slot.
+        // The largest report (8 anchors × 4 channels) needs more than the shortest sub-slot.
         assert!(report_slot_us(8, 4, 10_000) > MIN_REPORT_SLOT_US);
     }
 
