@@ -33,8 +33,8 @@ pub const SRAM_BUDGET: usize = 1536;
 /// and listening.
 pub const FACTORY_RUN_MS: f64 = 11_000.0;
 /// Simulated time of the no-radio scenario: the provisioning window (2 s), one failed bring-up
-/// (≈ 14.5 s), the error code (≈ 6 s), and the start of the next attempt.
-pub const SILENT_RUN_MS: f64 = 24_000.0;
+/// (≈ 22.6 s), the error code (≈ 6 s), and the start of the next attempt.
+pub const SILENT_RUN_MS: f64 = 33_000.0;
 /// Packets delivered to the listening node in the factory-radio scenario.
 pub const LISTEN_PACKETS: usize = 20;
 

@@ -62,7 +62,8 @@
 //!   (`CH`, `AP`, the UART rate `BD`) only on `AC`, `CN` or the `CT` timeout; the answer to the
 //!   command that applies them goes out at the old rate. In transparent mode held `+`
 //!   characters that turn out not to be a command sequence are sent as data.
-//! * **UART rates**: the radio runs at `BD`'s rate, the firmware at whatever its `UBRR0` gives
+//! * **UART rates**: the radio runs at `BD`'s rate as the S1 really runs it ([`BAUD_RATES`]: `BD=7`,
+//!   named 115200, is 111 111 bit/s), the firmware at whatever its `UBRR0` gives
 //!   ([`Avr::uart_cycles_per_byte`]). When the two byte times differ by more than
 //!   [`XBeeConfig::baud_tolerance`] (4 %), both directions are garbled: the receiver gets a
 //!   garbage byte (0xF0…0xFF: never a frame delimiter, `+`, `O`, `K` or `\r`) per byte, or

@@ -4,10 +4,11 @@
 //! boot line, then says which config it runs with (here `config eeprom id 1`: simavr loads the
 //! ELF's `.eeprom` section, the built-in config, into the EEPROM), then brings the radio up:
 //!
-//! * a radio already in API mode 2: `AP` query, then `MY`, `ID`, `CH` each set and read back, the
+//! * a radio already in API mode 2: `AP` query, then `MY`, `ID`, `CH`, the channel access,
+//!   encryption and the fixed settings (`xbee_api::driver::FIXED_SETTINGS`) each set, the
 //!   `radio ok api` line, the first channel (`CH`, anchors and agents), then a quiet, listening
 //!   node (no watchdog reset);
-//! * a radio that never answers: two `AP` queries, `+++` at each of the five baud rates, the
+//! * a radio that never answers: two `AP` queries, `+++` at each of the eight baud rates, the
 //!   `radio error 9 try 1` line, error code 9 on the LED, then the next attempt;
 //! * a radio that answers garbage (a bad-checksum answer, noise, never `OK`): `radio error 10`,
 //!   code 10 on the LED, next attempt.
@@ -18,6 +19,7 @@ use loc_proto::provision::PROVISION_WINDOW_MS;
 use loc_proto::schedule::{AGENT_BACKOFF_EXPONENT, AGENT_CCA_THRESHOLD};
 use loc_proto::{xbee_channel, Role, DEFAULT_PAN_ID};
 use simavr::{cycles_to_ms, ms_to_cycles, Avr, Match, ScriptedRadio};
+use xbee_api::driver::{FACTORY_CCA_THRESHOLD, FIXED_SETTINGS};
 use xbee_api::Mode;
 
 /// The settings each firmware gives its radio with its built-in config
@@ -58,10 +60,10 @@ fn config_line(role: Role) -> BootLine {
     }
 }
 
-/// The registers bring-up sets and reads back on a `role` node, in order, with their values:
-/// its address, the PAN, its first channel, the channel access (an agent backs off and hears
-/// the room, the others send when their slot says), encryption off (the default config has no
-/// network key).
+/// The registers bring-up sets on a `role` node, in order, with their values: its address, the
+/// PAN, its first channel, the channel access (an agent backs off and hears the room, the others
+/// send when their slot says), encryption off (the default config has no network key), then the
+/// factory value of every other register that changes how the radio sends or receives.
 fn registers(role: Role) -> Vec<([u8; 2], Vec<u8>)> {
     let (my, ch) = settings(role);
     let mut regs = vec![
@@ -74,8 +76,10 @@ fn registers(role: Role) -> Vec<([u8; 2], Vec<u8>)> {
         regs.push((*b"CA", vec![AGENT_CCA_THRESHOLD]));
     } else {
         regs.push((*b"RN", vec![0]));
+        regs.push((*b"CA", vec![FACTORY_CCA_THRESHOLD]));
     }
     regs.push((*b"EE", vec![0]));
+    regs.extend(FIXED_SETTINGS.iter().map(|&(cmd, v)| (cmd, vec![v])));
     regs
 }
 
@@ -91,10 +95,8 @@ fn api_radio(role: Role) -> ScriptedRadio {
     for (cmd, value) in &regs {
         s = s
             .expect(Match::data(&at(id, cmd, value)), 10.0)
-            .reply(&at_ok(id, cmd, &[]), 1.0)
-            .expect(Match::data(&at(id + 1, cmd, &[])), 10.0)
-            .reply(&at_ok(id + 1, cmd, value), 1.0);
-        id += 2;
+            .reply(&at_ok(id, cmd, &[]), 1.0);
+        id += 1;
     }
     // Then anchors and agents tune to their first channel (without waiting for the answer), and
     // every node listens: no frame for 1.2 s (more than a watchdog period; an anchor beacons
@@ -122,8 +124,8 @@ fn boots_against_a_radio_in_api_mode(role: Role) {
     assert_eq!(wire, [0x7E, 0x00, 0x04, 0x08, 0x01, 0x41, 0x50, 0x65]);
     assert_eq!(
         radio.frames().len(),
-        1 + 2 * registers(role).len() + usize::from(role != Role::Sink),
-        "AP?, then each register set + read back (then the first channel, for anchors and agents)"
+        1 + registers(role).len() + usize::from(role != Role::Sink),
+        "AP?, then each register set (then the first channel, for anchors and agents)"
     );
     let lines = parsed_lines(&radio);
     let texts: Vec<&str> = lines.iter().map(|(_, t)| t.as_str()).collect();
@@ -143,8 +145,8 @@ fn boots_against_a_radio_in_api_mode(role: Role) {
     // The config line closes the window.
     let window = PROVISION_WINDOW_MS as f64;
     assert!((window..window + 20.0).contains(&lines[1].0), "{lines:?}");
-    // The radio line follows the last read-back's answer.
-    assert!(lines[2].0 > radio.frames()[6].end_ms());
+    // The radio line follows the last setting's answer.
+    assert!(lines[2].0 > radio.frames()[registers(role).len()].end_ms());
     assert!(radio.decode_errors().is_empty());
     // Whole bring-up in well under 100 ms against a radio that answers within 1 ms.
     assert!(lines[2].0 - lines[1].0 < 100.0, "{lines:?}");
@@ -173,18 +175,18 @@ fn run_watching_led(avr: &mut Avr, radio: &mut ScriptedRadio, timeout_ms: f64) -
     pulses
 }
 
-/// Checks a failed first attempt: `+++` at the five baud rates, each after the guard time of
+/// Checks a failed first attempt: `+++` at the eight baud rates, each after the guard time of
 /// silence; the error line with `code`; `code` blinks of 200 ms between it and the retry.
 fn failed_attempt(role: Role, mut radio: ScriptedRadio, code: u8) {
     let mut avr = boot(role);
-    let pulses = run_watching_led(&mut avr, &mut radio, PROVISION_WINDOW_MS as f64 + 30_000.0);
+    let pulses = run_watching_led(&mut avr, &mut radio, PROVISION_WINDOW_MS as f64 + 40_000.0);
     let lines = parsed_lines(&radio);
     let plus: Vec<f64> = lines
         .iter()
         .filter(|(_, t)| t == "+++")
         .map(|&(ms, _)| ms)
         .collect();
-    assert_eq!(plus.len(), 5, "one +++ per baud rate: {lines:?}");
+    assert_eq!(plus.len(), 8, "one +++ per baud rate: {lines:?}");
     for pair in plus.windows(2) {
         // Guard (1100 ms) before, guard + timeout (1600 ms) waiting for OK after.
         let gap = pair[1] - pair[0];
@@ -203,11 +205,11 @@ fn failed_attempt(role: Role, mut radio: ScriptedRadio, code: u8) {
         BootLine::Boot { role }.to_string(),
         config_line(role).to_string(),
     ];
-    expected.extend(std::iter::repeat_n("+++".to_string(), 5));
+    expected.extend(std::iter::repeat_n("+++".to_string(), 8));
     expected.push(error.to_string());
     assert_eq!(texts, expected);
-    assert_eq!(BootLine::parse(texts[7]), Ok(error));
-    let error_ms = lines[7].0;
+    assert_eq!(BootLine::parse(texts[10]), Ok(error));
+    let error_ms = lines[10].0;
     // The retry's AP query is the last frame the script expected.
     let retry = radio.frames().last().unwrap().ms();
     let blinks: Vec<_> = pulses
@@ -218,12 +220,12 @@ fn failed_attempt(role: Role, mut radio: ScriptedRadio, code: u8) {
     for &&(_, len) in &blinks {
         assert!((195.0..=210.0).contains(&len), "blink of {len} ms");
     }
-    // The LED was on for the whole first attempt (about 14.5 s, after the window).
+    // The LED was on for the whole first attempt (about 22.6 s, after the window).
     let window = PROVISION_WINDOW_MS as f64;
     assert!(
         pulses
             .iter()
-            .any(|&(t, len)| (window..window + 30.0).contains(&t) && len > 14_000.0),
+            .any(|&(t, len)| (window..window + 30.0).contains(&t) && len > 22_000.0),
         "{pulses:?}"
     );
 }
@@ -233,9 +235,9 @@ fn silent_radio_gives_error_9_and_retries(role: Role) {
         .expect(Match::data(&at(1, b"AP", &[])), FIRST_FRAME_MS)
         // Asked twice (a radio still powering up may miss the first), 500 ms apart.
         .expect(Match::data(&at(2, b"AP", &[])), 520.0)
-        // Nothing until the second attempt: 5 × (1100 + 1600) ms of command mode, the line, and
+        // Nothing until the second attempt: 8 × (1100 + 1600) ms of command mode, the line, and
         // 9 blinks (9 × 500 + 1500 ms).
-        .expect(Match::data(&at(3, b"AP", &[])), 21_000.0);
+        .expect(Match::data(&at(3, b"AP", &[])), 29_000.0);
     failed_attempt(role, radio, 9);
 }
 
@@ -248,13 +250,13 @@ fn garbage_radio_gives_error_10_and_retries(role: Role) {
         .expect(Match::data(&at(2, b"AP", &[])), 520.0)
         .reply_raw(b"\x55\xAA\x00garbage\r\n", 1.0);
     // Noise throughout the command-mode search (every 400 ms, so inside each wait for `OK`).
-    for i in 0..35 {
+    for i in 0..56 {
         radio = radio.send_raw_at(
             PROVISION_WINDOW_MS as f64 + 1100.0 + 400.0 * i as f64,
             b"\xF0?\x0FERR\r",
         );
     }
-    let radio = radio.expect(Match::data(&at(3, b"AP", &[])), 21_000.0);
+    let radio = radio.expect(Match::data(&at(3, b"AP", &[])), 29_000.0);
     failed_attempt(role, radio, 10);
 }
 

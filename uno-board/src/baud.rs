@@ -1,20 +1,24 @@
 //! USART baud-rate arithmetic (portable, unit-tested on the host).
 //!
 //! The board always runs USART0 in double-speed mode (U2X0 = 1), where the bit rate is
-//! `F_CPU / (8 · (UBRR + 1))`. With a 16 MHz crystal this gives the smallest error for every
-//! rate the XBee supports (Arduino's core does the same):
+//! `F_CPU / (8 · (UBRR + 1))`. With a 16 MHz crystal this gives, for every rate the XBee S1 runs
+//! (`BD` 0…7):
 //!
-//! | baud   | UBRR0 | actual bit/s | error   |
-//! |--------|-------|--------------|---------|
-//! | 9600   | 207   | 9615.4       | +0.16 % |
-//! | 19200  | 103   | 19230.8      | +0.16 % |
-//! | 38400  | 51    | 38461.5      | +0.16 % |
-//! | 57600  | 34    | 57142.9      | −0.79 % |
-//! | 115200 | 16    | 117647.1     | +2.12 % |
+//! | `BD` | S1 rate | UBRR0 | actual bit/s | error   |
+//! |------|---------|-------|--------------|---------|
+//! | 0    | 1200    | 1666  | 1199.8       | −0.02 % |
+//! | 1    | 2400    | 832   | 2400.96      | +0.04 % |
+//! | 2    | 4800    | 416   | 4796.2       | −0.08 % |
+//! | 3    | 9600    | 207   | 9615.4       | +0.16 % |
+//! | 4    | 19200   | 103   | 19230.8      | +0.16 % |
+//! | 5    | 38400   | 51    | 38461.5      | +0.16 % |
+//! | 6    | 57600   | 34    | 57142.9      | −0.79 % |
+//! | 7    | 111 111 | 17    | 111 111.1    | 0       |
 //!
-//! 57600 (the XBee's `BD=6`, the testbed's rate) is −0.79 %, well inside the ±2 % a receiver
-//! tolerates at 8N1; 115200 at +2.1 % works in practice (it is what the Uno bootloader uses), but
-//! is marginal against a peer that is itself off in the other direction.
+//! 57600 (`BD=6`, the testbed's rate) is −0.79 %, well inside the ±2 % a receiver tolerates at
+//! 8N1. `BD=7` is named 115200, but the S1 runs it at 111 111 bit/s (Digi's manual): the Uno's
+//! nearest divisor for 115200 (UBRR0 16, 117 647 bit/s) is 5.9 % from it, beyond what two UARTs
+//! tolerate together, while 111 111 is exact with UBRR0 17.
 //!
 //! simavr computes its byte time when UBRR0 is written, so U2X0 must be set *before* UBRR0
 //! (uno-board does so).
@@ -22,8 +26,8 @@
 /// CPU clock of the Uno.
 pub const F_CPU: u32 = 16_000_000;
 
-/// The rates [`ubrr_u2x`] is meant for (the XBee 802.15.4 `BD` values 3…7).
-pub const SUPPORTED: [u32; 5] = [9600, 19200, 38400, 57600, 115200];
+/// The rates [`ubrr_u2x`] is meant for: the XBee S1's, `BD` 0…7 (7 at the 111 111 bit/s the S1 runs).
+pub const SUPPORTED: [u32; 8] = [1200, 2400, 4800, 9600, 19200, 38400, 57600, 111_111];
 
 /// The UBRR value for `baud` in double-speed mode (U2X = 1), rounded to the nearest divisor, or
 /// `None` if the rate is out of reach of the 12-bit register (or zero).
@@ -62,7 +66,11 @@ mod tests {
             (19200, 103, 1),
             (38400, 51, 1),
             (57600, 34, -7),
+            (111_111, 17, 0),
             (115200, 16, 21),
+            (1200, 1666, 0),
+            (2400, 832, 0),
+            (4800, 416, 0),
         ];
         for (baud, ubrr, permille) in expect {
             let u = ubrr_u2x(F_CPU, baud).unwrap();

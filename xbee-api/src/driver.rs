@@ -41,7 +41,7 @@
 //!     C: Clock,
 //! {
 //!     let mut radio = Radio::new(serial, clock, Mode::Escaped);
-//!     // Finds the radio at any common baud rate, in any mode, and leaves it in AP=2 at 57600.
+//!     // Finds the radio at any baud rate the S1 has, in any mode, and leaves it in AP=2 at 57600.
 //!     let config = BringUpConfig {
 //!         my: Some(0x0001),
 //!         pan_id: Some(0x3332),
@@ -124,15 +124,20 @@ impl<B: SetBaud + ?Sized> SetBaud for &mut B {
     }
 }
 
-/// The rate of the XBee's `BD` value `bd`: 1200 · 2^`bd` bit/s for 0…5, then 57600 and 115200
-/// (a larger `bd` gives 115200).
+/// The rate an S1 really runs its UART at for `BD` value `bd`, bit/s: 1200 · 2^`bd` for 0…5,
+/// 57600 for 6, and for 7 (named 115200) 111 111, the rate Digi's S1 manual gives for it: the
+/// S1 divides its clock by whole numbers, and 115200 is out of its reach (a host at 115200 is
+/// 3.6 % off, beyond what two UARTs tolerate together). A larger `bd` gives 111 111 too.
 pub const fn baud_of_bd(bd: u8) -> u32 {
     match bd {
         0..=5 => 1200 << bd,
         6 => 57_600,
-        _ => 115_200,
+        _ => BD7_BAUD,
     }
 }
+
+/// The S1's real rate for `BD=7` (115200 by name), bit/s.
+pub const BD7_BAUD: u32 = 111_111;
 
 /// The baud rate hoploc runs the radio at (`BD=6`).
 pub const BAUD: u32 = 57_600;
@@ -140,22 +145,61 @@ pub const BAUD: u32 = 57_600;
 /// The `BD` value of [`BAUD`].
 pub const BD: u8 = 6;
 
-/// The rates [`Radio::bring_up`] tries, in order: the target first, then the XBee factory default
-/// (9600, `BD=3`), then the other common rates.
-pub const BAUD_RATES: [u32; 5] = [57_600, 9_600, 115_200, 38_400, 19_200];
+/// The `BD` values [`Radio::bring_up`] tries, in order: hoploc's own (57600) first, then the
+/// factory default (9600, `BD=3`), then every other rate the S1 can be set to, fastest first.
+pub const BAUD_CODES: [u8; 8] = [6, 3, 7, 5, 4, 2, 1, 0];
 
-/// The `BD` values of [`BAUD_RATES`], in the same order: what the driver passes to
-/// [`SetBaud::set_bd`] (a byte per rate rather than a 32-bit number).
-pub const BAUD_CODES: [u8; 5] = [6, 3, 7, 5, 4];
-
-const _: () = {
+/// The rates of [`BAUD_CODES`], in the same order (as the S1 runs them: [`baud_of_bd`]).
+pub const BAUD_RATES: [u32; 8] = {
+    let mut rates = [0; 8];
     let mut i = 0;
-    while i < BAUD_RATES.len() {
-        assert!(baud_of_bd(BAUD_CODES[i]) == BAUD_RATES[i]);
+    while i < BAUD_CODES.len() {
+        rates[i] = baud_of_bd(BAUD_CODES[i]);
         i += 1;
     }
-    assert!(baud_of_bd(BD) == BAUD);
+    rates
 };
+
+const _: () = {
+    // Every `BD` value 0…7 once.
+    let mut seen = 0u8;
+    let mut i = 0;
+    while i < BAUD_CODES.len() {
+        seen |= 1 << BAUD_CODES[i];
+        i += 1;
+    }
+    assert!(seen == 0xFF);
+    assert!(BAUD_CODES[0] == BD && baud_of_bd(BD) == BAUD);
+};
+
+/// The factory `CA` (clear channel assessment threshold), −dBm: −44 dBm.
+pub const FACTORY_CCA_THRESHOLD: u8 = 0x2C;
+
+/// Settings [`Radio::bring_up`] gives every radio, whatever it came with: the factory value of
+/// each register (other than those [`BringUpConfig`] names) that changes how the radio sends or
+/// receives, so that a second-hand radio behaves like a new one. `(command, value)`, one byte
+/// each.
+///
+/// * `RR` 0: no XBee retries on top of the MAC's three (some modules repeat every broadcast
+///   `RR` times, which would put a beacon on air into the next slot).
+/// * `MM` 0: Digi's MAC mode, with acknowledgements and duplicate detection (1 and 3 send
+///   unicasts without ACK, 2 passes duplicates on).
+/// * `SM` 0: no sleep (a sleeping radio hears nothing).
+/// * `A1` 0: no end-device association (one that looks for a coordinator scans channels and
+///   sends nothing until it finds one).
+/// * `PL` 4: full output power (a lower level shifts every RSSI an anchor's packets give).
+///
+/// Left alone, with the reason: `CE`/`A2` (a coordinator that may pick its own `ID` and `CH` at
+/// power-up; bring-up sets both afterwards), `DH`/`DL`/`RO` (transparent mode only), I/O lines
+/// and sampling (`D0`…`D8`, `IR`, `IC`: nothing samples while the lines are off, as from the
+/// factory), `NB` (parity: a radio with parity on cannot be talked to at 8N1 to begin with).
+pub const FIXED_SETTINGS: [([u8; 2], u8); 5] = [
+    (*b"RR", 0),
+    (*b"MM", 0),
+    (*b"SM", 0),
+    (*b"A1", 0),
+    (*b"PL", 4),
+];
 
 /// How long a frame may stall mid-way before the driver tells the decoder the line went idle
 /// ([`Decoder::idle`]). The radio sends a frame's bytes back to back, so a gap this long means
@@ -383,10 +427,10 @@ pub enum Encryption {
     /// Leaves `EE` and `KY` as they are.
     #[default]
     Leave,
-    /// Turns encryption off: `EE`=0, read back.
+    /// Turns encryption off: `EE`=0.
     Off,
-    /// Sets the key `KY` (which the radio never reads back), then turns encryption on: `EE`=1,
-    /// read back.
+    /// Sets the key `KY` (which the radio never answers a query with), then turns encryption
+    /// on: `EE`=1.
     Key([u8; 16]),
 }
 
@@ -1108,11 +1152,13 @@ where
     M: ApiMode,
 {
     /// Radio bring-up: makes sure the radio talks API mode [`Radio::mode`] at 57600 baud, then
-    /// sets `MY`, `ID`, `CH`, `RN` and `CA` as `config` asks and reads them
-    /// back, then encryption ([`BringUpConfig::encryption`]): [`Encryption::Off`] sets `EE`=0
-    /// and reads it back, [`Encryption::Key`] sets `KY` (write-only: no read back) and then
-    /// `EE`=1, read back. None of these is written to the radio's non-volatile memory (`WR`): bring-up sets them at every
-    /// boot.
+    /// sets `MY`, `ID`, `CH`, `RN` and `CA` as `config` asks, then encryption
+    /// ([`BringUpConfig::encryption`]: [`Encryption::Off`] sets `EE`=0, [`Encryption::Key`] sets
+    /// `KY` and then `EE`=1), then the [`FIXED_SETTINGS`]. Each must be answered with status OK
+    /// (the radio answers a value it does not take with an error status: [`Error::At`]). None
+    /// of these is written to the radio's non-volatile memory (`WR`): bring-up sets them at
+    /// every boot, so a radio's flash is written only when its mode or baud rate had to change
+    /// (below).
     ///
     /// 1. At 57600, query `AP` in API mode. If the radio answers with our mode: done
     ///    ([`BringUp::AlreadyApi`]), the usual case, taking milliseconds.
@@ -1122,7 +1168,7 @@ where
     ///    each answered `OK\r`. `WR` makes it stick, so this happens once per radio.
     /// 3. Back at 57600, confirm with an `AP` query ([`BringUp::Configured`]).
     ///
-    /// A radio that never answers costs about `5 × (2 × guard_ms + timeout_ms)` plus the API
+    /// A radio that never answers costs about `8 × (2 × guard_ms + timeout_ms)` plus the API
     /// queries, then [`Error::NoResponse`] (or [`Error::Garbage`] if bytes came back but never
     /// a valid answer). Frames received during bring-up are dropped (counted in
     /// [`DriverStats::dropped`]).
@@ -1154,16 +1200,17 @@ where
                 baud: self.configure_in_command_mode(cfg)?,
             };
         }
-        // The six registers as data through one loop: one copy of the set-and-read-back.
-        for i in 0..6u8 {
+        // The config's six registers, then the fixed settings, as data through one loop: one
+        // copy of the set.
+        for i in 0..6 + FIXED_SETTINGS.len() as u8 {
             let (command, value) = match i {
                 0 => (*b"MY", cfg.my),
                 1 => (*b"ID", cfg.pan_id),
                 2 => (*b"CH", cfg.channel.map(u16::from)),
                 3 => (*b"RN", cfg.backoff_exponent.map(u16::from)),
                 4 => (*b"CA", cfg.cca_threshold.map(u16::from)),
-                // `KY` cannot be read back: it is only set, before `EE`=1.
-                _ => match cfg.encryption {
+                // `KY` before `EE`=1.
+                5 => match cfg.encryption {
                     Encryption::Leave => continue,
                     Encryption::Off => (*b"EE", Some(0)),
                     Encryption::Key(ref key) => {
@@ -1171,16 +1218,19 @@ where
                         (*b"EE", Some(1))
                     }
                 },
+                _ => {
+                    let Some(&(command, value)) = FIXED_SETTINGS.get(usize::from(i - 6)) else {
+                        break;
+                    };
+                    (command, Some(u16::from(value)))
+                }
             };
             let Some(value) = value else { continue };
             // All but `MY` and `ID` are one byte.
             let bytes = value.to_be_bytes();
             let param = if i >= 2 { &bytes[1..] } else { &bytes[..] };
+            // The radio answers a value it does not take with an error status (`Error::At`).
             self.at_dyn(command, param, cfg.timeout_ms, None, None)?;
-            // Read back: the value `at_dyn` returns must be what was set.
-            if self.at_dyn(command, &[], cfg.timeout_ms, None, None)? != Some(value) {
-                return Err(self.fail(Error::Unexpected { command }));
-            }
         }
         Ok(how)
     }
@@ -1249,10 +1299,12 @@ mod tests {
     /// `BD` 0…7 are the XBee 802.15.4's rates (its manual's table).
     #[test]
     fn baud_of_bd_is_the_xbee_table() {
-        let table = [1200, 2400, 4800, 9600, 19_200, 38_400, 57_600, 115_200];
+        // BD=7 is named 115200; the S1 runs it at 111 111.
+        let table = [1200, 2400, 4800, 9600, 19_200, 38_400, 57_600, 111_111];
         for (bd, &baud) in (0u8..).zip(table.iter()) {
             assert_eq!(baud_of_bd(bd), baud);
         }
+        assert_eq!(baud_of_bd(8), 111_111);
     }
 
     /// An AT value keeps the first [`AT_VALUE_MAX`] bytes of a response, all of a shorter one.

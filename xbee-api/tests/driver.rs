@@ -5,7 +5,9 @@
 mod common;
 
 use common::{at_resp, data, enc, setup, Reply};
-use xbee_api::driver::{BringUp, BringUpConfig, Encryption, Error, RadioConfig, BAUD_RATES};
+use xbee_api::driver::{
+    BringUp, BringUpConfig, Encryption, Error, RadioConfig, BAUD_CODES, BAUD_RATES, FIXED_SETTINGS,
+};
 use xbee_api::{AtStatus, DecodeError, Frame, Mode, Rssi, TxStatus};
 
 const MODES: [Mode; 2] = [Mode::Api, Mode::Escaped];
@@ -627,24 +629,23 @@ fn bring_up_of_a_radio_already_in_api_mode_2_sends_one_query() {
     let (m, mut radio) = setup(2, 57600, Mode::Escaped);
     assert_eq!(radio.bring_up(&fast()), Ok(BringUp::AlreadyApi));
     let m = m.borrow();
-    assert_eq!(
-        m.wire,
-        enc(
-            &Frame::AtCommand {
-                frame_id: 1,
-                command: *b"AP",
-                parameter: &[]
-            },
-            Mode::Escaped
-        )
-    );
+    // One `AP` query, then only the fixed settings.
+    assert_fixed_settings(&m.host_frames()[1..]);
+    assert!(m.wire.starts_with(&enc(
+        &Frame::AtCommand {
+            frame_id: 1,
+            command: *b"AP",
+            parameter: &[]
+        },
+        Mode::Escaped
+    )));
     assert!(m.cmd_lines.is_empty());
     assert_eq!(m.writes, 0);
     assert_eq!(m.host_bauds, vec![57600]);
 }
 
 #[test]
-fn bring_up_sets_and_verifies_my_id_ch() {
+fn bring_up_sets_my_id_ch() {
     let (m, mut radio) = setup(2, 57600, Mode::Escaped);
     m.borrow_mut().emit_frame(
         &data(&Frame::ModemStatus {
@@ -665,11 +666,13 @@ fn bring_up_sets_and_verifies_my_id_ch() {
         vec![
             "ATAP id=1 []",
             "ATMY id=2 [00, 03]",
-            "ATMY id=3 []",
-            "ATID id=4 [12, 34]",
-            "ATID id=5 []",
-            "ATCH id=6 [0E]",
-            "ATCH id=7 []",
+            "ATID id=3 [12, 34]",
+            "ATCH id=4 [0E]",
+            "ATRR id=5 [00]",
+            "ATMM id=6 [00]",
+            "ATSM id=7 [00]",
+            "ATA1 id=8 [00]",
+            "ATPL id=9 [04]",
         ]
     );
     assert_eq!((m.my, m.id, m.ch), (3, 0x1234, 0x0E));
@@ -681,16 +684,19 @@ fn bring_up_sets_and_verifies_my_id_ch() {
 }
 
 #[test]
-fn bring_up_reports_a_setting_that_does_not_stick() {
-    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
-    m.borrow_mut().stuck_ch = true;
+fn bring_up_reports_a_setting_the_radio_refuses() {
+    // Channel 0x0B on a radio that has no such channel (an S1 Pro): error status 3.
+    let (_, mut radio) = setup(2, 57600, Mode::Escaped);
     let cfg = BringUpConfig {
-        channel: Some(0x0E),
+        channel: Some(0x0A),
         ..fast()
     };
     assert_eq!(
         radio.bring_up(&cfg),
-        Err(Error::Unexpected { command: *b"CH" })
+        Err(Error::At {
+            command: *b"CH",
+            status: AtStatus::INVALID_PARAMETER
+        })
     );
 }
 
@@ -717,13 +723,14 @@ fn bring_up_sets_the_channel_access_after_ch_and_before_encryption() {
             [
                 "ATAP id=1 []",
                 "ATCH id=2 [0E]",
-                "ATCH id=3 []",
-                "ATRN id=4 [01]",
-                "ATRN id=5 []",
-                "ATCA id=6 [50]",
-                "ATCA id=7 []",
-                "ATEE id=8 [00]",
-                "ATEE id=9 []",
+                "ATRN id=3 [01]",
+                "ATCA id=4 [50]",
+                "ATEE id=5 [00]",
+                "ATRR id=6 [00]",
+                "ATMM id=7 [00]",
+                "ATSM id=8 [00]",
+                "ATA1 id=9 [00]",
+                "ATPL id=10 [04]",
             ],
             "{mode:?}"
         );
@@ -763,13 +770,21 @@ fn bring_up_leaves_encryption_alone_by_default() {
     let m = m.borrow();
     assert_eq!(
         m.host_frames(),
-        ["ATAP id=1 []", "ATCH id=2 [0E]", "ATCH id=3 []"]
+        [
+            "ATAP id=1 []",
+            "ATCH id=2 [0E]",
+            "ATRR id=3 [00]",
+            "ATMM id=4 [00]",
+            "ATSM id=5 [00]",
+            "ATA1 id=6 [00]",
+            "ATPL id=7 [04]",
+        ]
     );
     assert_eq!((m.ee, &m.ky), (1, &None));
 }
 
 #[test]
-fn bring_up_turns_encryption_off_and_reads_ee_back() {
+fn bring_up_turns_encryption_off() {
     for mode in MODES {
         let (m, mut radio) = setup(ap_of(mode), 57600, mode);
         m.borrow_mut().ee = 1;
@@ -785,9 +800,12 @@ fn bring_up_turns_encryption_off_and_reads_ee_back() {
             [
                 "ATAP id=1 []",
                 "ATMY id=2 [00, 03]",
-                "ATMY id=3 []",
-                "ATEE id=4 [00]",
-                "ATEE id=5 []",
+                "ATEE id=3 [00]",
+                "ATRR id=4 [00]",
+                "ATMM id=5 [00]",
+                "ATSM id=6 [00]",
+                "ATA1 id=7 [00]",
+                "ATPL id=8 [04]",
             ]
         );
         assert_eq!((m.ee, &m.ky), (0, &None), "no key sent");
@@ -813,36 +831,20 @@ fn bring_up_sets_the_key_then_turns_encryption_on_after_my_id_ch() {
             [
                 "ATAP id=1 []",
                 "ATMY id=2 [00, 03]",
-                "ATMY id=3 []",
-                "ATID id=4 [12, 34]",
-                "ATID id=5 []",
-                "ATCH id=6 [0E]",
-                "ATCH id=7 []",
-                &format!("ATKY id=8 {KEY:02X?}"),
-                "ATEE id=9 [01]",
-                "ATEE id=10 []",
+                "ATID id=3 [12, 34]",
+                "ATCH id=4 [0E]",
+                &format!("ATKY id=5 {KEY:02X?}"),
+                "ATEE id=6 [01]",
+                "ATRR id=7 [00]",
+                "ATMM id=8 [00]",
+                "ATSM id=9 [00]",
+                "ATA1 id=10 [00]",
+                "ATPL id=11 [04]",
             ]
         );
         assert_eq!((m.ee, m.ky.as_deref()), (1, Some(&KEY[..])));
         // The escaped key bytes on the wire decode to the key (the model decoded them).
-        assert_eq!(m.frames[7][4..], KEY);
-    }
-}
-
-#[test]
-fn bring_up_reports_an_ee_that_does_not_stick() {
-    for (encryption, reads) in [(Encryption::Off, 1), (Encryption::Key(KEY), 0)] {
-        let (m, mut radio) = setup(2, 57600, Mode::Escaped);
-        m.borrow_mut().ee_reads = Some(reads);
-        let cfg = BringUpConfig {
-            encryption,
-            ..fast()
-        };
-        assert_eq!(
-            radio.bring_up(&cfg),
-            Err(Error::Unexpected { command: *b"EE" }),
-            "{encryption:?}"
-        );
+        assert_eq!(m.frames[4][4..], KEY);
     }
 }
 
@@ -894,9 +896,21 @@ fn assert_configured(m: &common::Model, mode: Mode) {
     assert_eq!(m.ap, mode.ap());
     assert_eq!(m.baud, 57600);
     assert_eq!(m.writes, 1);
-    // The last frame the host wrote confirms the mode in API at 57600.
-    let last = m.frames.last().unwrap();
-    assert_eq!(common::describe(last).split(' ').next(), Some("ATAP"));
+    // The frames the host wrote last: the query that confirms the mode in API at 57600, then
+    // the fixed settings.
+    let frames = m.host_frames();
+    let tail = &frames[frames.len() - 6..];
+    assert!(tail[0].starts_with("ATAP id="), "{tail:?}");
+    assert_fixed_settings(&tail[1..]);
+}
+
+/// `frames` are the fixed settings, each set once, in order.
+fn assert_fixed_settings(frames: &[String]) {
+    assert_eq!(frames.len(), FIXED_SETTINGS.len());
+    for (frame, (command, value)) in frames.iter().zip(FIXED_SETTINGS) {
+        let name = format!("AT{}", std::str::from_utf8(&command).unwrap());
+        assert!(frame.starts_with(&name) && frame.ends_with(&format!("[{value:02X}]")));
+    }
 }
 
 #[test]
@@ -923,7 +937,7 @@ fn bring_up_of_a_radio_in_transparent_mode_at_57600() {
     let m = m.borrow();
     assert_configured(&m, Mode::Escaped);
     // Two AP queries that went on air as transparent data, +++ after the guard time, the four
-    // commands, then the confirming query.
+    // commands, then the confirming query (and the fixed settings: `assert_configured`).
     let query = |id| {
         enc(
             &Frame::AtCommand {
@@ -937,7 +951,7 @@ fn bring_up_of_a_radio_in_transparent_mode_at_57600() {
     let mut expected = [query(1), query(2)].concat();
     expected.extend_from_slice(b"+++ATAP2\rATBD6\rATWR\rATCN\r");
     expected.extend(query(3));
-    assert_eq!(m.wire, expected);
+    assert_eq!(m.wire[..expected.len()], expected);
 }
 
 #[test]
@@ -955,7 +969,12 @@ fn bring_up_of_a_fresh_radio_at_9600() {
 }
 
 #[test]
-fn bring_up_finds_a_radio_at_every_common_rate() {
+fn bring_up_finds_a_radio_at_every_rate_of_the_s1() {
+    // Every `BD` value, at the rate the S1 really runs it (111 111 for `BD=7`).
+    let mut codes = BAUD_CODES;
+    codes.sort();
+    assert_eq!(codes, [0, 1, 2, 3, 4, 5, 6, 7]);
+    assert!(BAUD_RATES.contains(&111_111) && !BAUD_RATES.contains(&115_200));
     for (i, &baud) in BAUD_RATES.iter().enumerate() {
         for ap in [0, 1] {
             let (m, mut radio) = setup(ap, baud, Mode::Escaped);
@@ -975,10 +994,10 @@ fn bring_up_of_a_radio_that_never_answers_fails_in_bounded_time() {
     assert_eq!(radio.bring_up(&cfg), Err(Error::NoResponse));
     let m = m.borrow();
     let (t, g) = (u32::from(cfg.timeout_ms), u32::from(cfg.guard_ms));
-    let bound = 2 * t + 5 * (2 * g + t) + 20;
+    let bound = 2 * t + 8 * (2 * g + t) + 20;
     assert!(m.now <= bound, "took {} ms, bound {bound}", m.now);
     assert_eq!(m.host_bauds, [&[57600][..], &BAUD_RATES[..]].concat());
-    assert_eq!(m.wire.iter().filter(|&&b| b == b'+').count(), 15);
+    assert_eq!(m.wire.iter().filter(|&&b| b == b'+').count(), 24);
 }
 
 #[test]
@@ -1156,4 +1175,39 @@ fn send_writes_every_frame_type_as_the_codec_encodes_it() {
             assert_eq!(m.borrow().wire, enc(f, mode), "{f:?} {mode:?}");
         }
     }
+}
+
+#[test]
+fn bring_up_gives_a_second_hand_radio_the_factory_behaviour() {
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    // Left over from another project: XBee retries, 802.15.4 MAC without ACKs, cyclic sleep,
+    // end-device association, the lowest output power.
+    for (reg, value) in [
+        (*b"RR", 3),
+        (*b"MM", 1),
+        (*b"SM", 4),
+        (*b"A1", 4),
+        (*b"PL", 0),
+    ] {
+        m.borrow_mut()
+            .fixed
+            .iter_mut()
+            .find(|f| f.0 == reg)
+            .unwrap()
+            .1 = value;
+    }
+    assert_eq!(radio.bring_up(&fast()), Ok(BringUp::AlreadyApi));
+    let now: Vec<([u8; 2], u8)> = m.borrow().fixed.iter().map(|f| (f.0, f.1)).collect();
+    assert_eq!(now, FIXED_SETTINGS);
+    assert_eq!(m.borrow().writes, 0, "set at every boot, never written");
+    // A radio that does not know a fixed setting fails bring-up with the command.
+    let (m, mut radio) = setup(2, 57600, Mode::Escaped);
+    m.borrow_mut().fixed.retain(|f| f.0 != *b"SM");
+    assert_eq!(
+        radio.bring_up(&fast()),
+        Err(Error::At {
+            command: *b"SM",
+            status: AtStatus::INVALID_COMMAND
+        })
+    );
 }

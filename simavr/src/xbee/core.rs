@@ -117,6 +117,9 @@ pub struct XBeeConfig {
     /// Relative difference of the two sides' byte times beyond which the UARTs do not
     /// understand each other (a real UART tolerates a few %).
     pub baud_tolerance: f64,
+    /// Any other registers as a previous owner left them (a second-hand radio): `(command,
+    /// value)`, persisted, applied after the fields above.
+    pub leftovers: Vec<([u8; 2], u32)>,
 }
 
 impl Default for XBeeConfig {
@@ -145,6 +148,7 @@ impl Default for XBeeConfig {
             rx_latency_ms: 0.2,
             csma: Csma::Off,
             baud_tolerance: 0.04,
+            leftovers: Vec::new(),
         }
     }
 }
@@ -176,6 +180,9 @@ impl XBeeConfig {
         r.set_unchecked(*b"CA", u32::from(self.ca));
         r.set_unchecked(*b"RR", u32::from(self.rr));
         r.set_unchecked(*b"MM", u32::from(self.mm));
+        for &(cmd, v) in &self.leftovers {
+            r.set_unchecked(cmd, v);
+        }
         r
     }
 }

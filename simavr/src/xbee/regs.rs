@@ -23,8 +23,18 @@ impl Model {
     }
 }
 
-/// UART rates of `BD` 0…7 (bit/s).
-pub const BAUD_RATES: [u32; 8] = [1200, 2400, 4800, 9600, 19_200, 38_400, 57_600, 115_200];
+/// The rates the S1's UART really runs at for `BD` 0…7 (bit/s): `BD=7`, named 115200, is
+/// 111 111 bit/s (Digi's S1 manual), so a host at 115200 (the Uno's nearest divisor gives
+/// 117 647) does not understand a radio left at `BD=7`.
+pub const BAUD_RATES: [u32; 8] = [1200, 2400, 4800, 9600, 19_200, 38_400, 57_600, 111_111];
+
+const _: () = {
+    let mut bd = 0;
+    while bd < BAUD_RATES.len() {
+        assert!(BAUD_RATES[bd] == xbee_api::driver::baud_of_bd(bd as u8));
+        bd += 1;
+    }
+};
 
 /// The baud rate of a `BD` value (0…7), if valid.
 pub fn baud_of_bd(bd: u32) -> Option<u32> {

@@ -15,8 +15,8 @@ use embedded_hal::digital::{OutputPin, StatefulOutputPin};
 /// `CH` = the first anchor channel (anchors, agents: where the first beacons go) or the sink
 /// channel (the sink: where reports come), the channel access (on an agent `RN` =
 /// [`AGENT_BACKOFF_EXPONENT`] and `CA` = [`AGENT_CCA_THRESHOLD`], so that two senders of one
-/// sub-slot take turns rather than collide; on the others `RN` = 0, so that a beacon goes on
-/// air when its slot says, whatever a radio came with), and the encryption: on with the network key
+/// sub-slot take turns rather than collide; on the others `RN` = 0 and the factory `CA`, so that
+/// a beacon goes on air when its slot says, whatever a radio came with), and the encryption: on with the network key
 /// (`KY`, `EE` = 1) or off (`EE` = 0), never left as a radio had it.
 pub fn radio_config(config: &Config) -> BringUpConfig {
     // Channel 0 (no anchor channel) is no testbed channel: `xbee_channel` says `None`.
@@ -32,10 +32,10 @@ pub fn radio_config(config: &Config) -> BringUpConfig {
             Role::Agent => AGENT_BACKOFF_EXPONENT,
             Role::Anchor | Role::Sink => 0,
         }),
-        cca_threshold: match config.role {
-            Role::Agent => Some(AGENT_CCA_THRESHOLD),
-            Role::Anchor | Role::Sink => None,
-        },
+        cca_threshold: Some(match config.role {
+            Role::Agent => AGENT_CCA_THRESHOLD,
+            Role::Anchor | Role::Sink => xbee_api::driver::FACTORY_CCA_THRESHOLD,
+        }),
         encryption: Encryption::Off,
         ..BringUpConfig::new()
     };

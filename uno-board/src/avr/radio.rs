@@ -40,7 +40,7 @@ impl ufmt::uWrite for Serial {
 ///
 /// The watchdog must be off (it is after `Board::take`; [`boot`](crate::boot) starts it after
 /// this): one attempt at a radio that never
-/// answers takes about 14 s, longer than the watchdog's longest timeout, and every wait in it is
+/// answers takes about 23 s, longer than the watchdog's longest timeout, and every wait in it is
 /// bounded by the tick.
 pub fn bring_up_radio(radio: &mut NodeRadio, led: &mut Led, role: Role, config: &BringUpConfig) {
     let mut attempt: u16 = 0;
@@ -50,7 +50,7 @@ pub fn bring_up_radio(radio: &mut NodeRadio, led: &mut Led, role: Role, config: 
         let result = radio.bring_up(config);
         let Ok(()) = led.set_low();
         // A failed search leaves the UART at the last rate it tried; lines go out at 57600.
-        let _ = radio.serial_mut().set_bd(xbee_api::driver::BD);
+        radio.serial_mut().set_bd(xbee_api::driver::BD);
         // One line either way, written in one place: one copy of its start and end. (Error
         // codes are 1…12, never 0.)
         let (line, code) = match result {

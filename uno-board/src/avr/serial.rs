@@ -153,17 +153,12 @@ impl Serial {
         Ok(())
     }
 
-    /// [`set_baud`](Self::set_baud) for the rate of the XBee's `BD` value `bd`
-    /// ([`xbee_api::driver::baud_of_bd`]): 3…7, 9600…115200 bit/s (the rates of [`baud`]),
-    /// whose divisors, below 256, come from a 5-byte table worked out at compile time.
-    /// Out of line: radio bring-up calls it from three places.
+    /// [`set_baud`](Self::set_baud) for the rate the S1 runs at with `BD` value `bd`
+    /// ([`xbee_api::driver::baud_of_bd`]: 1200…57600 bit/s, and 111 111 for `BD=7`), without
+    /// the division ([`ubrr_of_bd`]). Out of line: radio bring-up calls it from three places.
     #[inline(never)]
-    pub fn set_bd(&mut self, bd: u8) -> Result<(), BaudError> {
-        let ubrr = UBRR_OF_BD
-            .get(bd.wrapping_sub(BD_FIRST) as usize)
-            .ok_or(BaudError::Unreachable)?;
-        self.set_ubrr(u16::from(*ubrr));
-        Ok(())
+    pub fn set_bd(&mut self, bd: u8) {
+        self.set_ubrr(ubrr_of_bd(bd));
     }
 
     /// Waits until the bytes written have left, then writes UBRR0 (U2X0 is already set, by
@@ -225,20 +220,29 @@ impl Serial {
     }
 }
 
-/// The first `BD` value of [`UBRR_OF_BD`] (9600 bit/s).
-const BD_FIRST: u8 = 3;
-
-/// UBRR0 (double speed) for the XBee's `BD` values 3…7: 207, 103, 51, 34, 16.
-const UBRR_OF_BD: [u8; 5] = {
-    let mut t = [0; 5];
-    let mut i = 0;
-    while i < t.len() {
-        let ubrr = ubrr_or_panic(xbee_api::driver::baud_of_bd(BD_FIRST + i as u8));
-        assert!(ubrr < 256);
-        t[i] = ubrr as u8;
-        i += 1;
+/// UBRR0 (double speed) for the XBee's `BD` value `bd` (0…7, a larger one as 7), at the rate
+/// the S1 really runs it ([`xbee_api::driver::baud_of_bd`]): 1200 · 2^`bd` bit/s for 0…5 is
+/// 2 000 000 / (1200 · 2^`bd`) − 1 rounded, worked out with shifts (no division on the MCU),
+/// then 34 for 57600 and 17 for the S1's 111 111. Checked at compile time against the rounded
+/// division for every `BD` value, each within 1 % of the radio's rate.
+const fn ubrr_of_bd(bd: u8) -> u16 {
+    match bd {
+        0..=5 => (3333u16 >> bd).div_ceil(2) - 1,
+        6 => 34,
+        _ => 17,
     }
-    t
+}
+
+const _: () = {
+    let mut bd = 0;
+    while bd <= 8 {
+        let baud = xbee_api::driver::baud_of_bd(bd);
+        let ubrr = ubrr_or_panic(baud);
+        assert!(ubrr_of_bd(bd) == ubrr);
+        let err = baud::error_permille(baud::F_CPU, baud, ubrr);
+        assert!(-10 <= err && err <= 10);
+        bd += 1;
+    }
 };
 
 /// Evaluated at compile time for the default rate.
@@ -285,13 +289,13 @@ impl embedded_hal_nb::serial::Write<u8> for Serial {
 /// Radio bring-up (`xbee_api::driver::Radio::bring_up`) probes the XBee at several rates.
 impl xbee_api::driver::SetBaud for Serial {
     /// Switches USART0 to `baud` (after the pending bytes have left). Every rate the driver tries
-    /// (9600…115200) is reachable; an unreachable one leaves the rate unchanged.
+    /// (1200…57600 and 111 111) is reachable; an unreachable one leaves the rate unchanged.
     fn set_baud(&mut self, baud: u32) {
         let _ = Serial::set_baud(self, baud);
     }
 
     /// Through [`Serial::set_bd`]: no 32-bit division.
     fn set_bd(&mut self, bd: u8) {
-        let _ = Serial::set_bd(self, bd);
+        Serial::set_bd(self, bd);
     }
 }

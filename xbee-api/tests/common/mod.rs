@@ -119,10 +119,11 @@ pub struct Model {
     pub rn: u8,
     /// `CA`: the channel check's busy level, −dBm, 0x24…0x50.
     pub ca: u8,
+    /// The registers of `xbee_api::driver::FIXED_SETTINGS` (`RR`, `MM`, `SM`, `A1`, `PL`), as
+    /// (command, value, largest value).
+    pub fixed: Vec<([u8; 2], u8, u8)>,
     /// `KY` as last set (write-only: a query answers no value).
     pub ky: Option<Vec<u8>>,
-    /// Answers an `EE` query with this value instead of `EE`.
-    pub ee_reads: Option<u8>,
     /// Answers a `KY` set with this error status (and keeps the old key).
     pub ky_status: Option<AtStatus>,
     /// Radio guard time (`GT`), ms.
@@ -135,8 +136,6 @@ pub struct Model {
     pub babble: bool,
     /// Answers this command-mode command with `ERROR`.
     pub reject: Option<&'static str>,
-    /// Leaves `CH` unchanged while answering OK to a set.
-    pub stuck_ch: bool,
     /// The UART never takes a byte.
     pub write_blocked: bool,
     /// Delay of AT responses and TX status, ms.
@@ -166,7 +165,7 @@ pub struct Model {
 }
 
 pub fn bd_to_baud(bd: u32) -> Option<u32> {
-    [1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200]
+    [1200, 2400, 4800, 9600, 19200, 38400, 57600, 111_111]
         .get(bd as usize)
         .copied()
 }
@@ -189,15 +188,20 @@ impl Model {
             ee: 0,
             rn: 0,
             ca: 0x2C,
+            fixed: vec![
+                (*b"RR", 0, 6),
+                (*b"MM", 0, 3),
+                (*b"SM", 0, 6),
+                (*b"A1", 0, 0x0F),
+                (*b"PL", 4, 4),
+            ],
             ky: None,
-            ee_reads: None,
             ky_status: None,
             gt: 20,
             writes: 0,
             dead: false,
             babble: false,
             reject: None,
-            stuck_ch: false,
             write_blocked: false,
             at_delay: 2,
             tx_delay: 10,
@@ -436,10 +440,22 @@ impl Model {
             (b"ID", true) => (AtStatus::OK, self.id.to_be_bytes().to_vec()),
             (b"CH", true) => (AtStatus::OK, vec![self.ch]),
             (b"AP", true) => (AtStatus::OK, vec![self.ap]),
-            (b"EE", true) => (AtStatus::OK, vec![self.ee_reads.unwrap_or(self.ee)]),
+            (b"EE", true) => (AtStatus::OK, vec![self.ee]),
             (b"RN", true) => (AtStatus::OK, vec![self.rn]),
             (b"CA", true) => (AtStatus::OK, vec![self.ca]),
             (b"KY", true) => ok,
+            (c, true) if self.fixed.iter().any(|f| f.0 == *c) => {
+                let f = self.fixed.iter().find(|f| f.0 == *c).unwrap();
+                (AtStatus::OK, vec![f.1])
+            }
+            (c, false) if self.fixed.iter().any(|f| f.0 == *c) => {
+                let f = self.fixed.iter_mut().find(|f| f.0 == *c).unwrap();
+                if v > u32::from(f.2) {
+                    return bad;
+                }
+                f.1 = v as u8;
+                ok
+            }
             (b"MY", false) if v <= 0xFFFF => {
                 self.my = v as u16;
                 ok
@@ -449,9 +465,7 @@ impl Model {
                 ok
             }
             (b"CH", false) if (0x0B..=0x1A).contains(&v) => {
-                if !self.stuck_ch {
-                    self.ch = v as u8;
-                }
+                self.ch = v as u8;
                 ok
             }
             (b"AP", false) if v <= 2 => ok,

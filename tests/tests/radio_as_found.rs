@@ -1,0 +1,147 @@
+//! Each firmware brings up a modelled XBee S1 as a user may find it (`simavr::xbee`): left at
+//! any of the S1's baud rates in transparent mode (`BD=7` at the 111 111 bit/s the S1 really
+//! runs), or in API mode with another owner's settings (XBee retries, another MAC mode, a sleep
+//! mode, end-device association, low output power, another channel access, encryption on).
+//! After bring-up the radio must run as hoploc expects, and its flash must be written only when
+//! its mode or rate had to change.
+
+use hoploc_tests::boot;
+use loc_proto::line::{BootLine, RadioFound};
+use loc_proto::provision::PROVISION_WINDOW_MS;
+use loc_proto::Role;
+use simavr::xbee::{XBee, XBeeConfig, BAUD_RATES};
+use simavr::Avr;
+use xbee_api::driver::FIXED_SETTINGS;
+
+/// Runs `role` against `radio` until its radio line; returns what the line says.
+fn bring_up(role: Role, radio: &mut XBee, avr: &mut Avr, budget_ms: f64) -> RadioFound {
+    let deadline = PROVISION_WINDOW_MS as f64 + budget_ms;
+    loop {
+        radio.run_for_ms(avr, 20.0);
+        for l in radio.text_lines() {
+            match BootLine::parse(&l.text) {
+                Ok(BootLine::RadioUp { found, .. }) => return found,
+                Ok(BootLine::RadioError { code, .. }) => {
+                    panic!("{role:?}: radio error {code}: {:?}", radio.texts())
+                }
+                _ => {}
+            }
+        }
+        assert!(
+            avr.time_ms() < deadline,
+            "{role:?}: no radio line: {:?}",
+            radio.texts()
+        );
+    }
+}
+
+/// A radio left at `bd` in transparent mode (as from the factory, at another rate).
+fn found_at(bd: u32) {
+    let role = Role::Anchor;
+    let mut avr = boot(role);
+    let mut radio = XBee::new(XBeeConfig {
+        bd,
+        ..XBeeConfig::default()
+    });
+    // Eight rates at most, each 2.7 s of guard times and waiting.
+    let found = bring_up(role, &mut radio, &mut avr, 25_000.0);
+    let baud = BAUD_RATES[bd as usize];
+    assert_eq!(found, RadioFound::Configured { baud }, "BD={bd}");
+    let r = radio.core().persisted();
+    assert_eq!(
+        (r.ap(), r.bd()),
+        (2, 6),
+        "written once: API mode 2 at 57600"
+    );
+    assert!(radio.core().baud_matches());
+}
+
+#[test]
+fn a_radio_left_at_bd_0_is_found() {
+    found_at(0);
+}
+#[test]
+fn a_radio_left_at_bd_1_is_found() {
+    found_at(1);
+}
+#[test]
+fn a_radio_left_at_bd_2_is_found() {
+    found_at(2);
+}
+#[test]
+fn a_radio_left_at_bd_4_is_found() {
+    found_at(4);
+}
+#[test]
+fn a_radio_left_at_bd_5_is_found() {
+    found_at(5);
+}
+#[test]
+fn a_radio_left_at_bd_7_is_found_at_111111_baud() {
+    assert_eq!(BAUD_RATES[7], 111_111);
+    found_at(7);
+}
+
+/// A second-hand radio in API mode 2 at 57600 with another owner's settings: every node gives it
+/// the factory behaviour back, in its active registers only (nothing written to its flash).
+fn second_hand(role: Role) {
+    let leftovers = vec![
+        (*b"RR", 3),
+        (*b"MM", 1),
+        (*b"SM", 4),
+        (*b"A1", 4),
+        (*b"PL", 0),
+        (*b"RN", 3),
+        (*b"CA", 0x24),
+        (*b"EE", 1),
+    ];
+    let mut avr = boot(role);
+    let mut radio = XBee::new(XBeeConfig {
+        leftovers: leftovers.clone(),
+        ..XBeeConfig::api(2)
+    });
+    assert_eq!(
+        bring_up(role, &mut radio, &mut avr, 1_000.0),
+        RadioFound::Api
+    );
+    let active = radio.registers();
+    for &(cmd, value) in &FIXED_SETTINGS {
+        assert_eq!(
+            active.get(cmd),
+            Some(u32::from(value)),
+            "{role:?}: AT{cmd:?}"
+        );
+    }
+    let (rn, ca) = match role {
+        Role::Agent => (
+            loc_proto::schedule::AGENT_BACKOFF_EXPONENT,
+            loc_proto::schedule::AGENT_CCA_THRESHOLD,
+        ),
+        _ => (0, xbee_api::driver::FACTORY_CCA_THRESHOLD),
+    };
+    assert_eq!(active.get(*b"RN"), Some(u32::from(rn)));
+    assert_eq!(active.get(*b"CA"), Some(u32::from(ca)));
+    assert!(!active.ee(), "no network key: encryption off");
+    // Nothing written: the leftovers are still what a power cycle brings back.
+    let persisted = radio.core().persisted();
+    for &(cmd, value) in &leftovers {
+        assert_eq!(
+            persisted.get(cmd),
+            Some(value),
+            "{role:?}: AT{cmd:?} persisted"
+        );
+    }
+}
+
+#[test]
+fn a_second_hand_anchor_radio_gets_the_factory_behaviour() {
+    second_hand(Role::Anchor);
+}
+#[test]
+fn a_second_hand_agent_radio_gets_the_factory_behaviour() {
+    second_hand(Role::Agent);
+}
+#[test]
+fn a_second_hand_sink_radio_gets_the_factory_behaviour() {
+    second_hand(Role::Sink);
+}
