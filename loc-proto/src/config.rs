@@ -59,6 +59,7 @@
 //!   (corrupt, another role, another version) is an error the node reports and does not run with.
 
 use core::fmt;
+use xbee_api::driver::{BringUpConfig, Encryption, FACTORY_CCA_THRESHOLD};
 
 use crate::error::{crc16, Error, Field};
 use crate::msg::{bad, ChannelList, Position, Writer, MAX_ANCHORS, MAX_CHANNEL};
@@ -656,6 +657,47 @@ fn role_of(b: u8) -> Result<Role, Error> {
     }
 }
 
+/// The radio settings a node with `config` gives its radio at bring-up (besides
+/// [`xbee_api::driver::FIXED_SETTINGS`], which every node gives it): `MY` = the role's address of the node id, `ID` = the PAN,
+/// `CH` = the first anchor channel (anchors, agents: where the first beacons go) or the sink
+/// channel (the sink: where reports come), the channel access (on an agent `RN` =
+/// [`crate::schedule::AGENT_BACKOFF_EXPONENT`] and `CA` = [`crate::schedule::AGENT_CCA_THRESHOLD`], so that two senders of one
+/// sub-slot take turns rather than collide; on the others `RN` = 0 and the factory `CA`, so that
+/// a beacon goes on air when its slot says, whatever a radio came with), and the encryption:
+/// on with the network key (`KY`, `EE` = 1) or off (`EE` = 0), never left as a radio had it.
+pub fn radio_settings(config: &Config) -> BringUpConfig {
+    // Per role in one match: the boot channel, `RN`, `CA`. Channel 0 (no anchor channel) is
+    // no testbed channel: `xbee_channel` says `None`.
+    let (channel, backoff, cca) = match config.role {
+        Role::Sink => (config.sink_channel, 0, FACTORY_CCA_THRESHOLD),
+        Role::Anchor => (first_channel(config), 0, FACTORY_CCA_THRESHOLD),
+        Role::Agent => (
+            first_channel(config),
+            crate::schedule::AGENT_BACKOFF_EXPONENT,
+            crate::schedule::AGENT_CCA_THRESHOLD,
+        ),
+    };
+    let mut radio = BringUpConfig {
+        my: Some(config.role.address(config.id)),
+        pan_id: Some(config.pan_id),
+        channel: crate::xbee_channel(channel),
+        backoff_exponent: Some(backoff),
+        cca_threshold: Some(cca),
+        encryption: Encryption::Off,
+        ..BringUpConfig::new()
+    };
+    // The key copied once, into its place.
+    if let Some(NetworkKey(key)) = &config.key {
+        radio.encryption = Encryption::Key(*key);
+    }
+    radio
+}
+
+/// The first anchor channel of `config` (0, no testbed channel, if it has none).
+fn first_channel(config: &Config) -> u8 {
+    config.channels.as_slice().first().copied().unwrap_or(0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -675,6 +717,42 @@ mod tests {
 
     fn golden() -> [u8; 20] {
         DEFAULT_BYTES
+    }
+
+    #[test]
+    fn radio_settings_per_role() {
+        for role in [Role::Anchor, Role::Agent, Role::Sink] {
+            let c = Config::default_for(role);
+            let r = radio_settings(&c);
+            assert_eq!(r.my, Some(role.address(1)));
+            assert_eq!(r.pan_id, Some(c.pan_id));
+            let n = match role {
+                Role::Sink => c.sink_channel,
+                _ => c.channels.as_slice()[0],
+            };
+            assert_eq!(r.channel, Some(0x0A + n));
+            let access = match role {
+                Role::Agent => (
+                    crate::schedule::AGENT_BACKOFF_EXPONENT,
+                    crate::schedule::AGENT_CCA_THRESHOLD,
+                ),
+                _ => (0, FACTORY_CCA_THRESHOLD),
+            };
+            assert_eq!(
+                (r.backoff_exponent, r.cca_threshold),
+                (Some(access.0), Some(access.1))
+            );
+            assert_eq!(
+                r.encryption,
+                Encryption::Off,
+                "no key: encryption off, never left"
+            );
+            let keyed = Config {
+                key: Some(NetworkKey([7; 16])),
+                ..c
+            };
+            assert_eq!(radio_settings(&keyed).encryption, Encryption::Key([7; 16]));
+        }
     }
 
     #[test]

@@ -145,9 +145,24 @@ pub const BAUD: u32 = 57_600;
 /// The `BD` value of [`BAUD`].
 pub const BD: u8 = 6;
 
-/// The `BD` values [`Radio::bring_up`] tries, in order: hoploc's own (57600) first, then the
-/// factory default (9600, `BD=3`), then every other rate the S1 can be set to, fastest first.
-pub const BAUD_CODES: [u8; 8] = [6, 3, 7, 5, 4, 2, 1, 0];
+/// The `BD` values [`Radio::bring_up`] tries, in order: hoploc's own (57600, `BD=6`) first,
+/// then the factory default (9600, `BD=3`), then the others: every value 0…7 once
+/// ([`baud_code`]).
+pub const BAUD_CODES: [u8; 8] = {
+    let mut codes = [0; 8];
+    let mut k = 0;
+    while k < codes.len() {
+        codes[k] = baud_code(k as u8);
+        k += 1;
+    }
+    codes
+};
+
+/// The `k`-th `BD` value bring-up tries: 6, 3, 0, 5, 2, 7, 4, 1 (steps of 5 modulo 8 from 6,
+/// which visit every value once; worked out rather than read from a table, for AVR flash).
+pub const fn baud_code(k: u8) -> u8 {
+    BD.wrapping_add(k.wrapping_mul(5)) & 7
+}
 
 /// The rates of [`BAUD_CODES`], in the same order (as the S1 runs them: [`baud_of_bd`]).
 pub const BAUD_RATES: [u32; 8] = {
@@ -170,6 +185,8 @@ const _: () = {
     }
     assert!(seen == 0xFF);
     assert!(BAUD_CODES[0] == BD && baud_of_bd(BD) == BAUD);
+    // The factory default second.
+    assert!(BAUD_CODES[1] == 3);
 };
 
 /// The factory `CA` (clear channel assessment threshold), −dBm: −44 dBm.
@@ -1219,9 +1236,7 @@ where
                     }
                 },
                 _ => {
-                    let Some(&(command, value)) = FIXED_SETTINGS.get(usize::from(i - 6)) else {
-                        break;
-                    };
+                    let (command, value) = FIXED_SETTINGS[usize::from(i - 6)];
                     (command, Some(u16::from(value)))
                 }
             };
@@ -1239,8 +1254,8 @@ where
     /// one caller: less AVR flash than out of line.)
     fn configure_in_command_mode(&mut self, cfg: &BringUpConfig) -> Result<u32, Failed> {
         let mut heard = false;
-        // By reference: iterating the array by value copies it to the stack first.
-        for &bd in BAUD_CODES.iter() {
+        for k in 0..BAUD_CODES.len() as u8 {
+            let bd = baud_code(k);
             self.serial.set_bd(bd);
             heard |= self.quiet(cfg.guard_ms);
             for &b in b"+++" {

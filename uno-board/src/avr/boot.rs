@@ -6,8 +6,7 @@ use loc_proto::Role;
 use xbee_api::driver::Radio;
 
 use super::{
-    bring_up_radio, load_config, radio_config, reset, write_line, Board, Led, NodeRadio, SysClock,
-    Watchdog,
+    bring_up_radio, load_config, reset, write_line, Board, Led, NodeRadio, SysClock, Watchdog,
 };
 use crate::WdtTimeout;
 
@@ -63,7 +62,7 @@ pub fn boot(role: Role, built_in: Config, run: fn(&mut Node) -> !) -> ! {
         &mut node.radio,
         &mut node.led,
         role,
-        &radio_config(&node.config),
+        &loc_proto::config::radio_settings(&node.config),
     );
     node.watchdog.start(WdtTimeout::S1);
     run(&mut node)

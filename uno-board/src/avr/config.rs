@@ -1,50 +1,13 @@
 //! The node config at boot: a provisioning window on the UART, then the config in EEPROM or the
 //! firmware's built-in one (`loc_proto::config` says which; `loc_proto::provision` the frame).
 
-use loc_proto::config::{read_into, write_config_line, Config, NetworkKey};
+use loc_proto::config::{read_into, write_config_line, Config};
 use loc_proto::line::ConfigSource;
 use loc_proto::provision::{write_answer, ProvisionParser, PROVISION_WINDOW_MS, WRITE_FAILED};
-use loc_proto::schedule::{AGENT_BACKOFF_EXPONENT, AGENT_CCA_THRESHOLD};
-use loc_proto::{xbee_channel, Role};
-use xbee_api::driver::{BringUpConfig, Encryption};
+use loc_proto::Role;
 
 use super::{now_ms, rx_pending, sleep_unless, Eeprom, Led, Serial};
 use embedded_hal::digital::{OutputPin, StatefulOutputPin};
-
-/// The radio settings of `config`: `MY` = the role's address of the node id, `ID` = the PAN,
-/// `CH` = the first anchor channel (anchors, agents: where the first beacons go) or the sink
-/// channel (the sink: where reports come), the channel access (on an agent `RN` =
-/// [`AGENT_BACKOFF_EXPONENT`] and `CA` = [`AGENT_CCA_THRESHOLD`], so that two senders of one
-/// sub-slot take turns rather than collide; on the others `RN` = 0 and the factory `CA`, so that
-/// a beacon goes on air when its slot says, whatever a radio came with), and the encryption: on with the network key
-/// (`KY`, `EE` = 1) or off (`EE` = 0), never left as a radio had it.
-pub fn radio_config(config: &Config) -> BringUpConfig {
-    // Channel 0 (no anchor channel) is no testbed channel: `xbee_channel` says `None`.
-    let channel = match config.role {
-        Role::Sink => config.sink_channel,
-        Role::Anchor | Role::Agent => config.channels.as_slice().first().copied().unwrap_or(0),
-    };
-    let mut radio = BringUpConfig {
-        my: Some(config.role.address(config.id)),
-        pan_id: Some(config.pan_id),
-        channel: xbee_channel(channel),
-        backoff_exponent: Some(match config.role {
-            Role::Agent => AGENT_BACKOFF_EXPONENT,
-            Role::Anchor | Role::Sink => 0,
-        }),
-        cca_threshold: Some(match config.role {
-            Role::Agent => AGENT_CCA_THRESHOLD,
-            Role::Anchor | Role::Sink => xbee_api::driver::FACTORY_CCA_THRESHOLD,
-        }),
-        encryption: Encryption::Off,
-        ..BringUpConfig::new()
-    };
-    // The key copied once, into its place.
-    if let Some(NetworkKey(key)) = &config.key {
-        radio.encryption = Encryption::Key(*key);
-    }
-    radio
-}
 
 /// The config a `role` node runs with: `config` holds the firmware's built-in one on entry (of
 /// `role`), and the one to run with on return. (`role` apart, a constant: with the one call of

@@ -13,7 +13,7 @@ mod time;
 mod watchdog;
 
 pub use boot::{boot, Node};
-pub use config::{load_config, radio_config};
+pub use config::load_config;
 pub use eeprom::Eeprom;
 pub use led::{blink_code, Led};
 pub use power::sleep_unless;
