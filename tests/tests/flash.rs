@@ -1,7 +1,8 @@
 //! `cargo run` for users, as far as it goes without a board: in each firmware crate it runs that
 //! firmware (not one of the size probes), through `scripts/flash-uno` (the cargo runner), which
 //! checks the ELF's size, finds the port and hands the ELF to avrdude for the Uno's bootloader;
-//! and the `Ravedude.toml` each firmware crate has for those who run `ravedude` instead.
+//! and the `Ravedude.toml` each firmware crate has for those who run `ravedude` instead. The
+//! README's flashing commands themselves run in `readme_flash.rs`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
