@@ -8,11 +8,12 @@
 //! with the config its `HOPLOC_*` variables give, to avrdude for the Uno's bootloader on the
 //! port the command picks (or the only one there is), or to ravedude where the command says so.
 //!
-//! The commands build in a target directory of their own (`CARGO_TARGET_TMPDIR/readme-flash`,
-//! kept between runs): they rebuild firmware with other configs, and the simavr tests read
-//! `target/avr-none/fw/*.elf` expecting the built-in defaults. So the first run builds the
-//! firmware twice (the `fw` profile of `cargo fw`, the dev profile of `cargo run` in a crate);
-//! after that, a command costs the relink of its config.
+//! The commands build in the workspace's target directory, where the simavr tests take the
+//! ELFs of `cargo fw` from: a directory of their own would cost two more full firmware builds
+//! (all of `core` and the crates, in the `fw` and the dev profile) on every fresh checkout,
+//! where `cargo fw` has run already. A README command may rebuild `target/avr-none/fw/*.elf`
+//! with a config of its own (`HOPLOC_ID=2 cargo fw-run -p …`), so after each block `cargo fw`
+//! builds them back with the built-in defaults; blocks run one at a time.
 
 use std::collections::BTreeMap;
 use std::path::{Component, Path, PathBuf};
@@ -308,19 +309,19 @@ fn run_block(block: &Block, ports: &[String], target_dir: &Path) -> Result<Run, 
     );
     let mut cmd = Command::new("bash");
     cmd.args(["--noprofile", "--norc", "-e", "-c", &block.lines.join("\n")])
-        .current_dir(workspace_root())
         .env("PATH", path)
-        .env("FLASH_UNO_DEV", &dev)
-        .env("CARGO_TARGET_DIR", target_dir);
-    // A user's shell with none of the variables the commands set.
-    for var in ENV_VARS.iter().chain(&[
-        "HOPLOC_PORT",
-        "CARGO_TARGET_AVR_NONE_RUNNER",
-        "RAVEDUDE_PORT",
-    ]) {
-        cmd.env_remove(var);
-    }
-    let out = cmd.output().unwrap();
+        .env("FLASH_UNO_DEV", &dev);
+    let out = users_shell(&mut cmd, target_dir).output().unwrap();
+    // The simavr tests' ELFs with the built-in config again, whatever the block built.
+    let restore = users_shell(&mut Command::new("cargo"), target_dir)
+        .arg("fw")
+        .output()
+        .unwrap();
+    assert!(
+        restore.status.success(),
+        "cargo fw after the block: {}",
+        String::from_utf8_lossy(&restore.stderr)
+    );
     if !out.status.success() {
         let stderr = String::from_utf8_lossy(&out.stderr);
         let tail: Vec<&str> = stderr.lines().rev().take(25).collect();
@@ -347,6 +348,26 @@ fn run_block(block: &Block, ports: &[String], target_dir: &Path) -> Result<Run, 
         })
         .collect();
     Ok(Run { calls, dev })
+}
+
+/// `cmd` as in a user's shell at the workspace root: none of the variables the README's commands
+/// set, no flags or toolchain of the test run's (the workspace's rust-toolchain.toml and
+/// .cargo/config.toml decide), building in `target_dir`.
+fn users_shell<'a>(cmd: &'a mut Command, target_dir: &Path) -> &'a mut Command {
+    cmd.current_dir(workspace_root())
+        .env("CARGO_TARGET_DIR", target_dir);
+    for var in ENV_VARS.iter().chain(&[
+        "HOPLOC_PORT",
+        "CARGO_TARGET_AVR_NONE_RUNNER",
+        "RAVEDUDE_PORT",
+        "RUSTFLAGS",
+        "CARGO_ENCODED_RUSTFLAGS",
+        "CARGO_BUILD_TARGET",
+        "RUSTUP_TOOLCHAIN",
+    ]) {
+        cmd.env_remove(var);
+    }
+    cmd
 }
 
 /// The serial ports a block's commands name (`HOPLOC_PORT=/dev/…`), or the one port a user
@@ -503,8 +524,9 @@ fn run_and_check(block: &Block, flashes: &[Flash], target_dir: &Path) -> Result<
     }
 }
 
+/// The workspace's target directory (the one `hoploc_tests::firmware_elf` builds in).
 fn target_dir() -> PathBuf {
-    Path::new(env!("CARGO_TARGET_TMPDIR")).join("readme-flash")
+    workspace_root().join("target")
 }
 
 #[test]
