@@ -1,7 +1,8 @@
 //! The README's flashing commands, run as a user types them. Every fenced block of `README.md`
 //! that flashes a board (`cargo run` in a firmware crate, `cargo fw-run -p …`) runs whole, in one
-//! `bash -e` session that starts at the workspace root (a `cd` carries to the next line, the
-//! first failing command fails the block), with stand-ins for what is not on a build machine:
+//! `bash -e` session that starts at the workspace root (a `cd` carries to the next line; a
+//! failing command stops the block, one before `&&` leaves a flash missing), with stand-ins for
+//! what is not on a build machine:
 //! `avrdude` and `ravedude` on `PATH` record their arguments and keep the ELF they were given,
 //! and the serial ports are empty files in a directory `scripts/flash-uno` takes for `/dev`
 //! (`FLASH_UNO_DEV`). Each flash must hand over the ELF of the role the command names, built
@@ -9,9 +10,9 @@
 //! port the command picks (or the only one there is), or to ravedude where the command says so.
 //!
 //! The commands build in the workspace's target directory, where the simavr tests take the
-//! ELFs of `cargo fw` from: a directory of their own would cost two more full firmware builds
-//! (all of `core` and the crates, in the `fw` and the dev profile) on every fresh checkout,
-//! where `cargo fw` has run already. A README command may rebuild `target/avr-none/fw/*.elf`
+//! ELFs of `cargo fw` from: a directory of their own would cost one more full firmware build
+//! (`core` and every crate in the `fw` profile, which `cargo fw` has built there already) on
+//! every fresh checkout. A README command may rebuild `target/avr-none/fw/*.elf`
 //! with a config of its own (`HOPLOC_ID=2 cargo fw-run -p …`), so after each block `cargo fw`
 //! builds them back with the built-in defaults; blocks run one at a time.
 
