@@ -1,7 +1,8 @@
 //! `cargo run` for users, as far as it goes without a board: in each firmware crate it runs that
 //! firmware (not one of the size probes), through `scripts/flash-uno` (the cargo runner), which
 //! checks the ELF's size, finds the port and hands the ELF to avrdude for the Uno's bootloader;
-//! and the `Ravedude.toml` each firmware crate has for those who run `ravedude` instead.
+//! and the `Ravedude.toml` each firmware crate has for those who run `ravedude` instead. The
+//! README's flashing commands themselves run in `readme_flash.rs`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -145,6 +146,58 @@ fn flash_uno_refuses_an_elf_larger_than_the_flash() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("does not fit"), "{stderr}");
     assert!(!dir.path().join("avrdude.args").exists());
+}
+
+/// Without `HOPLOC_PORT`, the only serial port there is (here in a stand-in /dev:
+/// `FLASH_UNO_DEV`); with two, flash-uno names them and flashes nothing. `HOPLOC_PORT=/dev/…`
+/// names a port in the stand-in /dev too.
+#[test]
+fn flash_uno_takes_the_only_port_and_will_not_choose_among_several() {
+    let elf = firmware_elf(Role::Sink);
+    let dir = stand_ins(false);
+    let dev = dir.path().join("dev");
+    std::fs::create_dir(&dev).unwrap();
+    let dev_env = ("FLASH_UNO_DEV", dev.to_str().unwrap());
+    let port_of = |dir: &tempdir::Dir| {
+        let args = std::fs::read_to_string(dir.path().join("avrdude.args")).unwrap();
+        let args: Vec<&str> = args.lines().collect();
+        let p = args.iter().position(|&a| a == "-P").unwrap();
+        PathBuf::from(args[p + 1])
+    };
+
+    let out = flash_uno(&elf, dir.path(), &[dev_env]);
+    assert_eq!(out.status.code(), Some(3));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("no Arduino Uno found"), "{stderr}");
+
+    std::fs::write(dev.join("ttyUSB0"), b"").unwrap();
+    let out = flash_uno(&elf, dir.path(), &[dev_env]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(port_of(&dir), dev.join("ttyUSB0"));
+
+    std::fs::write(dev.join("ttyACM0"), b"").unwrap();
+    std::fs::remove_file(dir.path().join("avrdude.args")).unwrap();
+    let out = flash_uno(&elf, dir.path(), &[dev_env]);
+    assert_eq!(out.status.code(), Some(3));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("several serial ports found"), "{stderr}");
+    assert!(!dir.path().join("avrdude.args").exists());
+
+    let out = flash_uno(
+        &elf,
+        dir.path(),
+        &[dev_env, ("HOPLOC_PORT", "/dev/ttyACM0")],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(port_of(&dir), dev.join("ttyACM0"));
 }
 
 /// Each firmware crate's `Ravedude.toml`: the Uno, and a console at the nodes' UART rate.
