@@ -332,38 +332,58 @@ pub struct Args {
     /// Node id: 1…N for an anchor, 1…255 for an agent or a sink.
     #[arg(long, value_parser = clap::value_parser!(u8).range(1..))]
     pub id: u8,
+    /// The rest of the node's config.
+    #[command(flatten)]
+    pub node: NodeOptions,
+}
+
+/// A node's config options besides its role and id, with their defaults: `hoploc provision`'s,
+/// and `hoploc radio`'s for the settings a node of that config gives its radio. Each needs
+/// `--role` (which `provision` always has).
+#[derive(clap::Args, Debug)]
+pub struct NodeOptions {
     /// Position x in cm (anchors; for a sink the room width, 0 = the anchors' bounding box).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    #[arg(
+        long,
+        default_value_t = 0,
+        allow_negative_numbers = true,
+        requires = "role"
+    )]
     pub x: i16,
     /// Position y in cm (anchors; for a sink the room height, 0 = the anchors' bounding box).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    #[arg(
+        long,
+        default_value_t = 0,
+        allow_negative_numbers = true,
+        requires = "role"
+    )]
     pub y: i16,
     /// Number of anchors N in the network (3…8).
-    #[arg(long, default_value_t = Config::DEFAULT.anchors,
+    #[arg(long, default_value_t = Config::DEFAULT.anchors, requires = "role",
           value_parser = clap::value_parser!(u8).range(3..=loc_proto::msg::MAX_ANCHORS as i64))]
     pub anchors: u8,
     /// TDMA slot length in ms (up to 10000; at least 17 with 3 or 4 anchors, 18 with 5…7, 19
     /// with 8: a slot must hold a beacon).
-    #[arg(long, default_value_t = Config::DEFAULT.slot_ms,
+    #[arg(long, default_value_t = Config::DEFAULT.slot_ms, requires = "role",
           value_parser = clap::value_parser!(u16)
               .range(i64::from(config::MIN_SLOT_MS)..=i64::from(config::MAX_SLOT_MS)))]
     pub slot_ms: u16,
     /// Anchor channels in hop order, testbed channels 1…16 (channel n = 802.15.4 channel 10+n).
     /// Channel 1 does not exist on the XBee S1 Pro (2…13 only).
-    #[arg(long, default_value = "1,12", value_parser = parse_channels)]
+    #[arg(long, default_value = "1,12", value_parser = parse_channels, requires = "role")]
     pub channels: ChannelList,
     /// The agents' report channel to the sink (testbed channel 1…16).
-    #[arg(long, default_value_t = Config::DEFAULT.sink_channel,
+    #[arg(long, default_value_t = Config::DEFAULT.sink_channel, requires = "role",
           value_parser = clap::value_parser!(u8).range(1..=i64::from(loc_proto::msg::MAX_CHANNEL)))]
     pub sink_channel: u8,
     /// PAN id, decimal or 0x-hex (not 0xFFFF).
-    #[arg(long, default_value = "0x3332", value_parser = parse_pan)]
+    #[arg(long, default_value = "0x3332", value_parser = parse_pan, requires = "role")]
     pub pan: u16,
     /// Network key: 32 hex digits, the same on every node of the network. The node turns its
     /// radio's AES-128 encryption on with it; without --key, off. Keeps devices without the key
     /// out, but the XBee encrypts without an integrity check or replay protection (see
     /// docs/design.md). The key is stored in the board's EEPROM in the clear.
-    #[arg(long, value_parser = parse_key)]
+    #[arg(long, value_parser = parse_key, requires = "role")]
     pub key: Option<NetworkKey>,
 }
 
@@ -376,7 +396,8 @@ fn parse_key(s: &str) -> Result<NetworkKey, String> {
     })
 }
 
-fn parse_role(s: &str) -> Result<Role, String> {
+/// `--role`: anchor, agent or sink.
+pub fn parse_role(s: &str) -> Result<Role, String> {
     Role::from_name(s).ok_or_else(|| format!("`{s}` is not a role: anchor, agent or sink"))
 }
 
@@ -394,9 +415,16 @@ fn parse_pan(s: &str) -> Result<u16, String> {
 impl Args {
     /// The config the options describe (not yet validated).
     pub fn config(&self) -> Config {
+        self.node.config(self.role, self.id)
+    }
+}
+
+impl NodeOptions {
+    /// The config of node `id` of `role` with these options (not yet validated).
+    pub fn config(&self, role: Role, id: u8) -> Config {
         Config {
-            role: self.role,
-            id: self.id,
+            role,
+            id,
             anchors: self.anchors,
             position: Position {
                 x: self.x,

@@ -214,10 +214,10 @@ proptest! {
             }
             Cmd::Provision(a) => {
                 prop_assert!(a.id >= 1, "{value}");
-                prop_assert!((3..=8).contains(&a.anchors), "{value}");
-                prop_assert!((2..=10_000).contains(&a.slot_ms), "{value}");
-                prop_assert!((1..=16).contains(&a.sink_channel), "{value}");
-                prop_assert!(a.pan != 0xFFFF, "{value}");
+                prop_assert!((3..=8).contains(&a.node.anchors), "{value}");
+                prop_assert!((2..=10_000).contains(&a.node.slot_ms), "{value}");
+                prop_assert!((1..=16).contains(&a.node.sink_channel), "{value}");
+                prop_assert!(a.node.pan != 0xFFFF, "{value}");
             }
             Cmd::Footprint { .. } => {}
         }
