@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand};
 
-use crate::{demo, experiments, firmware, footprint, monitor, provision, replay, simulate};
+use crate::{demo, experiments, firmware, footprint, monitor, provision, radio, replay, simulate};
 
 /// hoploc: multichannel RSSI localization testbed for Arduino Uno + XBee radios.
 #[derive(Parser, Debug)]
@@ -110,6 +110,32 @@ pub enum Command {
     ///     hoploc provision --port /dev/ttyACM1 --role sink --id 1 --channels 1,12 --pan 0x3332
     #[command(verbatim_doc_comment)]
     Provision(provision::Args),
+    /// Read an XBee 802.15.4 (S1) on a USB adapter, show what differs from what hoploc expects,
+    /// and restore it.
+    ///
+    /// Finds the radio at every baud rate the S1 can be set to (1200…111 111 bit/s: BD=7 runs
+    /// at 111 111, not 115200) without changing anything: an AP query in API mode at each rate,
+    /// then command mode at each rate (+++ between guard times, ATxx queries, ATCN). Up to half a
+    /// minute when the radio is not in API mode. A radio in transparent mode sends what reaches
+    /// it on air: the search goes out as a few short packets, as at a node's boot. Prints each
+    /// register that changes how the radio behaves, next to what hoploc expects, ✓ or ✗, and
+    /// whether a node sets it at every boot or leaves it, then a verdict with what each
+    /// difference does. With --role, --id and the node's options (those of `hoploc provision`)
+    /// it checks against that node's settings; without, against what every node gives its radio
+    /// (MY, ID, CH, RN, CA and EE depend on the role).
+    ///
+    /// --restore gives the radio what a node gives it at every boot (API mode 2 at 57600, saved
+    /// with WR when they change, as a node does; the rest not saved), and the factory value of
+    /// each register nodes leave alone that differs; --write saves it all (WR). Nodes set all
+    /// but the registers they leave alone at every boot anyway, and each WR wears the radio's
+    /// flash. Examples:
+    ///
+    ///     hoploc radio --port /dev/ttyUSB0
+    ///     hoploc radio --port /dev/ttyUSB0 --role anchor --id 2 --x 700 --y 0
+    ///     hoploc radio --port /dev/ttyUSB0 --role agent --id 1 --restore
+    ///     hoploc radio --port /dev/ttyUSB0 --role sink --id 1 --channels 2,12 --restore --write
+    #[command(verbatim_doc_comment)]
+    Radio(radio::Args),
     /// Show the sink's lines live: one row per report (MLE and MMSE fixes, α, P0, anchors),
     /// status lines with a warning for what their counters say is wrong (two agents with one
     /// id, undelivered reports, foreign frames, no report for a status period), damaged lines,
@@ -149,6 +175,7 @@ pub fn run(cli: Cli) -> Result<(), String> {
         }
         Command::Simulate(args) => simulate::run(&args),
         Command::Provision(args) => provision::run(&args).map_err(|e| e.to_string()),
+        Command::Radio(args) => radio::run(&args),
         Command::Monitor(args) => monitor::run(&args),
         Command::Replay(args) => replay::run(&args),
     }

@@ -19,6 +19,7 @@ pub mod health;
 pub mod monitor;
 pub mod out;
 pub mod provision;
+pub mod radio;
 pub mod replay;
 pub mod report;
 pub mod scenario;

@@ -124,6 +124,11 @@ fn command_line() -> impl Strategy<Value = (Vec<String>, String)> {
         ("provision", "--sink-channel"),
         ("provision", "--pan"),
         ("provision", "--channels"),
+        ("radio", "--id"),
+        ("radio", "--anchors"),
+        ("radio", "--sink-channel"),
+        ("radio", "--pan"),
+        ("radio", "--channels"),
     ];
     (
         proptest::sample::select(options),
@@ -144,7 +149,7 @@ fn command_line() -> impl Strategy<Value = (Vec<String>, String)> {
             if cmd == "experiments" {
                 line.extend(["--report", "dir"].map(String::from));
             }
-            if cmd == "provision" {
+            if cmd == "provision" || cmd == "radio" {
                 line.extend(["--port", "/dev/null", "--role", "anchor"].map(String::from));
                 if flag != "--id" {
                     line.extend(["--id", "1"].map(String::from));
@@ -216,6 +221,12 @@ proptest! {
                 prop_assert!(a.id >= 1, "{value}");
                 prop_assert!((3..=8).contains(&a.node.anchors), "{value}");
                 prop_assert!((2..=10_000).contains(&a.node.slot_ms), "{value}");
+                prop_assert!((1..=16).contains(&a.node.sink_channel), "{value}");
+                prop_assert!(a.node.pan != 0xFFFF, "{value}");
+            }
+            Cmd::Radio(a) => {
+                prop_assert!(a.id.is_some_and(|id| id >= 1), "{value}");
+                prop_assert!((3..=8).contains(&a.node.anchors), "{value}");
                 prop_assert!((1..=16).contains(&a.node.sink_channel), "{value}");
                 prop_assert!(a.node.pan != 0xFFFF, "{value}");
             }
