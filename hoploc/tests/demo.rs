@@ -74,6 +74,29 @@ fn every_command_has_help_with_an_example() {
     assert!(help.contains("hoploc demo --boot --seconds 10"), "{help}");
     assert!(help.contains("hoploc demo exp3 --seed 7"), "{help}");
     assert!(help.contains("host sink"), "{help}");
+    // Every command: its help has an example, an indented line that runs it.
+    let commands: Vec<String> = <hoploc::cli::Cli as clap::CommandFactory>::command()
+        .get_subcommands()
+        .map(|c| c.get_name().to_string())
+        .filter(|name| name != "help")
+        .collect();
+    assert!(
+        commands.len() >= 8 && commands.iter().any(|c| c == "radio"),
+        "{commands:?}"
+    );
+    for name in commands {
+        let out = Command::new(env!("CARGO_BIN_EXE_hoploc"))
+            .args([name.as_str(), "--help"])
+            .output()
+            .expect("run hoploc");
+        let help = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "{name}: {help}");
+        let example = format!("    hoploc {name}");
+        assert!(
+            help.lines().any(|l| l.starts_with(&example)),
+            "{name}: no example in its help:\n{help}"
+        );
+    }
 }
 
 #[test]
