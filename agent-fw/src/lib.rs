@@ -133,7 +133,9 @@ impl Agent {
         if k < c {
             s.channel_start_us(k)
         } else if k == c {
-            report.map(|t| t - s.guard_us())
+            // Every agent switches to the sink channel where the report window begins, in the
+            // time the window leaves for that.
+            report.map(|_| s.report_start_us())
         } else if k == c + 1 {
             report
         } else {

@@ -6,9 +6,12 @@
 use super::*;
 use anchor_fw::{Action as AnchorAction, Anchor, Heard as AnchorHeard};
 
-/// 4 anchors, two channels, 25 ms slots with a 2 ms guard, two agent sub-slots of 20 ms.
+/// 4 anchors, two channels, 25 ms slots with a 2 ms guard, two agent sub-slots of 20 ms, and
+/// the nodes' time for each channel change (rounded up to the tests' polling step).
 fn sched() -> Schedule {
-    Schedule::new(4, 2, 25_000, 2, 20_000, 2_000).unwrap()
+    Schedule::new(4, 2, 25_000, 2, 20_000, 2_000)
+        .and_then(|s| s.with_tune(loc_proto::schedule::TUNE_US.next_multiple_of(STEP as u32)))
+        .unwrap()
 }
 
 fn channels() -> ChannelList {
@@ -302,8 +305,9 @@ fn waiting_wait_us_between_polls_misses_nothing() {
             base + s.channel_start_us(1).unwrap(),
             Action::Tune(Tune::List(1)),
         ));
+        // Agent 2 switches where the report window begins, before agent 1's sub-slot.
         let report = s.report_at_us(2).unwrap();
-        want.push((base + report - s.guard_us(), Action::Tune(Tune::Sink)));
+        want.push((base + s.report_start_us(), Action::Tune(Tune::Sink)));
         want.push((base + report, Action::SendReport { seq: 5 + k }));
     }
     assert_eq!(got, want);

@@ -4,9 +4,12 @@
 
 use super::*;
 
-/// 4 anchors, channels [1, 12] (two), 25 ms slots with a 2 ms guard, one agent sub-slot.
+/// 4 anchors, channels [1, 12] (two), 25 ms slots with a 2 ms guard, one agent sub-slot, and
+/// the nodes' time for each channel change (rounded up to the tests' polling step).
 fn sched() -> Schedule {
-    Schedule::new(4, 2, 25_000, 1, 20_000, 2_000).unwrap()
+    Schedule::new(4, 2, 25_000, 1, 20_000, 2_000)
+        .and_then(|s| s.with_tune(loc_proto::schedule::TUNE_US.next_multiple_of(STEP)))
+        .unwrap()
 }
 
 const LATENCY: u32 = 3_000;

@@ -3,13 +3,14 @@
 //!
 //! A superframe is, for each channel of the channel list in order, a *channel phase* of `N`
 //! slots (slot `k` belongs to anchor `k + 1`), then the *report window*: one sub-slot per agent
-//! (agent `a` has sub-slot `a − 1`) on the sink channel. Every slot starts with a guard time in
-//! which nobody transmits (the radios switch channel at phase boundaries); a node transmits at
-//! the end of the guard.
+//! (agent `a` has sub-slot `a − 1`) on the sink channel. Each channel phase and the report window
+//! begin with the time a channel change takes at worst ([`TUNE_US`]): every node switches its
+//! radio there and waits for its answer. Every slot starts with a guard time in which nobody
+//! transmits; a node transmits at the end of the guard.
 //!
 //! ```text
-//! | ch 1: A1 A2 … AN | ch 2: A1 A2 … AN | … | report: ag1 ag2 … agM |
-//!   each slot: [guard | transmit window ...]
+//! | ch 1: T A1 A2 … AN | ch 2: T A1 A2 … AN | … | report: T ag1 ag2 … agM |
+//!   T: channel change; each slot: [guard | transmit window ...]
 //! ```
 //!
 //! Times are microseconds from the start of the superframe (`u32`): the thesis' 250 ms channel
@@ -24,6 +25,7 @@ pub struct Schedule {
     slot_us: u32,
     report_slot_us: u32,
     guard_us: u32,
+    tune_us: u32,
     // Derived in `new` (every node asks for them all the time; on the AVR each would otherwise
     // be a 32-bit multiplication inlined at every use).
     phase_us: u32,
@@ -42,7 +44,8 @@ pub enum ScheduleError {
     Agents(u8),
     /// A slot not longer than the guard time (nothing could be sent), or shorter than 1 ms.
     SlotTooShort,
-    /// The superframe would not fit `u32` microseconds (over ~71 minutes).
+    /// A slot, report sub-slot or channel change over 67 s (the superframe must fit `u32`
+    /// microseconds).
     TooLong,
 }
 
@@ -91,23 +94,44 @@ impl Schedule {
         if slot_us <= guard_us || slot_us < 1000 || (agents > 0 && report_slot_us <= guard_us) {
             return Err(ScheduleError::SlotTooShort);
         }
-        // Beacon part ≤ 32 slots; report part ≤ 16 sub-slots: widen to check.
-        let total = (anchors as u64 * channels as u64) * slot_us as u64
-            + agents as u64 * report_slot_us as u64;
-        if total > u32::MAX as u64 {
-            return Err(ScheduleError::TooLong);
-        }
-        let phase_us = anchors as u32 * slot_us;
-        Ok(Schedule {
+        Schedule {
             anchors,
             channels,
             agents,
             slot_us,
             report_slot_us,
             guard_us,
+            tune_us: 0,
+            phase_us: 0,
+            report_start_us: 0,
+            superframe_us: 0,
+        }
+        .with_tune(0)
+    }
+
+    /// The same layout with `tune_us` for the channel change at the start of every channel
+    /// phase and of the report window: the first slot of each is that much longer, and its
+    /// guard ends that much later.
+    pub const fn with_tune(self, tune_us: u32) -> Result<Schedule, ScheduleError> {
+        // At most 32 slots, 16 sub-slots and 5 channel changes: with each part at most
+        // 1/64 of `u32::MAX` (67 s) the superframe fits, and no 64-bit arithmetic is needed.
+        const PART_MAX: u32 = u32::MAX / 64;
+        if self.slot_us > PART_MAX || self.report_slot_us > PART_MAX || tune_us > PART_MAX {
+            return Err(ScheduleError::TooLong);
+        }
+        let phase_us = tune_us + self.anchors as u32 * self.slot_us;
+        let report_start_us = self.channels as u32 * phase_us;
+        let report_us = if self.agents > 0 {
+            tune_us + self.agents as u32 * self.report_slot_us
+        } else {
+            0
+        };
+        Ok(Schedule {
+            tune_us,
             phase_us,
-            report_start_us: channels as u32 * phase_us,
-            superframe_us: total as u32,
+            report_start_us,
+            superframe_us: report_start_us + report_us,
+            ..self
         })
     }
 
@@ -136,6 +160,12 @@ impl Schedule {
         self.guard_us
     }
 
+    /// The time for a channel change at the start of every channel phase and of the report
+    /// window, µs ([`Schedule::with_tune`]).
+    pub const fn tune_us(&self) -> u32 {
+        self.tune_us
+    }
+
     /// One channel phase, µs.
     pub const fn channel_phase_us(&self) -> u32 {
         self.phase_us
@@ -157,8 +187,12 @@ impl Schedule {
         if channel >= self.channels || anchor < 1 || anchor > self.anchors {
             return None;
         }
-        let slot = channel as u32 * self.anchors as u32 + (anchor - 1) as u32;
-        Some(slot * self.slot_us + self.guard_us)
+        Some(
+            channel as u32 * self.phase_us
+                + self.tune_us
+                + (anchor - 1) as u32 * self.slot_us
+                + self.guard_us,
+        )
     }
 
     /// When agent `agent` (1…M) sends its report: the end of its sub-slot's guard, µs.
@@ -166,7 +200,12 @@ impl Schedule {
         if agent < 1 || agent > self.agents {
             return None;
         }
-        Some(self.report_start_us() + (agent - 1) as u32 * self.report_slot_us + self.guard_us)
+        Some(
+            self.report_start_us
+                + self.tune_us
+                + (agent - 1) as u32 * self.report_slot_us
+                + self.guard_us,
+        )
     }
 
     /// Start of channel phase `channel` (index), µs: when every node switches to it.
@@ -177,33 +216,61 @@ impl Schedule {
         Some(channel as u32 * self.channel_phase_us())
     }
 
-    /// The phase at `t_us` into the superframe (taken modulo the superframe).
+    /// The phase at `t_us` into the superframe (taken modulo the superframe). The time for the
+    /// channel change at the start of a channel phase or of the report window belongs to the
+    /// first slot's guard.
     pub const fn phase_at(&self, t_us: u32) -> Phase {
         let t = t_us % self.superframe_us();
         let report = self.report_start_us();
         if t < report {
-            let slot = t / self.slot_us;
-            let into = t - slot * self.slot_us;
+            let channel = t / self.phase_us;
+            let (k, guard) = slot_in(
+                t - channel * self.phase_us,
+                self.tune_us,
+                self.slot_us,
+                self.guard_us,
+            );
             Phase::Beacon {
-                channel: (slot / self.anchors as u32) as u8,
-                anchor: (slot % self.anchors as u32) as u8 + 1,
-                guard: into < self.guard_us,
+                channel: channel as u8,
+                anchor: k as u8 + 1,
+                guard,
             }
         } else {
-            let sub = (t - report) / self.report_slot_us;
-            let into = t - report - sub * self.report_slot_us;
+            let (k, guard) = slot_in(t - report, self.tune_us, self.report_slot_us, self.guard_us);
             Phase::Report {
-                agent: sub as u8 + 1,
-                guard: into < self.guard_us,
+                agent: k as u8 + 1,
+                guard,
             }
         }
     }
 }
 
-/// The guard time at the start of every slot, µs. Nodes switch channel at a phase start; an
-/// `AT CH` round trip takes ≈ 4 ms at 57600 baud (two 9-byte frames and the radio's answer), which
-/// the first sender of the phase covers with its guard plus the ≈ 4.5 ms its beacon takes over
-/// its own UART before it goes on air. The rest is margin for the sync error (< 1 ms).
+/// Which slot (0-based) `into` µs into a run of slots of `slot_us` falls in, after `tune_us` for
+/// a channel change that the first slot's guard takes in, and whether it is within a guard.
+const fn slot_in(into: u32, tune_us: u32, slot_us: u32, guard_us: u32) -> (u32, bool) {
+    if into < tune_us + slot_us {
+        return (0, into < tune_us + guard_us);
+    }
+    let after = into - tune_us;
+    let k = after / slot_us;
+    (k, after - k * slot_us < guard_us)
+}
+
+/// Bytes of an `AT CH` frame and of its answer on the UART, at most: 9 each, up to three of
+/// them escaped in API mode 2 (frame id, value or status, checksum).
+pub const AT_CH_FRAME_MAX_BYTES: u32 = 12;
+/// A channel change as the nodes make it, at worst, µs: the `AT CH` frame over the UART, the
+/// radio's switch ([`xbee_api::CHANNEL_SWITCH_US`]: its answer comes once the new channel is in
+/// effect) and the answer over the UART, every byte counted at [`SLOT_RULE_BYTE_NS`]. A node
+/// sends nothing before the answer (the radio may lose a frame that reaches it earlier), so each
+/// channel phase and the report window begin with this long for the change
+/// ([`Schedule::with_tune`]).
+pub const TUNE_US: u32 =
+    2 * AT_CH_FRAME_MAX_BYTES * SLOT_RULE_BYTE_NS / 1000 + xbee_api::CHANNEL_SWITCH_US;
+/// The silence at the start of every slot, µs: a frame is written at its end. It holds the sync
+/// error between two nodes' timelines ([`SYNC_ERROR_US`]) with room to spare; the channel
+/// changes have their own time ([`TUNE_US`], at the start of each channel phase and of the
+/// report window).
 pub const GUARD_US: u32 = 3_000;
 /// The most two nodes' timelines are apart, µs: the slot rule leaves it at a slot's end, where a
 /// receiver ahead of the sender ends the slot that much earlier than the sender.
@@ -211,8 +278,8 @@ pub const SYNC_ERROR_US: u32 = 1_000;
 /// Report sub-slots per superframe: agents 1…`REPORT_SUBSLOTS` report, one sub-slot each.
 pub const REPORT_SUBSLOTS: u8 = 2;
 /// The shortest report sub-slot, µs: it holds a 4-anchor × 2-channel report's way over the
-/// agent's UART and the air after the sink-channel switch, with room to spare. Larger reports
-/// get longer sub-slots ([`report_slot_us`]).
+/// agent's UART and the air, with room to spare. Larger reports get longer sub-slots
+/// ([`report_slot_us`]).
 pub const MIN_REPORT_SLOT_US: u32 = 20_000;
 /// What a report sub-slot leaves after the guard, the agent radio's backoff
 /// ([`AGENT_BACKOFF_US`]) and the report's way to the sink's MCU ([`packet_latency_us`] and
@@ -360,19 +427,22 @@ pub const fn report_slot_us(anchors: u8, channels: u8, slot_us: u32) -> u32 {
 
 impl Schedule {
     /// The superframe every node derives from its config: `anchors` slots of `slot_ms` per
-    /// channel, [`REPORT_SUBSLOTS`] report sub-slots ([`report_slot_us`]), and the guard of
-    /// the slot ([`guard_us`]).
+    /// channel, [`REPORT_SUBSLOTS`] report sub-slots ([`report_slot_us`]), the guard of the slot
+    /// ([`guard_us`]) and [`TUNE_US`] for each channel change.
     pub const fn for_config(c: &crate::config::Config) -> Result<Schedule, ScheduleError> {
         let slot_us = c.slot_ms as u32 * 1000;
         let channels = c.channels.len() as u8;
-        Schedule::new(
+        match Schedule::new(
             c.anchors,
             channels,
             slot_us,
             REPORT_SUBSLOTS,
             report_slot_us(c.anchors, channels, slot_us),
             guard_us(slot_us),
-        )
+        ) {
+            Ok(s) => s.with_tune(TUNE_US),
+            Err(e) => Err(e),
+        }
     }
 }
 
@@ -520,8 +590,14 @@ mod tests {
 
     #[test]
     fn every_transmit_time_falls_in_its_own_slot_outside_the_guard() {
-        for (n, c, m) in [(1u8, 1u8, 0u8), (3, 4, 2), (8, 4, 16), (4, 2, 1)] {
-            let s = Schedule::new(n, c, 25_000, m, 10_000, 1_500).unwrap();
+        for ((n, c, m), tune) in [(1u8, 1u8, 0u8), (3, 4, 2), (8, 4, 16), (4, 2, 1)]
+            .into_iter()
+            .flat_map(|layout| [(layout, 0), (layout, TUNE_US)])
+        {
+            let s = Schedule::new(n, c, 25_000, m, 10_000, 1_500)
+                .unwrap()
+                .with_tune(tune)
+                .unwrap();
             let mut seen = 0;
             for ch in 0..c {
                 for a in 1..=n {
@@ -532,8 +608,13 @@ mod tests {
                         guard: false,
                     };
                     assert_eq!(s.phase_at(t), want);
-                    // The slot's first microsecond is guard time; its last still its own.
-                    let start = t - 1_500;
+                    // The slot's first microsecond is guard time (the first slot of a phase
+                    // begins with the channel change); its last still its own.
+                    let first = if a == 1 { tune } else { 0 };
+                    let start = t - 1_500 - first;
+                    if a == 1 {
+                        assert_eq!(s.channel_start_us(ch), Some(start));
+                    }
                     assert_eq!(
                         s.phase_at(start),
                         Phase::Beacon {
@@ -542,7 +623,7 @@ mod tests {
                             guard: true
                         }
                     );
-                    assert_eq!(s.phase_at(start + 25_000 - 1), want);
+                    assert_eq!(s.phase_at(start + first + 25_000 - 1), want);
                     seen += 1;
                 }
             }
@@ -562,7 +643,23 @@ mod tests {
                         guard: true
                     }
                 );
+                if a == 1 {
+                    // The report window begins with the channel change, in agent 1's guard.
+                    assert_eq!(t - 1_500 - tune, s.report_start_us());
+                    assert_eq!(
+                        s.phase_at(s.report_start_us()),
+                        Phase::Report {
+                            agent: 1,
+                            guard: true
+                        }
+                    );
+                }
             }
+            let report = if m > 0 { tune + m as u32 * 10_000 } else { 0 };
+            assert_eq!(
+                s.superframe_us(),
+                c as u32 * (tune + n as u32 * 25_000) + report
+            );
             assert_eq!(seen, n as usize * c as usize);
             // Time wraps at the superframe.
             assert_eq!(s.phase_at(s.superframe_us()), s.phase_at(0));
@@ -653,11 +750,18 @@ mod tests {
     #[test]
     fn the_superframe_of_a_config() {
         use crate::config::Config;
-        // The default: 4 anchors × 2 channels × 62 ms, two 62 ms report sub-slots, 3 ms guard.
+        // The default: 4 anchors × 2 channels × 62 ms, two 62 ms report sub-slots, a channel
+        // change before each channel phase and the report window.
         let s = Schedule::for_config(&Config::DEFAULT).unwrap();
-        assert_eq!(s.superframe_us(), 8 * 62_000 + 2 * 62_000);
-        assert_eq!(s.beacon_at_us(1, 3), Some(6 * 62_000 + GUARD_US));
-        assert_eq!(s.report_at_us(2), Some(8 * 62_000 + 62_000 + GUARD_US));
+        let t = TUNE_US;
+        assert_eq!(s.superframe_us(), 3 * t + 8 * 62_000 + 2 * 62_000);
+        assert_eq!(s.channel_start_us(1), Some(t + 4 * 62_000));
+        assert_eq!(s.beacon_at_us(1, 3), Some(2 * t + 6 * 62_000 + GUARD_US));
+        assert_eq!(s.report_start_us(), 2 * t + 8 * 62_000);
+        assert_eq!(
+            s.report_at_us(2),
+            Some(3 * t + 8 * 62_000 + 62_000 + GUARD_US)
+        );
         assert_eq!(s.agents(), REPORT_SUBSLOTS);
         // Short slots: report sub-slots stay long enough for a report.
         let fast = Config {
@@ -666,8 +770,15 @@ mod tests {
         };
         let s = Schedule::for_config(&fast).unwrap();
         assert_eq!(s.guard_us(), GUARD_US);
-        assert_eq!(s.report_at_us(1), Some(8 * 17_000 + GUARD_US));
-        assert_eq!(s.superframe_us(), 8 * 17_000 + 2 * MIN_REPORT_SLOT_US);
+        assert_eq!(s.tune_us(), TUNE_US);
+        assert_eq!(
+            s.report_at_us(1),
+            Some(2 * TUNE_US + 8 * 17_000 + TUNE_US + GUARD_US)
+        );
+        assert_eq!(
+            s.superframe_us(),
+            3 * TUNE_US + 8 * 17_000 + 2 * MIN_REPORT_SLOT_US
+        );
         // The guard is at most a quarter of a slot.
         assert_eq!(guard_us(10_000), 2_500);
     }
@@ -699,10 +810,11 @@ mod tests {
                 packet_received_us(payload).abs_diff(whole) <= 2,
                 "{anchors}"
             );
+            let rule = packet_received_us(payload);
             let slot_us = min as u32 * 1000;
-            assert!(guard_us(slot_us) + whole + SYNC_ERROR_US <= slot_us);
+            assert!(guard_us(slot_us) + rule + SYNC_ERROR_US <= slot_us);
             let shorter = (min - 1) as u32 * 1000;
-            assert!(guard_us(shorter) + whole + SYNC_ERROR_US > shorter);
+            assert!(guard_us(shorter) + rule + SYNC_ERROR_US > shorter);
             let c = Config {
                 anchors,
                 slot_ms: min,
@@ -748,6 +860,7 @@ mod tests {
                 let size = crate::msg::Report::max_size(anchors.into(), channels.into());
                 assert!(size <= crate::msg::MAX_PAYLOAD);
                 let sub = report_slot_us(anchors, channels, min_slot_ms(anchors) as u32 * 1000);
+                assert!(sub >= MIN_REPORT_SLOT_US);
                 let need = GUARD_US
                     + AGENT_BACKOFF_US
                     + packet_latency_us(size as u32)

@@ -38,7 +38,8 @@
 //!   are stored and answered only.
 //! * **API mode** (`AP`=1, 2): frames decoded with [`xbee_api::Decoder`] in the current mode. 0x08
 //!   AT command → 0x88 response with the same frame id ([`XBeeConfig::at_latency_ms`], default 1
-//!   ms, after the frame's end; none for frame id 0) and the change applied at once: `CH`, `AP`
+//!   ms, after the frame's end; none for frame id 0; a `CH` set: see *Channel switch*) and the
+//!   change applied at once: `CH`, `AP`
 //!   (the response still goes out in the old mode) and `BD` (the UART switches once the response is
 //!   on the line). 0x09 is checked and answered but applied only with the next 0x08 or `AC`. TX16
 //!   (0x01) / TX64 (0x00) → a TX request for the MAC (see *Channel access* and
@@ -71,6 +72,13 @@
 //!   [`XBeeStats::garbled_in`]/[`XBeeStats::garbled_out`]. Byte times are counted as simavr
 //!   does (11 bit times per 8N1 byte, [`BIT_TIMES_PER_BYTE`]), so both sides compare like for
 //!   like (57600 on the radio vs. `UBRR0`=34 with U2X: 0.8 % apart).
+//! * **Channel switch**: an API `AT CH` that sets the channel is answered
+//!   [`XBeeConfig::channel_switch_ms`] after the frame's end (default
+//!   [`xbee_api::CHANNEL_SWITCH_US`], 2 ms, the worst case the nodes plan for: Digi documents no
+//!   figure for the S1 and says to wait for the answer; a user of a later module lost the first
+//!   frame sent after `CH`). Until the answer the radio hears nothing
+//!   ([`XBeeStats::rx_switching`]) and a transmit request that reaches it is lost: no packet, no
+//!   status ([`XBeeStats::tx_lost_switching`]).
 //! * **Reception** ([`XBee::deliver`], from a medium [`XBeeCore::receive`]): passed on only if
 //!   powered up, on the packet's channel, same PAN (or broadcast PAN), addressed to `MY`/`SH:SL`
 //!   or broadcast, not overlapping the radio's own transmissions or its turnarounds to transmit

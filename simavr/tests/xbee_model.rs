@@ -1455,3 +1455,52 @@ fn avr_firmware_at_the_wrong_baud_rate_sees_garbage() {
     assert_eq!(radio.texts(), ["boot"], "no frame came through either way");
     assert!(radio.sent().iter().all(|b| b.byte >= 0xF0));
 }
+
+/// An API `AT CH` that sets the channel is answered once the switch is done
+/// (`channel_switch_ms`, the nodes' worst case by default); meanwhile the radio hears nothing,
+/// and a TX request that reaches it is lost: no packet, no status.
+#[test]
+fn a_channel_change_answers_after_the_switch_and_loses_what_comes_before() {
+    assert_eq!(
+        XBeeConfig::default().channel_switch_ms,
+        xbee_api::CHANNEL_SWITCH_US as f64 / 1000.0
+    );
+    for switch_ms in [2.0, 9.0] {
+        let mut h = Host::new(XBeeConfig {
+            channel_switch_ms: switch_ms,
+            ..XBeeConfig::api(2)
+        });
+        h.take();
+        let end = h.frame(&[0x08, 0x01, b'C', b'H', 0x0D], Mode::Escaped);
+        // A TX request right behind it, and a packet on the new channel during the switch.
+        h.frame(&[0x01, 0x02, 0xFF, 0xFF, 0x00, b'x'], Mode::Escaped);
+        let during = end + ms(switch_ms / 2.0);
+        h.core
+            .deliver(RxPacket::broadcast16(0x0D, 0x3332, 7, -50, b"lost"), during);
+        h.run_ms(switch_ms + 20.0);
+        let out = h.take();
+        let answer = out.iter().find(|b| b.byte == 0x7E).expect("an answer");
+        let waited = answer.cycle - end;
+        assert!(
+            waited >= ms(switch_ms) && waited < ms(switch_ms) + ms(0.1),
+            "{switch_ms} ms: answered after {waited} cycles"
+        );
+        let f = frames(&bytes(&out), Mode::Escaped);
+        assert_eq!(f, [vec![0x88, 0x01, b'C', b'H', 0x00]], "no status, no RX");
+        assert!(h.core.take_transmissions().is_empty());
+        let st = h.core.stats();
+        assert_eq!((st.tx_lost_switching, st.rx_switching), (1, 1));
+        // After the answer: both work on the new channel.
+        h.frame(&[0x01, 0x03, 0xFF, 0xFF, 0x00, b'y'], Mode::Escaped);
+        let t = h.t + ms(5.0);
+        h.core
+            .deliver(RxPacket::broadcast16(0x0D, 0x3332, 7, -50, b"heard"), t);
+        h.run_ms(20.0);
+        let f = frames(&h.take_bytes(), Mode::Escaped);
+        assert_eq!(f.len(), 2, "{f:02x?}");
+        assert_eq!(f[0][..3], [0x89, 0x03, 0x00]);
+        assert_eq!(f[1][0], 0x81);
+        let txs = h.core.take_transmissions();
+        assert_eq!((txs.len(), txs[0].channel), (1, 0x0D));
+    }
+}

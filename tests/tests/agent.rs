@@ -131,8 +131,9 @@ fn the_agent_reports_every_superframe_in_its_sub_slot_and_marks_what_it_missed()
             }
         }
     }
-    // The channel plan around a report: tune to the sink at the sub-slot start, report after the
-    // guard, back to channel 1 after the TX status, and to each anchor channel at its phase.
+    // The channel plan around a report: tune to the sink where the report window begins, report
+    // after the window's channel change and the sub-slot's guard, back to channel 1 after the
+    // TX status, and to each anchor channel at its phase.
     let tunes: Vec<(f64, u8)> = radio
         .frames_from_firmware()
         .iter()
@@ -144,7 +145,8 @@ fn the_agent_reports_every_superframe_in_its_sub_slot_and_marks_what_it_missed()
     let (t_rep, _) = reports[1];
     let to_sink = tunes.iter().rev().find(|(t, _)| *t < t_rep).unwrap();
     assert_eq!(to_sink.1, sink_ch);
-    assert!((t_rep - to_sink.0 - us(s.guard_us())).abs() <= SLOT_ERROR_MS);
+    let after = us(s.report_at_us(1).unwrap() - s.report_start_us());
+    assert!((t_rep - to_sink.0 - after).abs() <= SLOT_ERROR_MS);
     let back = tunes.iter().find(|(t, _)| *t > t_rep).unwrap();
     assert_eq!(back.1, xbee_channel(1).unwrap());
     assert!(

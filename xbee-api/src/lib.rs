@@ -54,6 +54,16 @@ pub const SECURITY_HEADER_BYTES: usize = MAX_RF_PAYLOAD - MAX_RF_PAYLOAD_ENCRYPT
 /// 16 µs), µs. Before each channel check a radio waits 0…2^BE − 1 of them, BE starting at the
 /// radio's `RN` (0 on a factory-fresh S1: no wait at all before the first check).
 pub const BACKOFF_PERIOD_US: u32 = 320;
+
+/// The longest an S1 is taken to need between an `AT CH` frame's end and its answer, µs: it
+/// answers once the new channel is in effect, and a transmit request that reaches it before
+/// then may be lost. Digi documents no figure for the S1 (its advice, for later modules, is to
+/// wait for the answer). The one measurement found, by an S1 user, is about 9 ms for a whole
+/// loop of set channel, query it, send a packet and read its status at 57600 baud, which is
+/// about what that loop's UART traffic alone takes: the switch itself is short. 2 ms, twice
+/// the 1 ms an S1 takes to answer any AT command in the model, is the worst case the nodes plan
+/// for and the modelled radio's default.
+pub const CHANNEL_SWITCH_US: u32 = 2_000;
 /// Worst-case encoded size of a frame on the wire (every byte after the start escaped).
 pub const MAX_ENCODED: usize = 1 + 2 * (2 + MAX_FRAME_DATA + 1);
 

@@ -117,6 +117,11 @@ pub struct XBeeConfig {
     /// Relative difference of the two sides' byte times beyond which the UARTs do not
     /// understand each other (a real UART tolerates a few %).
     pub baud_tolerance: f64,
+    /// From the end of an API `AT CH` frame that sets the channel to its answer: the switch.
+    /// The radio hears nothing meanwhile, and a transmit request that reaches it before the
+    /// answer is lost (no packet, no status). Default: [`xbee_api::CHANNEL_SWITCH_US`], the worst
+    /// case the nodes plan for.
+    pub channel_switch_ms: f64,
     /// Any other registers as a previous owner left them (a second-hand radio): `(command,
     /// value)`, persisted, applied after the fields above.
     pub leftovers: Vec<([u8; 2], u32)>,
@@ -148,6 +153,7 @@ impl Default for XBeeConfig {
             rx_latency_ms: 0.2,
             csma: Csma::Off,
             baud_tolerance: 0.04,
+            channel_switch_ms: xbee_api::CHANNEL_SWITCH_US as f64 / 1000.0,
             leftovers: Vec::new(),
         }
     }
@@ -398,6 +404,11 @@ pub struct XBeeStats {
     /// Packets passed to the host garbled: both ends encrypt, with different keys (also in
     /// `rx_delivered`; the model knows it, a real radio cannot tell).
     pub rx_wrong_key: u32,
+    /// Packets on air while the radio switched channel (lost: it heard nothing).
+    pub rx_switching: u32,
+    /// Transmit requests that reached the radio while it switched channel (lost: nothing sent,
+    /// no status).
+    pub tx_lost_switching: u32,
 }
 
 #[derive(Debug)]
@@ -601,6 +612,9 @@ pub struct XBeeCore {
     host_cpb: Option<u64>,
     now: u64,
     ready: bool,
+    /// Until this cycle the radio switches channel (an API `AT CH`): deaf, and transmit
+    /// requests are lost.
+    switching_until: u64,
     /// End of the last byte received.
     last_rx_end: u64,
     /// Bumped on every byte received (timers check it to see whether the line stayed quiet).
@@ -661,6 +675,7 @@ impl XBeeCore {
             host_cpb: None,
             now: at,
             ready: false,
+            switching_until: 0,
             last_rx_end: at,
             activity: 0,
             plus_count: 0,
@@ -1169,7 +1184,13 @@ impl XBeeCore {
 
     fn api_at(&mut self, t: u64, frame_id: u8, command: [u8; 2], parameter: &[u8], queue: bool) {
         self.stats.at_commands += 1;
-        let reply_at = t + ms_to_cycles(self.cfg.at_latency_ms);
+        let mut reply_at = t + ms_to_cycles(self.cfg.at_latency_ms);
+        if command == *b"CH" && !queue && !parameter.is_empty() {
+            // A channel change answers once it is in effect; until then the radio is deaf
+            // and loses transmit requests.
+            reply_at = reply_at.max(t + ms_to_cycles(self.cfg.channel_switch_ms));
+            self.switching_until = reply_at;
+        }
         let param = Param::Binary(parameter);
         let result = if queue && !param.is_empty() && !is_exec(command) {
             // 0x09: checked now, applied with the next 0x08 or AC.
@@ -1204,6 +1225,10 @@ impl XBeeCore {
     }
 
     fn api_tx(&mut self, t: u64, frame_id: u8, dest: Address, options: u8, payload: &[u8]) {
+        if t < self.switching_until {
+            self.stats.tx_lost_switching += 1;
+            return;
+        }
         if payload.len() > self.max_payload() {
             self.stats.oversize_tx += 1;
             return;
@@ -1263,6 +1288,10 @@ impl XBeeCore {
         let pan_ok = p.pan_id == self.active.id() || p.pan_id == 0xFFFF || p.options & 0x04 != 0;
         if !self.ready || p.channel != self.channel || !pan_ok || !for_me {
             self.stats.rx_filtered += 1;
+            return;
+        }
+        if start < self.switching_until {
+            self.stats.rx_switching += 1;
             return;
         }
         let overlaps = self.on_air.iter().any(|&(s, e)| s < end && e > start);

@@ -3,24 +3,28 @@
 //! next event. The node logic itself is sans-IO in each `*-fw/src/lib.rs`.
 
 use loc_proto::xbee_channel;
-use xbee_api::driver::Error;
 
 use super::{rx_frame_start_us, rx_pending, sleep_unless, NodeRadio, Serial};
 
 /// How long a channel change may wait for the TX status of a frame still being sent, ms.
 pub const TUNE_TIMEOUT_MS: u32 = 20;
 
+/// How long a channel change waits for the radio's answer to `AT CH`, ms: the worst case the
+/// guard time holds ([`loc_proto::schedule::TUNE_US`]), rounded up. A radio that has not answered
+/// by then is taken to be on the new channel.
+pub const TUNE_ANSWER_MS: u32 = loc_proto::schedule::TUNE_US.div_ceil(1000);
+
 /// Switches the radio to testbed channel `n` (XBee `CH` = 0x0A + n): waits for the TX status of
-/// any frame still being sent (a channel change would cut it off), then sends `ATCH` and
-/// returns without waiting for the radio's `OK` (which arrives as an [`Event::Other`]). The
-/// radio takes frames in order, so a beacon written right after goes out on the new channel;
-/// waiting for the answer would cost ≈ 4 ms of the slot's 3 ms guard. Frames that arrive while
-/// it waits are dropped (none are due in a guard time).
+/// any frame still being sent (a channel change would cut it off), then sends `ATCH` and waits
+/// for the radio's answer, which comes once the new channel is in effect: a frame written
+/// earlier may be lost. The slots' guard time holds the whole change at its worst
+/// ([`loc_proto::schedule::GUARD_US`]). Frames that arrive while it waits are dropped (none are
+/// due in a guard time).
 ///
-/// True if the command went out; false if `n` is not a testbed channel or the radio failed
-/// (the UART, or a TX status that never came). A `bool`, not the driver's [`Error`]: the nodes
-/// go on either way (the next slot tunes again), and a `Result<(), Error>` comes back through
-/// memory on AVR.
+/// True if the radio answered OK; false if `n` is not a testbed channel or the radio failed
+/// (the UART, a TX status or an answer that never came, an error status). A `bool`, not the
+/// driver's [`xbee_api::driver::Error`]: the nodes go on either way (the next phase tunes again), and a
+/// `Result<(), Error>` comes back through memory on AVR.
 pub fn tune(radio: &mut NodeRadio, n: u8) -> bool {
     let Some(ch) = xbee_channel(n) else {
         return false;
@@ -28,11 +32,7 @@ pub fn tune(radio: &mut NodeRadio, n: u8) -> bool {
     if radio.wait_tx_status(TUNE_TIMEOUT_MS, |_| ()).is_err() {
         return false;
     }
-    // A zero timeout: the command is written, the answer is not waited for.
-    matches!(
-        radio.at_set(*b"CH", &[ch], 0, |_| ()),
-        Ok(_) | Err(Error::Timeout { .. })
-    )
+    radio.at_set(*b"CH", &[ch], TUNE_ANSWER_MS, |_| ()).is_ok()
 }
 
 /// Sends `payload` (an encoded hoploc message) to 16-bit address `dest` (0xFFFF: broadcast):
