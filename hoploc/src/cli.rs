@@ -46,7 +46,7 @@ pub enum Command {
     /// workspace (see the end of `hoploc --help` for where hoploc looks).
     /// Examples:
     ///
-    ///     hoploc demo                          # room10: 10 m × 10 m, 4 anchors, 5 fixes/s
+    ///     hoploc demo                          # room10: 10 m × 10 m, 4 anchors, 5.1 fixes/s
     ///     hoploc demo exp3 --seed 7 --out-dir exp3-plots
     ///     hoploc demo exp1 --seconds 30 --live-every 0.5
     ///     hoploc demo --boot --seconds 10      # the firmware booting, as a timeline

@@ -150,7 +150,7 @@ fn a_scenario_run_prints_its_table_and_writes_plots() {
             let i = w.iter().position(|x| *x == est).unwrap();
             let fixes: usize = w[i + 1].parse().unwrap();
             let rmse: f64 = w[i + 2].parse().unwrap();
-            // 6 s at 5 fixes/s, less the superframe after the warm-up.
+            // 6 s at 5.1 fixes/s, less the superframe after the warm-up.
             assert!((25..=30).contains(&fixes), "{r}");
             assert!(rmse.is_finite() && rmse < 5.0, "{r}");
         }

