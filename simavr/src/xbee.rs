@@ -157,6 +157,7 @@
 //! replay check.
 
 pub mod core;
+mod host_port;
 pub mod regs;
 
 use std::collections::VecDeque;
@@ -174,6 +175,7 @@ pub use self::core::{
     ACK_WAIT_US, BACKOFF_PERIOD_US, BIT_TIMES_PER_BYTE, CCA_US, FRAME_OVERHEAD_BYTES, MAX_BE,
     MAX_CSMA_BACKOFFS, MAX_FRAME_RETRIES, SECURITY_HEADER_BYTES, TURNAROUND_US,
 };
+pub use self::host_port::{ModelClock, ModelPort};
 pub use self::regs::{baud_of_bd, Model, Registers, BAUD_RATES, KEY_LEN};
 
 /// Splits the firmware's raw UART output into text lines, skipping API frames.

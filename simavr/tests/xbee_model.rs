@@ -3,17 +3,13 @@
 
 mod common;
 
-use std::cell::RefCell;
-use std::collections::VecDeque;
-use std::rc::Rc;
-
-use embedded_hal_nb::serial::{ErrorKind, ErrorType, Read, Write};
 use simavr::xbee::{
-    byte_cycles, encode_frame, time_on_air_ms, Address, Csma, FrameKind, Model, RxPacket, Security,
-    XBee, XBeeConfig, XBeeCore, ACK_AIR_US, CCA_US, SECURITY_HEADER_BYTES, TURNAROUND_US,
+    byte_cycles, encode_frame, time_on_air_ms, Address, Csma, FrameKind, Model, ModelClock,
+    ModelPort, RxPacket, Security, XBee, XBeeConfig, XBeeCore, ACK_AIR_US, CCA_US,
+    SECURITY_HEADER_BYTES, TURNAROUND_US,
 };
 use simavr::{ms_to_cycles, Avr, UartByte};
-use xbee_api::driver::{BringUp, BringUpConfig, Clock, Encryption, Radio, SetBaud};
+use xbee_api::driver::{BringUp, BringUpConfig, Encryption, Radio};
 use xbee_api::{Decoder, Mode};
 
 fn ms(x: f64) -> u64 {
@@ -1192,92 +1188,12 @@ fn a_revived_firmware_node_comes_back_with_the_ee_and_ky_its_radio_wrote() {
 
 // ---- the xbee-api driver against the model ----
 
-/// The model behind an in-memory serial port and clock: every read or clock look advances
-/// simulated time by 10 µs; a write blocks for the byte's time at the host's rate.
-struct Sim {
-    core: XBeeCore,
-    now: u64,
-    baud: u32,
-    rx: VecDeque<(u64, u8)>,
-    bauds: Vec<u32>,
-}
-
-impl Sim {
-    fn tick(&mut self, dt: u64) {
-        self.now += dt;
-        self.core.advance(self.now);
-        let cpb = byte_cycles(self.baud);
-        for b in self.core.take_output() {
-            self.rx.push_back((b.cycle + cpb, b.byte));
-        }
-    }
-}
-
-struct SimSerial(Rc<RefCell<Sim>>);
-struct SimClock(Rc<RefCell<Sim>>);
-
-impl ErrorType for SimSerial {
-    type Error = ErrorKind;
-}
-
-impl Read<u8> for SimSerial {
-    fn read(&mut self) -> nb::Result<u8, ErrorKind> {
-        let mut s = self.0.borrow_mut();
-        s.tick(160);
-        match s.rx.front() {
-            Some(&(at, b)) if at <= s.now => {
-                s.rx.pop_front();
-                Ok(b)
-            }
-            _ => Err(nb::Error::WouldBlock),
-        }
-    }
-}
-
-impl Write<u8> for SimSerial {
-    fn write(&mut self, b: u8) -> nb::Result<(), ErrorKind> {
-        let mut s = self.0.borrow_mut();
-        let end = s.now + byte_cycles(s.baud);
-        s.core.rx_byte(end, b);
-        s.now = end;
-        s.tick(0);
-        Ok(())
-    }
-
-    fn flush(&mut self) -> nb::Result<(), ErrorKind> {
-        Ok(())
-    }
-}
-
-impl SetBaud for SimSerial {
-    fn set_baud(&mut self, baud: u32) {
-        let mut s = self.0.borrow_mut();
-        s.baud = baud;
-        s.bauds.push(baud);
-        s.core.set_host_baud(baud);
-        // Bytes in flight at the old rate are lost with the rate change.
-        s.rx.clear();
-    }
-}
-
-impl Clock for SimClock {
-    fn now_ms(&mut self) -> u32 {
-        let mut s = self.0.borrow_mut();
-        s.tick(160);
-        (s.now / 16_000) as u32
-    }
-}
-
-fn driver_on(cfg: XBeeConfig) -> (Rc<RefCell<Sim>>, Radio<SimSerial, SimClock>) {
-    let sim = Rc::new(RefCell::new(Sim {
-        core: XBeeCore::new(cfg),
-        now: 0,
-        baud: 57_600,
-        rx: VecDeque::new(),
-        bauds: Vec::new(),
-    }));
-    let radio = Radio::new(SimSerial(sim.clone()), SimClock(sim.clone()), Mode::Escaped);
-    (sim, radio)
+/// The driver on a host port to a modelled radio that powers up with it (`simavr::xbee::
+/// ModelPort`); the port handle comes back to look at the radio.
+fn driver_on(cfg: XBeeConfig) -> (ModelPort, Radio<ModelPort, ModelClock>) {
+    let port = ModelPort::radio_at_power_up(cfg);
+    let radio = Radio::new(port.clone(), port.clock(), Mode::Escaped);
+    (port, radio)
 }
 
 #[test]
@@ -1296,32 +1212,31 @@ fn driver_bring_up_configures_a_factory_radio() {
     };
     let how = radio.bring_up(&cfg).expect("bring-up");
     assert_eq!(how, BringUp::Configured { baud: 9600 });
-    let s = sim.borrow();
-    let r = s.core.registers();
+    let core = sim.core().unwrap();
+    let r = core.registers();
     assert_eq!(
         (r.ap(), r.bd(), r.my(), r.id(), r.ch()),
         (2, 6, 1, 0x4242, 0x0B)
     );
-    assert_eq!(s.core.mode(), Some(Mode::Escaped));
-    assert_eq!(s.core.uart_baud(), 57_600);
-    assert_eq!(s.core.channel(), 0x0B);
-    assert_eq!((s.core.persisted().ap(), s.core.persisted().bd()), (2, 6));
-    assert_eq!(s.bauds[..2], [57_600, 57_600], "tried 57600 first");
-    drop(s);
+    assert_eq!(core.mode(), Some(Mode::Escaped));
+    assert_eq!(core.uart_baud(), 57_600);
+    assert_eq!(core.channel(), 0x0B);
+    assert_eq!((core.persisted().ap(), core.persisted().bd()), (2, 6));
+    drop(core);
+    assert_eq!(sim.bauds()[..2], [57_600, 57_600], "tried 57600 first");
 
     // Once written, a power cycle comes back in API mode at 57600: bring-up is quick.
-    let now = sim.borrow().now;
-    sim.borrow_mut().core.reset(now);
+    sim.power_cycle();
     let how = radio.bring_up(&cfg).expect("second bring-up");
     assert_eq!(how, BringUp::AlreadyApi);
     // The driver and the model agree on TX and AT exchanges.
     let id = radio.send_tx16(0xFFFF, b"beacon").unwrap();
     radio.wait_tx_status(100, |_| {}).unwrap();
-    let txs = sim.borrow_mut().core.take_transmissions();
+    let txs = sim.core().unwrap().take_transmissions();
     assert_eq!(txs.last().unwrap().payload, b"beacon");
     assert_eq!(txs.last().unwrap().frame_id, id);
     radio.set_channel(0x0D, 100, |_| {}).unwrap();
-    assert_eq!(sim.borrow().core.channel(), 0x0D);
+    assert_eq!(sim.core().unwrap().channel(), 0x0D);
     let rc = radio.read_config(100, |_| {}).unwrap();
     assert_eq!((rc.my, rc.pan_id, rc.channel, rc.ap), (1, 0x4242, 0x0D, 2));
 }
@@ -1341,7 +1256,7 @@ fn driver_bring_up_of_a_radio_in_ap1_at_57600() {
         radio.bring_up(&cfg).unwrap(),
         BringUp::Configured { baud: 57_600 }
     );
-    assert_eq!(sim.borrow().core.mode(), Some(Mode::Escaped));
+    assert_eq!(sim.core().unwrap().mode(), Some(Mode::Escaped));
 }
 
 #[test]
@@ -1359,10 +1274,10 @@ fn driver_bring_up_sets_the_models_key_and_ee() {
     };
     assert_eq!(radio.bring_up(&cfg).unwrap(), BringUp::AlreadyApi);
     {
-        let s = sim.borrow();
-        assert!(s.core.registers().ee());
-        assert_eq!(s.core.registers().ky(), KEY);
-        assert!(!s.core.persisted().ee(), "not written");
+        let core = sim.core().unwrap();
+        assert!(core.registers().ee());
+        assert_eq!(core.registers().ky(), KEY);
+        assert!(!core.persisted().ee(), "not written");
     }
     // Encrypted from now on: 95 bytes go, 96 are refused (no TX status: the wait times out).
     radio.send_tx16(0xFFFF, &[0x55; 95]).unwrap();
@@ -1372,7 +1287,7 @@ fn driver_bring_up_sets_the_models_key_and_ee() {
         radio.wait_tx_status(100, |_| {}),
         Err(xbee_api::driver::Error::TxStatusTimeout)
     );
-    let txs = sim.borrow_mut().core.take_transmissions_with_security();
+    let txs = sim.core().unwrap().take_transmissions_with_security();
     assert_eq!(txs.len(), 1);
     assert!(matches!(txs[0].1, Security::Encrypted { key: KEY, .. }));
     // Off again.
@@ -1381,7 +1296,7 @@ fn driver_bring_up_sets_the_models_key_and_ee() {
         ..cfg
     };
     assert_eq!(radio.bring_up(&off).unwrap(), BringUp::AlreadyApi);
-    assert!(!sim.borrow().core.registers().ee());
+    assert!(!sim.core().unwrap().registers().ee());
 }
 
 // ---- on an Avr, with the C fixture ----
