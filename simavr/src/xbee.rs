@@ -140,6 +140,13 @@
 //!   reproduce; [`XBeeStats::rx_wrong_key`]); the same key, or no encryption at both ends,
 //!   passes it on unchanged. In transparent mode too. A medium delivers with
 //!   [`XBeeCore::deliver_secured`] ([`XBeeCore::deliver`] is a packet sent in the clear).
+//! * **Output power** (`PL` 0…4, factory 4; Digi's 802.15.4 S1 product manual, `PL`): the S1 sends
+//!   at −10, −6, −4, −2, 0 dBm, the S1 Pro at 10, 12, 14, 16, 18 dBm ([`Model`],
+//!   [`Model::output_dbm`]). Every packet, ACKs included, carries its power relative to `PL` 4
+//!   ([`Transmission::power_db`], [`Model::power_db`]: down to −10 dB on the S1, −8 dB on the Pro),
+//!   and a medium adds it to the level the packet has at each receiver: what the receiver reports
+//!   as RSSI, whether it is heard at all, and what other radios' CCAs compare with `CA`
+//!   ([`crate::medium`]). A medium's `P0` is the level at full power.
 //!
 //! # Not modelled
 //!

@@ -1504,3 +1504,65 @@ fn a_channel_change_answers_after_the_switch_and_loses_what_comes_before() {
         assert_eq!((txs.len(), txs[0].channel), (1, 0x0D));
     }
 }
+
+// ---- settings a previous owner may have left: PL ----
+
+/// A radio with the registers `leftovers` (as a second-hand radio keeps them), API mode 2.
+fn left_with(leftovers: &[([u8; 2], u32)], tweak: impl FnOnce(&mut XBeeConfig)) -> Host {
+    let mut cfg = XBeeConfig {
+        leftovers: leftovers.to_vec(),
+        ..XBeeConfig::api(2)
+    };
+    tweak(&mut cfg);
+    let mut h = Host::new(cfg);
+    h.take();
+    h
+}
+
+/// A TX16 request of `payload` to `dest` with frame id `id`.
+fn tx16_to(id: u8, dest: u16, payload: &[u8]) -> Vec<u8> {
+    let mut d = vec![0x01, id];
+    d.extend_from_slice(&dest.to_be_bytes());
+    d.push(0x00);
+    d.extend_from_slice(payload);
+    d
+}
+
+/// `PL` sets every packet's output power (Digi's S1 manual: −10, −6, −4, −2, 0 dBm on the S1,
+/// 10…18 dBm on the S1 Pro): each carries its power relative to `PL` 4, data and ACKs alike.
+#[test]
+fn pl_sets_the_power_every_packet_carries_relative_to_pl_4() {
+    for (model, want) in [
+        (Model::S1, [-10, -6, -4, -2, 0]),
+        (Model::S1Pro, [-8, -6, -4, -2, 0]),
+    ] {
+        for (pl, &want) in want.iter().enumerate() {
+            let mut h = left_with(&[(*b"PL", pl as u32)], |c| {
+                c.model = model;
+                c.ch = 0x0C;
+            });
+            h.frame(&tx16(1, b"beacon"), Mode::Escaped);
+            h.run_ms(10.0);
+            let txs = h.core.take_transmissions();
+            assert_eq!(txs.len(), 1);
+            assert_eq!(txs[0].power_db, want, "{model:?} PL {pl}");
+            assert_eq!(model.power_db(pl as u8), want);
+        }
+    }
+    assert_eq!(
+        (Model::S1.output_dbm(0), Model::S1Pro.output_dbm(4)),
+        (-10, 18)
+    );
+    // An ACK goes out at its sender's power level too.
+    let mut sender = left_with(&[], |c| c.my = 1);
+    sender.core.set_on_medium(true);
+    sender.frame(&tx16_to(1, 2, b"report"), Mode::Escaped);
+    sender.run_ms(5.0);
+    let data = sender.core.take_transmissions().remove(0);
+    let mut receiver = left_with(&[(*b"PL", 1)], |c| c.my = 2);
+    receiver.core.receive(&data, -50, Security::Clear);
+    receiver.run_ms(5.0);
+    let ack = receiver.core.take_transmissions().remove(0);
+    assert_eq!(ack.mac.kind, FrameKind::Ack);
+    assert_eq!(ack.power_db, -6);
+}

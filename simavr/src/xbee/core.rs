@@ -285,6 +285,9 @@ pub struct Transmission {
     pub frame_id: u8,
     /// What the MAC put in it: data or ACK, sequence number, ACK request, which attempt.
     pub mac: MacFields,
+    /// The sender's output power relative to the factory power level (`PL` = 4), dB (≤ 0,
+    /// [`Model::power_db`]): a medium adds it to the level the packet has at each receiver.
+    pub power_db: i8,
 }
 
 impl Transmission {

@@ -21,6 +21,23 @@ impl Model {
             Model::S1Pro => 0x0C..=0x17,
         }
     }
+
+    /// The output power at power level `PL` (0…4, higher values taken as 4), dBm: the S1's
+    /// −10, −6, −4, −2, 0 dBm, the S1 Pro's 10, 12, 14, 16, 18 dBm (Digi's 802.15.4 S1 product
+    /// manual, `PL` command).
+    pub fn output_dbm(self, pl: u8) -> i8 {
+        let table = match self {
+            Model::S1 => [-10, -6, -4, -2, 0],
+            Model::S1Pro => [10, 12, 14, 16, 18],
+        };
+        table[usize::from(pl.min(4))]
+    }
+
+    /// The output power at power level `PL` relative to the factory `PL` = 4, dB (≤ 0): what a
+    /// lower level takes off every packet's level at its receivers.
+    pub fn power_db(self, pl: u8) -> i8 {
+        self.output_dbm(pl) - self.output_dbm(4)
+    }
 }
 
 /// The rates the S1's UART really runs at for `BD` 0…7 (bit/s): `BD=7`, named 115200, is
@@ -257,6 +274,10 @@ impl Registers {
     /// `CE`: coordinator enable.
     pub fn ce(&self) -> u8 {
         self.num(b"CE") as u8
+    }
+    /// `PL`: power level, 0…4 (see [`Model::output_dbm`]).
+    pub fn pl(&self) -> u8 {
+        self.num(b"PL") as u8
     }
     /// `EE`: AES encryption enabled.
     pub fn ee(&self) -> bool {

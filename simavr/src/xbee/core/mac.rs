@@ -368,6 +368,7 @@ impl XBeeCore {
                 ack_request: false,
                 attempt: 0,
             },
+            power_db: self.cfg.model.power_db(self.active.pl()),
         });
         self.securities.push(Security::Clear);
         self.stats.acks_sent += 1;
@@ -442,6 +443,7 @@ impl XBeeCore {
     fn go_on_air(&mut self, start: u64, channel: u8) {
         let source = self.source_address();
         let pan_id = self.active.id();
+        let power_db = self.cfg.model.power_db(self.active.pl());
         let Some(cur) = self.mac.current.as_mut() else {
             return;
         };
@@ -465,6 +467,7 @@ impl XBeeCore {
                 ack_request: cur.ack_request,
                 attempt,
             },
+            power_db,
         };
         let security = cur.security;
         if attempt > 0 {
