@@ -131,8 +131,9 @@ pub enum Outcome {
     Filtered,
     /// Heard, but its radio lost it: it was transmitting (half duplex) or in command mode.
     Busy,
-    /// Heard and acknowledged, but not passed on: a retry of a packet its radio had passed on
-    /// already (duplicate detection; its ACK had been lost).
+    /// Heard (a unicast: and acknowledged), but not passed on: a copy of a packet its radio had
+    /// passed on already (duplicate detection): a retry whose ACK had been lost, or a repeated
+    /// broadcast's copy (`RR` > 0).
     Duplicate,
     /// Below sensitivity.
     TooWeak,

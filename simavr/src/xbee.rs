@@ -105,29 +105,29 @@
 //!   ([`XBeeCore::set_on_medium`], [`XBeeCore::judge_cca`]); a radio alone finds the channel
 //!   clear. [`Csma::Off`] (the default) skips backoffs and CCAs: every attempt goes on air 0.32
 //!   ms after it starts, whatever is on the channel, the best case.
-//! * **Acknowledgements and retries**: a unicast (destination not 0xFFFF) without TX option
-//!   0x01, from a radio in a MAC mode with ACKs (`MM` 0, the factory Digi mode, or 2), asks for
-//!   an ACK. Its receiver, if it takes the packet (powered, on the channel, in the PAN,
-//!   addressed, the packet neither collided nor too weak nor lost while it transmitted or was in
-//!   command mode, and the same `EE`), acknowledges it a turnaround (192 µs) after its end,
-//!   unless it is transmitting then: a 5-byte frame, 11 bytes on air with the preamble (352 µs,
-//!   [`ACK_AIR_US`]), a packet on the medium like any other (it collides, and it makes other
-//!   radios' CCAs busy), carrying only the sequence number: a radio waiting for an ACK of that
-//!   number on its channel takes it. The sender waits macAckWaitDuration (54 symbols, 864 µs,
-//!   [`ACK_WAIT_US`]) after its packet's end; with the ACK in, status 0x00. Without it the MAC
-//!   tries again (channel access and all, the same sequence number) up to macMaxFrameRetries
-//!   ([`MAX_FRAME_RETRIES`], 3) times, and in the Digi modes that all over again `RR` times (XBee
-//!   retries, 0…6, factory 0; also after a CCA failure): at most 4·(`RR` + 1) transmissions,
-//!   then status 0x01 and `EA` + 1. A broadcast, or a packet asking for no ACK, is sent once:
-//!   status 0x00 when it is off the air (0x02 if the channel access failed). Duplicate
-//!   detection (the Digi header's, `MM` 0 and 3): a receiver acknowledges again a packet with
-//!   the source address and sequence number of the last it passed on from that source, but
-//!   does not pass it on ([`XBeeStats::rx_duplicates`]); strict 802.15.4 (`MM` 2) passes every
-//!   copy on. Sequence numbers start at random at power-up (802.15.4's macDSN), one per TX
-//!   request. Alone (not on a medium) an ideal receiver acknowledges every such packet: its
-//!   ACK ends 544 µs after the packet. `EC` and `EA` answer their counts and reset when set
-//!   (to 0). The medium's log shows every transmission apart, retries ([`MacFields::attempt`])
-//!   and ACKs ([`FrameKind::Ack`]) included.
+//! * **Acknowledgements and retries**: a unicast (destination not 0xFFFF) without TX option 0x01,
+//!   from a radio in a MAC mode with ACKs (`MM` 0, the factory Digi mode, or 2), asks for an ACK.
+//!   Its receiver, if it takes the packet (powered, on the channel, in the PAN, addressed, the
+//!   packet neither collided nor too weak nor lost while it transmitted or was in command mode, and
+//!   the same `EE`), acknowledges it a turnaround (192 µs) after its end, unless it is transmitting
+//!   then: a 5-byte frame, 11 bytes on air with the preamble (352 µs, [`ACK_AIR_US`]), a packet on
+//!   the medium like any other (it collides, and it makes other radios' CCAs busy), carrying only
+//!   the sequence number: a radio waiting for an ACK of that number on its channel takes it. The
+//!   sender waits macAckWaitDuration (54 symbols, 864 µs, [`ACK_WAIT_US`]) after its packet's end;
+//!   with the ACK in, status 0x00. Without it the MAC tries again (channel access and all, the same
+//!   sequence number) up to macMaxFrameRetries ([`MAX_FRAME_RETRIES`], 3) times, and in the Digi
+//!   modes that all over again `RR` times (XBee retries, 0…6, factory 0; also after a CCA failure):
+//!   at most 4·(`RR` + 1) transmissions, then status 0x01 and `EA` + 1. A broadcast, or a packet
+//!   asking for no ACK, is sent once (a broadcast with `RR` > 0: see *Repeated broadcasts*): status
+//!   0x00 when it is off the air (0x02 if the channel access failed). Duplicate detection (the Digi
+//!   header's, `MM` 0 and 3): a receiver acknowledges again a packet with the source address and
+//!   sequence number of the last it passed on from that source, but does not pass it on
+//!   ([`XBeeStats::rx_duplicates`]), and drops a repeated broadcast's copies the same way; strict
+//!   802.15.4 (`MM` 2) passes every copy on. Sequence numbers start at random at power-up
+//!   (802.15.4's macDSN), one per TX request. Alone (not on a medium) an ideal receiver
+//!   acknowledges every such packet: its ACK ends 544 µs after the packet. `EC` and `EA` answer
+//!   their counts and reset when set (to 0). The medium's log shows every transmission apart,
+//!   retries ([`MacFields::attempt`]) and ACKs ([`FrameKind::Ack`]) included.
 //! * **Encryption** (`EE`=1 with the key `KY`; both take effect at once, like `MY`): the S1's
 //!   AES-128 encryption without integrity check (802.15.4 security level 4). A packet sent with
 //!   it carries [`Security::Encrypted`] (the sender's key, serial and frame counter) beside its
@@ -140,6 +140,14 @@
 //!   reproduce; [`XBeeStats::rx_wrong_key`]); the same key, or no encryption at both ends,
 //!   passes it on unchanged. In transparent mode too. A medium delivers with
 //!   [`XBeeCore::deliver_secured`] ([`XBeeCore::deliver`] is a packet sent in the clear).
+//! * **Repeated broadcasts** (`RR` > 0 in the Digi MAC modes, `MM` 0 and 3): Digi's 802.15.4 S1
+//!   product manual, `RR`: "(RR + 2) packets are sent on each broadcast". Each copy goes through
+//!   its own channel access once the one before is off the air (the manual gives no spacing; with
+//!   [`Csma::Off`] a CCA and a turnaround later), with the request's sequence number and
+//!   [`MacFields::attempt`] counting the copies ([`XBeeStats::repeats`]); the TX status follows the
+//!   last copy (0x02 if a channel access fails and no `RR` retry is left). Receivers in a Digi mode
+//!   pass on the first copy they take and drop the others (duplicate detection), but every copy is
+//!   on air: a beacon with `RR` 3 occupies the channel five times as long.
 //! * **Output power** (`PL` 0…4, factory 4; Digi's 802.15.4 S1 product manual, `PL`): the S1 sends
 //!   at −10, −6, −4, −2, 0 dBm, the S1 Pro at 10, 12, 14, 16, 18 dBm ([`Model`],
 //!   [`Model::output_dbm`]). Every packet, ACKs included, carries its power relative to `PL` 4
@@ -154,8 +162,10 @@
 //! compares each packet on air with `CA` alone (energies of overlapping packets are not added
 //! up); a CCA failure ends a TX request unless `RR` retries are left (Digi's manuals for later
 //! 802.15.4 modules retry one three more times, and the S1's mentions CCA failure retries in its
-//! Digi mode without saying how many); newer modules' repeated broadcasts with `RR` > 0; the
-//! Digi header's bytes beyond what the best-case figure implies. Also not modelled:
+//! Digi mode without saying how many); the XBee retries' own timing (Digi's S1 manual, `RR`: a
+//! retry when no ACK came within 200 ms, within a random delay of up to 48 ms; the model starts
+//! each at once, as it does a repeated broadcast's next copy); the Digi header's bytes beyond
+//! what the best-case figure implies. Also not modelled:
 //! sleep, I/O sampling and remote AT (0x17 frames are counted as unsupported),
 //! association, `ND`/`AS`, non-standard `BD` rates, hardware flow control, framing error flags
 //! on the AVR side (simavr has none: garbage arrives as ordinary bytes). Of encryption: the

@@ -466,6 +466,50 @@ fn a_broadcast_is_sent_once_without_an_ack() {
     assert_eq!(net.core(s).stats().retries, 0);
 }
 
+/// `RR` > 0 repeats a broadcast (`RR` + 2 copies, Digi's S1 manual): each copy goes through
+/// channel access after the one before, all are on air (as long as five packets), and a
+/// receiver in the factory MAC mode passes the first on and drops the others as duplicates.
+#[test]
+fn a_broadcast_with_rr_is_repeated_and_its_receivers_pass_on_one_copy() {
+    let mut net = network(1);
+    let s = radio(&mut net, 1, [0.0, 0.0], 1, |c| c.rr = 3);
+    let r = radio(&mut net, 2, [2.0, 0.0], 2, |_| {});
+    settle(&mut net, &[s, r]);
+    let request = tx16(&mut net, s, 5, 0xFFFF, 0, b"beacon");
+    net.run_for_ms(30.0);
+    let toa = ms_to_cycles(time_on_air_ms(6));
+    assert_eq!(
+        statuses(&frames(&mut net, s)),
+        [(request + 5 * toa, 5, TxStatus::SUCCESS)],
+        "the status after the fifth copy"
+    );
+    assert_eq!(received(&frames(&mut net, r)), [b"beacon".to_vec()]);
+    let log = net.log();
+    let sent = data_from(log, s);
+    assert_eq!(sent.len(), 5);
+    for (i, x) in sent.iter().enumerate() {
+        assert_eq!(x.tx.mac.attempt as usize, i);
+        assert!(!x.collided);
+        // RN 0 on a clear channel: a CCA and the turnaround after the copy before.
+        let after = if i == 0 {
+            request
+        } else {
+            sent[i - 1].tx.end_cycle
+        };
+        assert_eq!(x.tx.start_cycle, after + us(CCA_US + TURNAROUND_US));
+        let want = if i == 0 {
+            Outcome::Delivered
+        } else {
+            Outcome::Duplicate
+        };
+        assert_eq!(outcome(x, r), Some(want));
+    }
+    assert_eq!(log.len(), 5, "no ACKs");
+    let st = net.core(s).stats();
+    assert_eq!((st.transmissions, st.repeats, st.retries), (5, 4, 0));
+    assert_eq!(net.core(r).stats().rx_duplicates, 4);
+}
+
 /// A radio's power level (`PL`) lowers the level its packets have at every receiver by what
 /// its model's table takes off (an S1's `PL` 0: 10 dB): the RSSI its receivers report, and what
 /// other radios' clear channel assessments compare with `CA`. Its ACKs too.

@@ -1505,7 +1505,7 @@ fn a_channel_change_answers_after_the_switch_and_loses_what_comes_before() {
     }
 }
 
-// ---- settings a previous owner may have left: PL ----
+// ---- settings a previous owner may have left: PL, RR ----
 
 /// A radio with the registers `leftovers` (as a second-hand radio keeps them), API mode 2.
 fn left_with(leftovers: &[([u8; 2], u32)], tweak: impl FnOnce(&mut XBeeConfig)) -> Host {
@@ -1565,4 +1565,58 @@ fn pl_sets_the_power_every_packet_carries_relative_to_pl_4() {
     let ack = receiver.core.take_transmissions().remove(0);
     assert_eq!(ack.mac.kind, FrameKind::Ack);
     assert_eq!(ack.power_db, -6);
+}
+
+/// `RR` > 0 repeats every broadcast: `RR` + 2 copies in all (Digi's S1 manual, `RR`), each
+/// with its own channel access after the one before is off the air, the TX status after the
+/// last. Receivers in a Digi MAC mode pass on the first copy they get and drop the others
+/// (duplicate detection); strict 802.15.4 (`MM` 2) sends one copy.
+#[test]
+fn rr_repeats_every_broadcast_and_receivers_pass_on_one_copy() {
+    for (rr, mm, copies) in [(0, 0, 1), (1, 0, 3), (3, 0, 5), (6, 3, 8), (3, 2, 1)] {
+        let mut h = left_with(&[(*b"RR", rr), (*b"MM", mm)], |c| c.my = 7);
+        let end = h.frame(&tx16(9, b"beacon"), Mode::Escaped);
+        h.run_ms(40.0);
+        let txs = h.core.take_transmissions();
+        assert_eq!(txs.len(), copies, "RR {rr} MM {mm}");
+        let air = ms(time_on_air_ms(6)) - lead();
+        for (i, tx) in txs.iter().enumerate() {
+            assert_eq!(tx.mac.attempt as usize, i);
+            assert_eq!(tx.mac.seq, txs[0].mac.seq, "one sequence number");
+            assert!(!tx.mac.ack_request);
+            // Csma::Off: each copy goes on air a CCA and a turnaround after the one before.
+            assert_eq!(tx.start_cycle, end + lead() + i as u64 * (air + lead()));
+        }
+        let out = h.take();
+        assert_eq!(
+            frames(&bytes(&out), Mode::Escaped),
+            [vec![0x89, 9, 0x00]],
+            "one status"
+        );
+        assert_eq!(out[0].cycle, txs.last().unwrap().end_cycle);
+        let st = h.core.stats();
+        assert_eq!(
+            (st.transmissions, st.repeats, st.retries),
+            (copies as u32, copies as u32 - 1, 0)
+        );
+        // A receiver in the factory MAC mode passes one on; in strict 802.15.4 every copy.
+        for (rx_mm, passed) in [(0, 1), (2, copies)] {
+            let mut r = left_with(&[(*b"MM", rx_mm)], |c| c.my = 8);
+            for tx in &txs {
+                r.core.receive(tx, -50, Security::Clear);
+                r.run_to(tx.end_cycle.max(r.t) + ms(0.01));
+            }
+            r.run_ms(5.0);
+            let got = frames(&r.take_bytes(), Mode::Escaped);
+            assert_eq!(got.len(), passed, "RR {rr}, receiver MM {rx_mm}");
+            let dups = r.core.stats().rx_duplicates as usize;
+            assert_eq!(dups, copies - passed);
+            assert!(r.core.take_transmissions().is_empty(), "no ACKs");
+        }
+    }
+    // A unicast is acknowledged: sent once, as before.
+    let mut h = left_with(&[(*b"RR", 3)], |_| {});
+    h.frame(&tx16_to(1, 2, b"report"), Mode::Escaped);
+    h.run_ms(20.0);
+    assert_eq!(h.core.take_transmissions().len(), 1);
 }

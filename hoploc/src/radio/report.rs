@@ -530,8 +530,9 @@ fn effect(cmd: [u8; 2], v: u32, expected: Expected) -> String {
         }
         b"EE" => "encryption off: it hears none of the network's encrypted packets".to_string(),
         b"RR" => format!(
-            "up to {v} XBee retries on top of the MAC's three (some modules repeat every \
-             broadcast): packets still on air in the next slot"
+            "up to {v} XBee retries on top of the MAC's three, and every broadcast sent {} \
+             times: packets still on air in the next slot",
+            v + 2
         ),
         b"MM" => match v {
             1 | 3 => "no ACKs: the agents' reports are never acknowledged or retried".to_string(),

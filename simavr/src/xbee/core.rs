@@ -98,7 +98,8 @@ pub struct XBeeConfig {
     pub rn: u8,
     /// `CA`: the CCA threshold, −dBm (factory 0x2C: −44 dBm).
     pub ca: u8,
-    /// `RR`: XBee retries on top of the MAC's (factory 0).
+    /// `RR`: XBee retries on top of the MAC's, and `RR` + 2 copies of each broadcast when above
+    /// 0 (factory 0).
     pub rr: u8,
     /// `MM`: MAC mode (factory 0: Digi mode, with ACKs and duplicate detection).
     pub mm: u8,
@@ -379,7 +380,8 @@ pub struct XBeeStats {
     pub oversize_tx: u32,
     /// Data packets put on air (retries included; ACKs apart, in `acks_sent`).
     pub transmissions: u32,
-    /// Transmissions that repeated an unacknowledged packet (MAC and XBee retries).
+    /// Transmissions that repeated an unacknowledged packet (MAC and XBee retries; a repeated
+    /// broadcast's copies are in `repeats`).
     pub retries: u32,
     /// Clear channel assessments that found the channel busy.
     pub cca_busy: u32,
@@ -412,6 +414,9 @@ pub struct XBeeStats {
     /// Transmit requests that reached the radio while it switched channel (lost: nothing sent,
     /// no status).
     pub tx_lost_switching: u32,
+    /// Repeated copies of a broadcast put on air (`RR` > 0: `RR` + 2 copies in all; also in
+    /// `transmissions`).
+    pub repeats: u32,
 }
 
 #[derive(Debug)]
@@ -457,8 +462,9 @@ struct Arrival {
     /// The cycle it ended: its ACK goes on air a turnaround later, whenever the radio gets to
     /// handle it (a firmware node's radio may have run ahead of the medium by then).
     end: u64,
-    /// Its MAC sequence number.
-    seq: u8,
+    /// Its MAC sequence number (`None`: handed over without a MAC, by
+    /// [`XBeeCore::deliver_secured`]: no ACK, no duplicate detection).
+    seq: Option<u8>,
     /// Whether it asks for an ACK.
     ack_request: bool,
 }
@@ -910,7 +916,7 @@ impl XBeeCore {
             security,
             start: at.saturating_sub(air),
             end: at,
-            seq: 0,
+            seq: None,
             ack_request: false,
         };
         let at = at.max(self.now);
@@ -932,7 +938,7 @@ impl XBeeCore {
                 security,
                 start: tx.start_cycle,
                 end: tx.end_cycle,
-                seq: tx.mac.seq,
+                seq: Some(tx.mac.seq),
                 ack_request: tx.mac.ack_request,
             })),
             FrameKind::Ack => Event::AckIn {
@@ -1323,9 +1329,13 @@ impl XBeeCore {
                 return;
             }
         }
-        if ack_request && !p.dest.is_broadcast() {
-            self.send_ack(p.source, seq, end);
-            if self.duplicate(p.source, seq) {
+        if let Some(seq) = seq {
+            let broadcast = p.dest.is_broadcast();
+            if ack_request && !broadcast {
+                self.send_ack(p.source, seq, end);
+            }
+            // A retry of an acknowledged unicast whose ACK was lost, or a repeated broadcast.
+            if (ack_request || broadcast) && self.duplicate(p.source, seq) {
                 self.stats.rx_duplicates += 1;
                 return;
             }

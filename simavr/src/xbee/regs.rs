@@ -263,7 +263,8 @@ impl Registers {
     pub fn rn(&self) -> u8 {
         self.num(b"RN") as u8
     }
-    /// `RR`: XBee retries of an unacknowledged unicast, on top of the MAC's three, 0…6.
+    /// `RR`: XBee retries of an unacknowledged unicast, on top of the MAC's three, 0…6; above 0
+    /// every broadcast goes out `RR` + 2 times.
     pub fn rr(&self) -> u8 {
         self.num(b"RR") as u8
     }
