@@ -66,8 +66,9 @@
 //!
 //! What the medium does *not* decide is left to the receiving radio ([`crate::XBeeCore`]): it
 //! drops packets on another channel than its own, of another PAN or address, encrypted at one
-//! end only, or arriving while it transmits (half duplex) or is in command mode, and copies it
-//! passed on already. The medium carries each packet's [`Security`] to it.
+//! end only, or arriving while it transmits (half duplex), is in command mode, sleeps or looks
+//! for a coordinator, and copies it passed on already. The medium carries each packet's
+//! [`Security`] to it.
 //!
 //! # Randomness
 //!

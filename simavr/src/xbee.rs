@@ -24,18 +24,20 @@
 //!
 //! # What is modelled
 //!
-//! * **Registers** ([`Registers`]): `CH ID DH DL MY RR RN MM NT NO CE SC SD A1 A2 EE PL CA SM ST
-//!   SP DP BD NB RO AP PR IU IT IC IR RP CT GT CC` with the S1 ranges and factory defaults,
-//!   `NI` (≤ 20 printable characters), the write-only AES key `KY` (up to 16 bytes, shorter
-//!   values right-aligned like any hex value; a query answers OK and no value, never the key),
-//!   read-only `SH SL VR HV DB EC EA AI`, and `WR RE AC FR CN`. Queries answer big endian in
-//!   the register's width (`BD` 4 bytes, `CH` 1, `MY` 2…); unknown commands answer status 2
-//!   (invalid command), out-of-range values 3 (invalid parameter; `CH` follows [`Model`]: S1
-//!   0x0B…0x1A, S1 Pro 0x0C…0x17), sets of read-only registers 1 (error). There is an active
-//!   set and a persisted set: `WR` copies active to persisted, a power cycle ([`XBee::reset`])
-//!   or `FR` restores the persisted set, `RE` loads factory defaults into the active set
-//!   (`EE` 0, `KY` 0 among them). Registers without modelled behaviour (sleep, I/O, MAC mode)
-//!   are stored and answered only.
+//! * **Registers** ([`Registers`]): `CH ID DH DL MY RR RN MM NT NO CE SC SD A1 A2 EE PL CA SM ST SP
+//!   DP BD NB RO AP PR IU IT IC IR RP CT GT CC` with the S1 ranges and factory defaults, `NI` (≤ 20
+//!   printable characters), the write-only AES key `KY` (up to 16 bytes, shorter values
+//!   right-aligned like any hex value; a query answers OK and no value, never the key), read-only
+//!   `SH SL VR HV DB EC EA AI`, and `WR RE AC FR CN`. Queries answer big endian in the register's
+//!   width (`BD` 4 bytes, `CH` 1, `MY` 2…); unknown commands answer status 2 (invalid command),
+//!   out-of-range values 3 (invalid parameter; `CH` follows [`Model`]: S1 0x0B…0x1A, S1 Pro
+//!   0x0C…0x17), sets of read-only registers 1 (error). There is an active set and a persisted set:
+//!   `WR` copies active to persisted, a power cycle ([`XBee::reset`]) or `FR` restores the
+//!   persisted set, `RE` loads factory defaults into the active set (`EE` 0, `KY` 0 among them).
+//!   `SM`, `A1`, `PL` and `RR` act as the bullets below say; registers without modelled behaviour
+//!   (the sleep timers `ST SP DP`, `CE`, `A2`, `SC`, `SD`, `NT`, `NO`, I/O, `PR`, `RP`) are stored
+//!   and answered only. `AI` answers 0, or 0x02 while the radio looks for a coordinator (see
+//!   *Association*).
 //! * **API mode** (`AP`=1, 2): frames decoded with [`xbee_api::Decoder`] in the current mode. 0x08
 //!   AT command → 0x88 response with the same frame id ([`XBeeConfig::at_latency_ms`], default 1
 //!   ms, after the frame's end; none for frame id 0; a `CH` set: see *Channel switch*) and the
@@ -80,11 +82,12 @@
 //!   ([`XBeeStats::rx_switching`]) and a transmit request that reaches it is lost: no packet, no
 //!   status ([`XBeeStats::tx_lost_switching`]).
 //! * **Reception** ([`XBee::deliver`], from a medium [`XBeeCore::receive`]): passed on only if
-//!   powered up, on the packet's channel, same PAN (or broadcast PAN), addressed to `MY`/`SH:SL`
-//!   or broadcast, not overlapping the radio's own transmissions or its turnarounds to transmit
-//!   (half duplex), not in command mode, with the sender's `EE` (see *Encryption*), and not a
-//!   duplicate (see *Acknowledgements*): as RX16 (0x81, 16-bit source) or RX64 (0x80) with the
-//!   RSSI byte and options (0x02 address broadcast, 0x04 PAN broadcast)
+//!   powered up, on the packet's channel, same PAN (or broadcast PAN), addressed to `MY`/`SH:SL` or
+//!   broadcast, awake (see *Sleep*), not looking for a coordinator (see *Association*), not
+//!   switching channel, not overlapping the radio's own transmissions or its turnarounds to
+//!   transmit (half duplex), not in command mode, with the sender's `EE` (see *Encryption*), and
+//!   not a duplicate (see *Acknowledgements*): as RX16 (0x81, 16-bit source) or RX64 (0x80) with
+//!   the RSSI byte and options (0x02 address broadcast, 0x04 PAN broadcast)
 //!   [`XBeeConfig::rx_latency_ms`] after the packet's end; `DB` keeps the RSSI.
 //! * **Channel access** ([`Csma`]): before every transmission (API, transparent mode, each
 //!   retry) IEEE 802.15.4-2003's unslotted CSMA-CA, as the S1 runs it: NB = 0, BE = `RN` (the
@@ -155,23 +158,52 @@
 //!   and a medium adds it to the level the packet has at each receiver: what the receiver reports
 //!   as RSSI, whether it is heard at all, and what other radios' CCAs compare with `CA`
 //!   ([`crate::medium`]). A medium's `P0` is the level at full power.
+//! * **Sleep** (`SM`; Digi's 802.15.4 S1 product manual, sleep modes): a sleeping radio's receiver
+//!   is off: it passes on nothing and acknowledges nothing ([`XBeeStats::rx_asleep`],
+//!   [`XBeeCore::is_asleep`]). Cyclic sleep (`SM` 4, and 5 with `SLEEP_RQ` high; the reserved 3
+//!   taken as one) is taken as asleep throughout, the worst case: the manual has a cyclic sleeper
+//!   wake every `SP` to poll a coordinator (none answers in a hoploc network) and sleep again after
+//!   `ST` without transmission or reception (Digi's later 802.15.4 manuals: without serial or RF
+//!   data), which a node's own traffic might well hold off on a real radio. Its host still reaches
+//!   it (the manual has CTS go low at each wake "allowing for communication initiated by the remote
+//!   host"; the model wakes it for every byte): AT commands are answered and TX requests sent, as
+//!   awake. Pin sleep (`SM` 1 hibernate, 2 doze) sleeps while `SLEEP_RQ` (pin 9) is high
+//!   ([`XBeeConfig::sleep_rq`]); the manual: "the module will not respond to either serial or RF
+//!   activity while in pin sleep". The Arduino shields the README names leave the pin unconnected,
+//!   to the radio's pull-up, so on a node such a radio takes no byte from the firmware from
+//!   power-up on ([`XBeeStats::dropped_asleep`]), sends no modem status (the worst case: Digi does
+//!   not say whether it goes out before the radio sleeps) and cannot be brought up at all; on an
+//!   XBee USB adapter, which drives the pin low, it is awake. `SM` 6 (the manual's sleep
+//!   coordinator, kept for older firmware) does not sleep.
+//! * **Association** (`A1` bit 2, auto-associate, on an end device, `CE` 0; Digi's 802.15.4 S1
+//!   product manual, `A1` and `AI`): the radio looks for a coordinator to associate with and, none
+//!   answering in a hoploc network, never associates ([`XBeeCore::is_associating`]): `AI` answers
+//!   0x02 (active scan found no PANs), it passes on nothing it hears
+//!   ([`XBeeStats::rx_associating`]), and a TX request (API or transparent) puts nothing on air and
+//!   gets no status ([`XBeeStats::tx_associating`]): the S1's manual lists no TX status for it
+//!   (later 802.15.4 modules answer 0x22, not joined), and none at all is the worst case for a host
+//!   that waits for one. The other `A1` bits act only with bit 2.
 //!
 //! # Not modelled
 //!
 //! Of the MAC: the interframe spacing (SIFS/LIFS) after a frame before the radio's next; a CCA
-//! compares each packet on air with `CA` alone (energies of overlapping packets are not added
-//! up); a CCA failure ends a TX request unless `RR` retries are left (Digi's manuals for later
-//! 802.15.4 modules retry one three more times, and the S1's mentions CCA failure retries in its
-//! Digi mode without saying how many); the XBee retries' own timing (Digi's S1 manual, `RR`: a
-//! retry when no ACK came within 200 ms, within a random delay of up to 48 ms; the model starts
-//! each at once, as it does a repeated broadcast's next copy); the Digi header's bytes beyond
-//! what the best-case figure implies. Also not modelled:
-//! sleep, I/O sampling and remote AT (0x17 frames are counted as unsupported),
-//! association, `ND`/`AS`, non-standard `BD` rates, hardware flow control, framing error flags
-//! on the AVR side (simavr has none: garbage arrives as ordinary bytes). Of encryption: the
-//! cipher itself (a hash stands in for AES, so the garbled bytes are not a real radio's), and,
-//! as on the real S1, which has neither, no integrity check (CCM* MIC) and no frame-counter
-//! replay check.
+//! compares each packet on air with `CA` alone (energies of overlapping packets are not added up);
+//! a CCA failure ends a TX request unless `RR` retries are left (Digi's manuals for later 802.15.4
+//! modules retry one three more times, and the S1's mentions CCA failure retries in its Digi mode
+//! without saying how many); the XBee retries' own timing (Digi's S1 manual, `RR`: a retry when no
+//! ACK came within 200 ms, within a random delay of up to 48 ms; the model starts each at once, as
+//! it does a repeated broadcast's next copy); the Digi header's bytes beyond what the best-case
+//! figure implies. Of sleep: the timers (`SP`, `ST`, `DP`): a cyclic sleeper never wakes to hear,
+//! and sends no polls. Of association: the beacon requests an associating end device's active scans
+//! put on air on the channels of `SC`, a coordinator's (`CE` 1) scans at power-up and the `ID` or
+//! `CH` that `A2` lets it pick (bring-up leaves `CE` and `A2` alone and sets both after; Digi does
+//! not say whether a `CH` set while a coordinator's scan is still under way outlasts it), and
+//! indirect messaging (a coordinator with `SP` ≠ 0 holds unicasts for polling end devices). Also
+//! not modelled: I/O sampling and remote AT (0x17 frames are counted as unsupported), `ND`/`AS`,
+//! non-standard `BD` rates, hardware flow control, framing error flags on the AVR side (simavr has
+//! none: garbage arrives as ordinary bytes). Of encryption: the cipher itself (a hash stands in for
+//! AES, so the garbled bytes are not a real radio's), and, as on the real S1, which has neither, no
+//! integrity check (CCM* MIC) and no frame-counter replay check.
 
 pub mod core;
 pub mod regs;

@@ -1505,7 +1505,7 @@ fn a_channel_change_answers_after_the_switch_and_loses_what_comes_before() {
     }
 }
 
-// ---- settings a previous owner may have left: PL, RR ----
+// ---- settings a previous owner may have left: PL, RR, SM, A1 ----
 
 /// A radio with the registers `leftovers` (as a second-hand radio keeps them), API mode 2.
 fn left_with(leftovers: &[([u8; 2], u32)], tweak: impl FnOnce(&mut XBeeConfig)) -> Host {
@@ -1619,4 +1619,119 @@ fn rr_repeats_every_broadcast_and_receivers_pass_on_one_copy() {
     h.frame(&tx16_to(1, 2, b"report"), Mode::Escaped);
     h.run_ms(20.0);
     assert_eq!(h.core.take_transmissions().len(), 1);
+}
+
+/// A broadcast for `h`'s radio: on its channel, in its PAN.
+fn packet_for(h: &Host) -> RxPacket {
+    let r = h.core.registers();
+    RxPacket::broadcast16(r.ch(), r.id(), 0x0042, -50, b"heard")
+}
+
+/// Delivers a packet for `h` and says whether its host got it.
+fn hears(h: &mut Host) -> bool {
+    h.take();
+    let at = h.t + ms(1.0);
+    let p = packet_for(h);
+    h.core.deliver(p, at);
+    h.run_ms(10.0);
+    frames(&h.take_bytes(), Mode::Escaped)
+        .iter()
+        .any(|f| f[0] == 0x81)
+}
+
+/// Sends a broadcast TX request; returns (packets on air, the status frames).
+fn sends(h: &mut Host, id: u8) -> (usize, Vec<Vec<u8>>) {
+    h.take();
+    h.frame(&tx16(id, b"beacon"), Mode::Escaped);
+    h.run_ms(10.0);
+    let f = frames(&h.take_bytes(), Mode::Escaped);
+    let status = f.into_iter().filter(|f| f[0] == 0x89).collect();
+    (h.core.take_transmissions().len(), status)
+}
+
+/// `SM` ≠ 0 (Digi's S1 manual, sleep modes): a sleeping radio's receiver is off. A cyclic
+/// sleeper (`SM` 4, 5; 3 is reserved, taken as one) hears nothing, but its host still talks
+/// to it: AT commands are answered and TX requests sent. In pin sleep (`SM` 1, 2) with
+/// `SLEEP_RQ` high, as an Arduino shield leaves it, the radio takes nothing from its UART
+/// either, not even at power-up; with the pin driven low (a USB adapter) it is awake. `SM` 6,
+/// the sleep coordinator, does not sleep.
+#[test]
+fn a_sleeping_radio_hears_nothing_and_in_pin_sleep_takes_nothing_from_its_host() {
+    for sm in 3..=5 {
+        let mut h = left_with(&[(*b"SM", sm)], |_| {});
+        assert!(h.core.is_asleep());
+        assert!(!hears(&mut h), "SM {sm}");
+        assert_eq!(h.core.stats().rx_asleep, 1);
+        assert_eq!(sends(&mut h, 3), (1, vec![vec![0x89, 3, 0x00]]), "SM {sm}");
+        assert_eq!(
+            at(&mut h, Mode::Escaped, 4, b"SM", &[]),
+            [0x88, 4, b'S', b'M', 0, sm as u8]
+        );
+        // Sleep off: it hears again.
+        assert_eq!(
+            at(&mut h, Mode::Escaped, 5, b"SM", &[0]),
+            [0x88, 5, b'S', b'M', 0]
+        );
+        assert!(hears(&mut h));
+    }
+    for sm in [1, 2] {
+        // Pin sleep on a shield: nothing from the radio, not even its modem status.
+        let mut core = XBeeCore::new(XBeeConfig {
+            leftovers: vec![(*b"SM", sm)],
+            ..XBeeConfig::api(2)
+        });
+        core.set_host_baud(57_600);
+        core.advance(ms(10.0));
+        assert!(core.take_output().is_empty(), "SM {sm}: no modem status");
+        let query = encode_frame(&[0x08, 0x01, b'S', b'M'], Mode::Escaped);
+        core.rx_bytes(ms(10.0), &query);
+        core.deliver(RxPacket::broadcast16(0x0C, 0x3332, 1, -50, b"x"), ms(20.0));
+        core.advance(ms(40.0));
+        assert!(
+            core.take_output().is_empty(),
+            "SM {sm}: no answer, nothing heard"
+        );
+        let st = core.stats();
+        assert_eq!((st.dropped_asleep, st.rx_asleep), (query.len() as u32, 1));
+        // On an adapter that drives SLEEP_RQ low: awake.
+        let mut h = left_with(&[(*b"SM", sm)], |c| c.sleep_rq = false);
+        assert!(!h.core.is_asleep());
+        assert!(hears(&mut h));
+        assert_eq!(
+            at(&mut h, Mode::Escaped, 2, b"SM", &[]),
+            [0x88, 2, b'S', b'M', 0, sm as u8]
+        );
+    }
+    let mut h = left_with(&[(*b"SM", 6)], |_| {});
+    assert!(hears(&mut h), "the sleep coordinator is awake");
+}
+
+/// `A1` bit 2 (Digi's S1 manual, end device association): an end device looks for a
+/// coordinator to associate with and, none answering in a hoploc network, never finds one:
+/// `AI` answers 0x02 (active scan found no PANs), it passes on nothing it hears, and a TX
+/// request puts nothing on air and gets no status (Digi's S1 manual gives none for it; the
+/// worst case). A coordinator (`CE` 1) does not associate.
+#[test]
+fn an_end_device_looking_for_a_coordinator_neither_sends_nor_passes_on() {
+    let mut h = left_with(&[(*b"A1", 4)], |_| {});
+    assert!(h.core.is_associating());
+    assert_eq!(
+        at(&mut h, Mode::Escaped, 1, b"AI", &[]),
+        [0x88, 1, b'A', b'I', 0, 0x02]
+    );
+    assert_eq!(sends(&mut h, 2), (0, vec![]), "no packet, no status");
+    assert!(!hears(&mut h));
+    let st = h.core.stats();
+    assert_eq!((st.tx_associating, st.rx_associating), (1, 1));
+    // The other bits alone do nothing.
+    at(&mut h, Mode::Escaped, 3, b"A1", &[0x0B]);
+    assert_eq!(
+        at(&mut h, Mode::Escaped, 4, b"AI", &[]),
+        [0x88, 4, b'A', b'I', 0, 0]
+    );
+    assert_eq!(sends(&mut h, 5), (1, vec![vec![0x89, 5, 0x00]]));
+    assert!(hears(&mut h));
+    let mut coordinator = left_with(&[(*b"A1", 4), (*b"CE", 1)], |_| {});
+    assert!(!coordinator.core.is_associating());
+    assert_eq!(sends(&mut coordinator, 6), (1, vec![vec![0x89, 6, 0x00]]));
 }

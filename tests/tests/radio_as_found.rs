@@ -13,17 +13,21 @@ use simavr::xbee::{XBee, XBeeConfig, BAUD_RATES};
 use simavr::Avr;
 use xbee_api::driver::FIXED_SETTINGS;
 
-/// Runs `role` against `radio` until its radio line; returns what the line says.
-fn bring_up(role: Role, radio: &mut XBee, avr: &mut Avr, budget_ms: f64) -> RadioFound {
+/// Runs `role` against `radio` until its radio line; returns what the line says: the radio
+/// found, or the error code of a failed bring-up.
+fn radio_line(
+    role: Role,
+    radio: &mut XBee,
+    avr: &mut Avr,
+    budget_ms: f64,
+) -> Result<RadioFound, u8> {
     let deadline = PROVISION_WINDOW_MS as f64 + budget_ms;
     loop {
         radio.run_for_ms(avr, 20.0);
         for l in radio.text_lines() {
             match BootLine::parse(&l.text) {
-                Ok(BootLine::RadioUp { found, .. }) => return found,
-                Ok(BootLine::RadioError { code, .. }) => {
-                    panic!("{role:?}: radio error {code}: {:?}", radio.texts())
-                }
+                Ok(BootLine::RadioUp { found, .. }) => return Ok(found),
+                Ok(BootLine::RadioError { code, .. }) => return Err(code),
                 _ => {}
             }
         }
@@ -33,6 +37,12 @@ fn bring_up(role: Role, radio: &mut XBee, avr: &mut Avr, budget_ms: f64) -> Radi
             radio.texts()
         );
     }
+}
+
+/// Runs `role` against `radio` until its radio line; returns the radio found.
+fn bring_up(role: Role, radio: &mut XBee, avr: &mut Avr, budget_ms: f64) -> RadioFound {
+    radio_line(role, radio, avr, budget_ms)
+        .unwrap_or_else(|code| panic!("{role:?}: radio error {code}: {:?}", radio.texts()))
 }
 
 /// A radio left at `bd` in transparent mode (as from the factory, at another rate).
@@ -144,4 +154,28 @@ fn a_second_hand_agent_radio_gets_the_factory_behaviour() {
 #[test]
 fn a_second_hand_sink_radio_gets_the_factory_behaviour() {
     second_hand(Role::Sink);
+}
+
+/// A radio left in a pin sleep mode (`SM` 1, 2) sleeps on a node: the shield leaves `SLEEP_RQ`
+/// to the radio's pull-up, and a radio in pin sleep takes nothing from its UART (Digi's S1
+/// manual). No node can bring it up, let alone clear `SM`: after trying every rate it reports
+/// no answer (error 9). Such a radio needs an XBee USB adapter (`hoploc radio --restore`).
+#[test]
+fn a_radio_left_in_pin_sleep_cannot_be_brought_up_on_a_shield() {
+    for sm in [1, 2] {
+        let role = Role::Anchor;
+        let mut avr = boot(role);
+        let mut radio = XBee::new(XBeeConfig {
+            leftovers: vec![(*b"SM", sm)],
+            ..XBeeConfig::api(2)
+        });
+        let no_response = xbee_api::driver::Error::NoResponse.code();
+        assert_eq!(
+            radio_line(role, &mut radio, &mut avr, 25_000.0),
+            Err(no_response),
+            "SM {sm}"
+        );
+        assert!(radio.stats().dropped_asleep > 0);
+        assert_eq!(u32::from(radio.registers().sm()), sm);
+    }
 }

@@ -540,6 +540,10 @@ fn effect(cmd: [u8; 2], v: u32, expected: Expected) -> String {
                 .to_string(),
             _ => "not a MAC mode the S1 has".to_string(),
         },
+        b"SM" if matches!(v, 1 | 2) => "pin sleep: on a node's shield, which leaves its sleep pin \
+                                        high, the radio sleeps and takes nothing from the node \
+                                        (it cannot be brought up there)"
+            .to_string(),
         b"SM" => "the radio sleeps and hears nothing".to_string(),
         b"A1" => "end-device association: one that associates scans the channels and sends \
                   nothing until a coordinator answers"

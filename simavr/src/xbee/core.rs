@@ -126,6 +126,11 @@ pub struct XBeeConfig {
     /// Any other registers as a previous owner left them (a second-hand radio): `(command,
     /// value)`, persisted, applied after the fields above.
     pub leftovers: Vec<([u8; 2], u32)>,
+    /// The level of the radio's `SLEEP_RQ` input (pin 9): high (asserted) on an Arduino XBee
+    /// shield, which leaves the pin to the radio's own pull-up (`PR`'s factory value enables
+    /// it), so a radio in a pin sleep mode (`SM` 1, 2) sleeps; low on an XBee USB adapter, whose
+    /// serial chip drives the pin (DTR) low while the port is open.
+    pub sleep_rq: bool,
 }
 
 impl Default for XBeeConfig {
@@ -156,6 +161,7 @@ impl Default for XBeeConfig {
             baud_tolerance: 0.04,
             channel_switch_ms: xbee_api::CHANNEL_SWITCH_US as f64 / 1000.0,
             leftovers: Vec::new(),
+            sleep_rq: true,
         }
     }
 }
@@ -414,6 +420,17 @@ pub struct XBeeStats {
     /// Transmit requests that reached the radio while it switched channel (lost: nothing sent,
     /// no status).
     pub tx_lost_switching: u32,
+    /// Packets for this radio (its channel, PAN and address) on air while it slept (`SM` 1…5):
+    /// its receiver was off.
+    pub rx_asleep: u32,
+    /// Host bytes lost in pin sleep (`SM` 1, 2 with `SLEEP_RQ` high): the radio takes nothing
+    /// from its UART.
+    pub dropped_asleep: u32,
+    /// Packets for this radio that it did not pass on while it looked for a coordinator to
+    /// associate with (`A1` bit 2 on an end device).
+    pub rx_associating: u32,
+    /// Transmit requests dropped while it looked for a coordinator (no packet, no status).
+    pub tx_associating: u32,
     /// Repeated copies of a broadcast put on air (`RR` > 0: `RR` + 2 copies in all; also in
     /// `transmissions`).
     pub repeats: u32,
@@ -760,9 +777,26 @@ impl XBeeCore {
     pub fn registers(&self) -> &Registers {
         &self.active
     }
+    /// The active registers, mutably: a register set as if by the host, without its range
+    /// check and without applying `CH`, `AP` or `BD` (tests: a radio whose settings a firmware
+    /// did not fix).
+    pub fn registers_mut(&mut self) -> &mut Registers {
+        &mut self.active
+    }
     /// The persisted registers (what `WR` wrote; a power cycle restores them).
     pub fn persisted(&self) -> &Registers {
         &self.persisted
+    }
+    /// True while the radio sleeps (`SM` 1…5; 1 and 2 only with `SLEEP_RQ` high, see
+    /// [`XBeeConfig::sleep_rq`]): its receiver is off. In pin sleep (`SM` 1, 2) its UART takes
+    /// nothing either.
+    pub fn is_asleep(&self) -> bool {
+        self.asleep()
+    }
+    /// True while the radio looks for a coordinator to associate with (`A1` bit 2 on an end
+    /// device, `CE` 0): it neither sends nor passes on what it hears.
+    pub fn is_associating(&self) -> bool {
+        self.associating()
     }
     /// The channel the radio is on (applied `CH`).
     pub fn channel(&self) -> u8 {
@@ -860,6 +894,10 @@ impl XBeeCore {
         let t = self.now;
         if !self.ready {
             self.stats.dropped_powering_up += 1;
+            return;
+        }
+        if self.pin_asleep() {
+            self.stats.dropped_asleep += 1;
             return;
         }
         let own = self.uart_byte_cycles();
@@ -983,6 +1021,25 @@ impl XBeeCore {
         self.events.push((at.max(self.now), self.seq, ev));
     }
 
+    /// See [`XBeeCore::is_asleep`].
+    fn asleep(&self) -> bool {
+        match self.active.sm() {
+            1 | 2 => self.cfg.sleep_rq,
+            3..=5 => true,
+            _ => false,
+        }
+    }
+
+    /// Pin sleep: `SM` 1 or 2 with `SLEEP_RQ` high.
+    fn pin_asleep(&self) -> bool {
+        matches!(self.active.sm(), 1 | 2) && self.cfg.sleep_rq
+    }
+
+    /// See [`XBeeCore::is_associating`].
+    fn associating(&self) -> bool {
+        self.active.a1() & 0x04 != 0 && self.active.ce() == 0
+    }
+
     fn mismatch(&self, a: u64, b: u64) -> bool {
         (a as f64 / b as f64 - 1.0).abs() > self.cfg.baud_tolerance
     }
@@ -996,7 +1053,7 @@ impl XBeeCore {
             Event::Ready(status) => {
                 self.ready = true;
                 self.last_rx_end = self.now;
-                if self.api.is_some() {
+                if self.api.is_some() && !self.pin_asleep() {
                     let f = self.encode(&Frame::ModemStatus { status });
                     self.send_now(&f);
                 }
@@ -1246,6 +1303,11 @@ impl XBeeCore {
     }
 
     fn transmit(&mut self, t: u64, frame_id: u8, dest: Address, options: u8, payload: Vec<u8>) {
+        if self.associating() {
+            // An end device that has not found its coordinator sends nothing.
+            self.stats.tx_associating += 1;
+            return;
+        }
         let security = if self.active.ee() {
             let counter = self.frame_counter;
             self.frame_counter = counter.wrapping_add(1);
@@ -1297,6 +1359,14 @@ impl XBeeCore {
         let pan_ok = p.pan_id == self.active.id() || p.pan_id == 0xFFFF || p.options & 0x04 != 0;
         if !self.ready || p.channel != self.channel || !pan_ok || !for_me {
             self.stats.rx_filtered += 1;
+            return;
+        }
+        if self.asleep() {
+            self.stats.rx_asleep += 1;
+            return;
+        }
+        if self.associating() {
+            self.stats.rx_associating += 1;
             return;
         }
         if start < self.switching_until {
@@ -1518,6 +1588,8 @@ impl XBeeCore {
             b"DB" => u64::from(self.db),
             b"EC" => u64::from(self.mac.ec),
             b"EA" => u64::from(self.mac.ea),
+            // Active scan found no PANs: no coordinator answers in a hoploc network.
+            b"AI" if self.associating() => 0x02,
             _ => 0,
         };
         Ok(AtValue::Num(v, width))

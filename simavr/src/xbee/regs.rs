@@ -103,7 +103,7 @@ pub(crate) const REGISTERS: &[Spec] = &[
     // RF interfacing.
     s(b"PL", 1, 0, 4, 4),
     s(b"CA", 1, 0x24, 0x50, 0x2C),
-    // Sleep (accepted and stored, not modelled).
+    // Sleep (`SM` acts, see the module docs; the timers are stored only).
     s(b"SM", 1, 0, 6, 0),
     s(b"ST", 2, 1, 0xFFFF, 0x1388),
     s(b"SP", 2, 0, 0x68B0, 0),
@@ -275,6 +275,15 @@ impl Registers {
     /// `CE`: coordinator enable.
     pub fn ce(&self) -> u8 {
         self.num(b"CE") as u8
+    }
+    /// `A1`: end-device association options (bit 2: associate with a coordinator).
+    pub fn a1(&self) -> u8 {
+        self.num(b"A1") as u8
+    }
+    /// `SM`: sleep mode (0 no sleep, 1 pin hibernate, 2 pin doze, 3 reserved, 4 cyclic sleep
+    /// remote, 5 cyclic sleep remote with pin wake-up, 6 sleep coordinator).
+    pub fn sm(&self) -> u8 {
+        self.num(b"SM") as u8
     }
     /// `PL`: power level, 0…4 (see [`Model::output_dbm`]).
     pub fn pl(&self) -> u8 {
