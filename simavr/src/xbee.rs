@@ -41,16 +41,15 @@
 //! * **API mode** (`AP`=1, 2): frames decoded with [`xbee_api::Decoder`] in the current mode. 0x08
 //!   AT command → 0x88 response with the same frame id ([`XBeeConfig::at_latency_ms`], default 1
 //!   ms, after the frame's end; none for frame id 0; a `CH` set: see *Channel switch*) and the
-//!   change applied at once: `CH`, `AP`
-//!   (the response still goes out in the old mode) and `BD` (the UART switches once the response is
-//!   on the line). 0x09 is checked and answered but applied only with the next 0x08 or `AC`. TX16
-//!   (0x01) / TX64 (0x00) → a TX request for the MAC (see *Channel access* and
-//!   *Acknowledgements*; requests queue behind each other) and, for a frame id ≠ 0, a 0x89 TX
-//!   status when it is decided: 0x00 success, 0x01 no ACK, 0x02 CCA failure. Payloads over 100
-//!   bytes (95 with encryption) are refused: no transmission, no status (counted in
-//!   [`XBeeStats::oversize_tx`]).
-//!   Modem status 0x8A (hardware reset) goes out [`XBeeConfig::power_up_ms`] (default 5 ms) after
-//!   power-up; host bytes before then are lost.
+//!   change applied at once: `CH`, `AP` (the response still goes out in the old mode) and `BD` (the
+//!   UART switches once the response is on the line). 0x09 is checked and answered but applied only
+//!   with the next 0x08 or `AC`. TX16 (0x01) / TX64 (0x00) → a TX request for the MAC (see *Channel
+//!   access* and *Acknowledgements*; requests queue behind each other) and, for a frame id ≠ 0, a
+//!   0x89 TX status when it is decided: 0x00 success, 0x01 no ACK, 0x02 CCA failure. Payloads over
+//!   100 bytes (95 with encryption) are refused: no transmission, no status (counted in
+//!   [`XBeeStats::oversize_tx`]). Frames wait in the serial receive buffer (see *Serial receive
+//!   buffer*). Modem status 0x8A (hardware reset) goes out [`XBeeConfig::power_up_ms`] (default 5
+//!   ms) after power-up; host bytes before then are lost.
 //! * **Transparent mode** (`AP`=0): host bytes are RF payload to `DH:DL`, sent (through the same
 //!   MAC, without status) after `RO` character times of silence or at 100 bytes (95 with
 //!   encryption); received payloads go to the host bare.
@@ -183,6 +182,19 @@
 //!   gets no status ([`XBeeStats::tx_associating`]): the S1's manual lists no TX status for it
 //!   (later 802.15.4 modules answer 0x22, not joined), and none at all is the worst case for a host
 //!   that waits for one. The other `A1` bits act only with bit 2.
+//! * **Serial receive buffer** ([`DI_BUFFER_BYTES`]: 202 bytes, Digi's 802.15.4 S1 product manual,
+//!   "DI buffer"): it holds the API frame being received (without its escape bytes: the radio
+//!   unescapes as it decodes), every TX request the MAC has not finished with (a request's frame
+//!   stays until its status is decided, the worst case: the manual's data-flow figure puts an RF TX
+//!   buffer of no stated size after it), and transparent-mode data not yet sent. AT command frames
+//!   are taken at once. A byte that finds it full is lost ([`XBeeStats::di_overflow`]), and the
+//!   frame it belonged to with it (a bad frame). The manual's CTS flow control (CTS de-asserted 17
+//!   bytes before the buffer is full) is not modelled: the shields the README names do not connect
+//!   CTS to the Uno. A host that writes frames faster than the radio sends them (the UART at 57600
+//!   fills it slower than a clear channel drains it, so it takes retries or a busy channel) loses
+//!   bytes; a hoploc node writes one TX request per slot and its channel changes, and stays under
+//!   half of it ([`XBeeStats::di_peak`]; tests/testbed.rs checks every node, the agent whose
+//!   unacknowledged reports are retried among them).
 //!
 //! # Not modelled
 //!
@@ -200,10 +212,11 @@
 //! not say whether a `CH` set while a coordinator's scan is still under way outlasts it), and
 //! indirect messaging (a coordinator with `SP` ≠ 0 holds unicasts for polling end devices). Also
 //! not modelled: I/O sampling and remote AT (0x17 frames are counted as unsupported), `ND`/`AS`,
-//! non-standard `BD` rates, hardware flow control, framing error flags on the AVR side (simavr has
-//! none: garbage arrives as ordinary bytes). Of encryption: the cipher itself (a hash stands in for
-//! AES, so the garbled bytes are not a real radio's), and, as on the real S1, which has neither, no
-//! integrity check (CCM* MIC) and no frame-counter replay check.
+//! non-standard `BD` rates, hardware flow control (CTS, RTS), the serial transmit (DO) buffer's
+//! limit, framing error flags on the AVR side (simavr has none: garbage arrives as ordinary bytes).
+//! Of encryption: the cipher itself (a hash stands in for AES, so the garbled bytes are not a real
+//! radio's), and, as on the real S1, which has neither, no integrity check (CCM* MIC) and no
+//! frame-counter replay check.
 
 pub mod core;
 pub mod regs;
@@ -220,8 +233,9 @@ use crate::radio::{LineSplitter, SeenFrame, TextLine};
 pub use self::core::{
     byte_cycles, encode_frame, frame_air_cycles, time_on_air_ms, Address, Cca, Csma, FrameKind,
     MacFields, RxPacket, Security, Transmission, XBeeConfig, XBeeCore, XBeeStats, ACK_AIR_US,
-    ACK_WAIT_US, BACKOFF_PERIOD_US, BIT_TIMES_PER_BYTE, CCA_US, FRAME_OVERHEAD_BYTES, MAX_BE,
-    MAX_CSMA_BACKOFFS, MAX_FRAME_RETRIES, SECURITY_HEADER_BYTES, TURNAROUND_US,
+    ACK_WAIT_US, BACKOFF_PERIOD_US, BIT_TIMES_PER_BYTE, CCA_US, DI_BUFFER_BYTES,
+    FRAME_OVERHEAD_BYTES, MAX_BE, MAX_CSMA_BACKOFFS, MAX_FRAME_RETRIES, SECURITY_HEADER_BYTES,
+    TURNAROUND_US,
 };
 pub use self::regs::{baud_of_bd, Model, Registers, BAUD_RATES, KEY_LEN};
 

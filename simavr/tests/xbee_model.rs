@@ -10,7 +10,8 @@ use std::rc::Rc;
 use embedded_hal_nb::serial::{ErrorKind, ErrorType, Read, Write};
 use simavr::xbee::{
     byte_cycles, encode_frame, time_on_air_ms, Address, Csma, FrameKind, Model, RxPacket, Security,
-    XBee, XBeeConfig, XBeeCore, ACK_AIR_US, CCA_US, SECURITY_HEADER_BYTES, TURNAROUND_US,
+    XBee, XBeeConfig, XBeeCore, ACK_AIR_US, CCA_US, DI_BUFFER_BYTES, SECURITY_HEADER_BYTES,
+    TURNAROUND_US,
 };
 use simavr::{ms_to_cycles, Avr, UartByte};
 use xbee_api::driver::{BringUp, BringUpConfig, Clock, Encryption, Radio, SetBaud};
@@ -1734,4 +1735,42 @@ fn an_end_device_looking_for_a_coordinator_neither_sends_nor_passes_on() {
     let mut coordinator = left_with(&[(*b"A1", 4), (*b"CE", 1)], |_| {});
     assert!(!coordinator.core.is_associating());
     assert_eq!(sends(&mut coordinator, 6), (1, vec![vec![0x89, 6, 0x00]]));
+}
+
+/// The S1's serial receive buffer holds [`DI_BUFFER_BYTES`] (Digi's S1 manual) of frames the
+/// radio has not finished with; without flow control what comes beyond is lost. A radio that
+/// retries a unicast nobody acknowledges (`RR` 2: twelve transmissions) still holds its frame
+/// when the host writes the next one: that frame's tail beyond the buffer is lost, and the
+/// frame with it. The same frames once the first is done go through.
+#[test]
+fn a_host_that_writes_faster_than_the_radio_sends_loses_what_overflows_its_buffer() {
+    assert_eq!(DI_BUFFER_BYTES, 202);
+    let big = |id| tx16_to(id, 2, &[0x55; 100]);
+    assert_eq!(encode_frame(&big(1), Mode::Escaped).len(), 109);
+    for back_to_back in [true, false] {
+        let mut h = left_with(&[(*b"RR", 2)], |_| {});
+        // On a medium that carries no ACK: every transmission waits in vain.
+        h.core.set_on_medium(true);
+        h.frame(&big(1), Mode::Escaped);
+        if !back_to_back {
+            h.run_ms(100.0);
+        }
+        h.frame(&big(2), Mode::Escaped);
+        h.run_ms(100.0);
+        // A third frame once the first is done finds room (the cut one is dropped).
+        h.frame(&big(3), Mode::Escaped);
+        h.run_ms(100.0);
+        let st = h.core.stats();
+        let f = frames(&h.take_bytes(), Mode::Escaped);
+        if back_to_back {
+            assert_eq!(st.di_overflow, 16);
+            assert_eq!((st.frames_ok, st.bad_frames), (2, 1));
+            assert_eq!(f, [vec![0x89, 1, 0x01], vec![0x89, 3, 0x01]]);
+        } else {
+            assert_eq!(st.di_overflow, 0);
+            assert_eq!(st.frames_ok, 3);
+            assert_eq!(f.len(), 3);
+        }
+        assert_eq!(st.transmissions, 12 * f.len() as u32);
+    }
 }

@@ -5,7 +5,7 @@
 mod mac;
 
 use xbee_api::{
-    encode_raw, AtStatus, DecodeError, Decoder, Frame, Mode, ModemStatus, Rssi, TxStatus,
+    encode_raw, AtStatus, DecodeError, Decoder, Frame, Mode, ModemStatus, Rssi, TxStatus, ESCAPE,
     MAX_ENCODED, MAX_RF_PAYLOAD, MAX_RF_PAYLOAD_ENCRYPTED, START,
 };
 
@@ -41,6 +41,12 @@ pub fn time_on_air_ms(k: usize) -> f64 {
 }
 
 pub use xbee_api::SECURITY_HEADER_BYTES;
+
+/// The S1's serial receive (DI) buffer, bytes: API frames (or transparent-mode data) from the
+/// host that the radio has not finished with. Digi's 802.15.4 S1 product manual: "send messages
+/// that are smaller than the DI buffer size (202 bytes)"; without CTS flow control (the shields
+/// the README names do not connect CTS) what comes beyond it is lost.
+pub const DI_BUFFER_BYTES: usize = 202;
 
 /// Channel access before each transmission (see the parent module's docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -434,6 +440,10 @@ pub struct XBeeStats {
     /// Repeated copies of a broadcast put on air (`RR` > 0: `RR` + 2 copies in all; also in
     /// `transmissions`).
     pub repeats: u32,
+    /// Host bytes lost because the serial receive buffer ([`DI_BUFFER_BYTES`]) was full.
+    pub di_overflow: u32,
+    /// The most bytes the serial receive buffer held.
+    pub di_peak: u32,
 }
 
 #[derive(Debug)]
@@ -670,6 +680,8 @@ pub struct XBeeCore {
     mac: MacLayer,
     frames: Vec<SeenFrame>,
     frame_start: u64,
+    /// Bytes of the API frame being received (in the serial receive buffer).
+    frame_bytes: usize,
     tbuf: Vec<u8>,
     rng: u64,
     db: u8,
@@ -723,6 +735,7 @@ impl XBeeCore {
             mac: MacLayer::default(),
             frames: Vec::new(),
             frame_start: at,
+            frame_bytes: 0,
             tbuf: Vec::new(),
             rng,
             db: 0,
@@ -760,6 +773,7 @@ impl XBeeCore {
         self.uart_baud = self.active.baud();
         self.api = Mode::from_ap(self.active.ap());
         self.decoder = Decoder::new(self.api.unwrap_or(Mode::Escaped));
+        self.frame_bytes = 0;
         self.channel = self.active.ch();
         self.garble_in = Garbler::default();
         self.garble_out = Garbler::default();
@@ -1186,6 +1200,10 @@ impl XBeeCore {
     // ---- API mode ----
 
     fn api_byte(&mut self, t: u64, b: u8, own: u64) {
+        if self.di_used() >= DI_BUFFER_BYTES {
+            self.stats.di_overflow += 1;
+            return;
+        }
         let was_in_frame = self.decoder.in_frame();
         if !was_in_frame && b != START {
             self.stats.foreign_bytes += 1;
@@ -1203,11 +1221,19 @@ impl XBeeCore {
                 Err(DecodeError::Garbage { .. }) => {}
             }
         }
-        if b == START
-            && self.decoder.in_frame()
-            && (!was_in_frame || self.api == Some(Mode::Escaped))
-        {
+        let escaped = self.api == Some(Mode::Escaped);
+        let started = b == START && self.decoder.in_frame() && (!was_in_frame || escaped);
+        if started {
             self.frame_start = t.saturating_sub(own);
+            self.frame_bytes = 0;
+        }
+        // The buffer holds a frame's bytes as the radio decodes them: without escape bytes.
+        if (was_in_frame || started) && !(escaped && b == ESCAPE) {
+            self.frame_bytes += 1;
+            self.note_di_peak();
+        }
+        if !self.decoder.in_frame() {
+            self.frame_bytes = 0;
         }
         for data in frames {
             self.stats.frames_ok += 1;
@@ -1220,7 +1246,20 @@ impl XBeeCore {
         }
     }
 
+    /// Bytes taken in the serial receive buffer: the frame being received, transparent-mode
+    /// data not yet packetized, and the TX requests the MAC has not finished with.
+    fn di_used(&self) -> usize {
+        self.frame_bytes + self.tbuf.len() + self.mac_serial_bytes()
+    }
+
+    fn note_di_peak(&mut self) {
+        let used = self.di_used() as u32;
+        self.stats.di_peak = self.stats.di_peak.max(used);
+    }
+
     fn api_frame(&mut self, t: u64, data: &[u8]) {
+        // Delimiter, length and checksum around the frame data.
+        let frame_bytes = data.len() + 4;
         match Frame::parse(data) {
             Ok(Frame::AtCommand {
                 frame_id,
@@ -1237,13 +1276,20 @@ impl XBeeCore {
                 dest,
                 options,
                 data,
-            }) => self.api_tx(t, frame_id, Address::Short(dest), options, data),
+            }) => self.api_tx(
+                t,
+                frame_id,
+                Address::Short(dest),
+                options,
+                data,
+                frame_bytes,
+            ),
             Ok(Frame::Tx64 {
                 frame_id,
                 dest,
                 options,
                 data,
-            }) => self.api_tx(t, frame_id, Address::Long(dest), options, data),
+            }) => self.api_tx(t, frame_id, Address::Long(dest), options, data, frame_bytes),
             _ => self.stats.unsupported_frames += 1,
         }
     }
@@ -1290,7 +1336,16 @@ impl XBeeCore {
         }
     }
 
-    fn api_tx(&mut self, t: u64, frame_id: u8, dest: Address, options: u8, payload: &[u8]) {
+    /// A TX request frame of `frame_bytes` bytes (its size in the serial receive buffer).
+    fn api_tx(
+        &mut self,
+        t: u64,
+        frame_id: u8,
+        dest: Address,
+        options: u8,
+        payload: &[u8],
+        frame_bytes: usize,
+    ) {
         if t < self.switching_until {
             self.stats.tx_lost_switching += 1;
             return;
@@ -1299,10 +1354,20 @@ impl XBeeCore {
             self.stats.oversize_tx += 1;
             return;
         }
-        self.transmit(t, frame_id, dest, options, payload.to_vec());
+        self.transmit(t, frame_id, dest, options, payload.to_vec(), frame_bytes);
     }
 
-    fn transmit(&mut self, t: u64, frame_id: u8, dest: Address, options: u8, payload: Vec<u8>) {
+    /// Hands a packet to the MAC; `serial_bytes` of the serial receive buffer stay taken until
+    /// the MAC is done with it.
+    fn transmit(
+        &mut self,
+        t: u64,
+        frame_id: u8,
+        dest: Address,
+        options: u8,
+        payload: Vec<u8>,
+        serial_bytes: usize,
+    ) {
         if self.associating() {
             // An end device that has not found its coordinator sends nothing.
             self.stats.tx_associating += 1;
@@ -1319,7 +1384,7 @@ impl XBeeCore {
         } else {
             Security::Clear
         };
-        self.mac_request(t, frame_id, dest, options, payload, security);
+        self.mac_request(t, frame_id, dest, options, payload, security, serial_bytes);
     }
 
     /// This radio's address as a packet's source: `MY`, or the 64-bit serial when `MY` is
@@ -1440,7 +1505,12 @@ impl XBeeCore {
     // ---- transparent mode ----
 
     fn transparent_byte(&mut self, t: u64, b: u8) {
+        if self.di_used() >= DI_BUFFER_BYTES {
+            self.stats.di_overflow += 1;
+            return;
+        }
         self.tbuf.push(b);
+        self.note_di_peak();
         if self.tbuf.len() >= self.max_payload() {
             self.flush_transparent();
             return;
@@ -1457,7 +1527,8 @@ impl XBeeCore {
         } else {
             Address::Long(d)
         };
-        self.transmit(self.now, 0, dest, 0, payload);
+        let n = payload.len();
+        self.transmit(self.now, 0, dest, 0, payload, n);
     }
 
     // ---- command mode ----

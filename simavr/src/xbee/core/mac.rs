@@ -107,6 +107,8 @@ struct Outgoing {
     ack_request: bool,
     /// Copies to put on air when it asks for no ACK: 1, or a broadcast's `RR` + 2.
     copies: u8,
+    /// Bytes it takes in the serial receive buffer until the MAC is done with it.
+    serial_bytes: usize,
     /// Transmissions so far.
     sent: u8,
     /// MAC retries since the request or the last XBee retry.
@@ -267,7 +269,14 @@ impl XBeeCore {
         (self.mac.queue.len(), self.mac.current.is_some())
     }
 
+    /// Bytes of the serial receive buffer the TX requests under way and queued take.
+    pub(super) fn mac_serial_bytes(&self) -> usize {
+        let cur = self.mac.current.as_ref().map_or(0, |c| c.serial_bytes);
+        cur + self.mac.queue.iter().map(|o| o.serial_bytes).sum::<usize>()
+    }
+
     /// A TX request at `t`: queued, and started when the radio has finished the ones before.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn mac_request(
         &mut self,
         t: u64,
@@ -276,6 +285,7 @@ impl XBeeCore {
         options: u8,
         payload: Vec<u8>,
         security: Security,
+        serial_bytes: usize,
     ) {
         let digi = matches!(self.active.mm(), 0 | 3);
         let ack_request =
@@ -298,6 +308,7 @@ impl XBeeCore {
             seq,
             ack_request,
             copies,
+            serial_bytes,
             sent: 0,
             mac_retries: 0,
             xbee_retries: 0,
