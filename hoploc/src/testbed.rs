@@ -885,6 +885,7 @@ mod tests {
                 end_cycle: us(start_us + 1500.0),
                 frame_id: 0,
                 mac: MacFields::default(),
+                power_db: 0,
             },
             collided: agent == Some(Outcome::Collided),
             receivers,

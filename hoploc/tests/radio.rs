@@ -226,6 +226,34 @@ fn a_second_hand_radio_shows_each_leftover_and_restore_fixes_them() {
     eprintln!("simulated {:.1} s", port.elapsed_ms() / 1000.0);
 }
 
+/// A radio left in pin sleep (`SM` 1) sleeps on a node's shield, which leaves its sleep pin
+/// high, and no node can bring it up; on a USB adapter, which drives the pin low, it is awake:
+/// read, reported and restored for good.
+#[test]
+fn a_radio_in_pin_sleep_is_awake_on_the_adapter_and_restore_clears_it() {
+    let mut port = ModelPort::radio(XBeeConfig {
+        my: 0x0001,
+        ch: 0x0B,
+        leftovers: vec![(*b"SM", 1)],
+        ..XBeeConfig::api(2)
+    });
+    let mut clock = port.clock();
+    assert!(!port.core().unwrap().is_asleep());
+    let anchor1 = node(Role::Anchor, 1);
+    let reading = read(&mut port, &mut clock, Patience::DEFAULT).expect("found");
+    let report = Report::new(&reading, &anchor1);
+    assert_eq!(differing(&report), ["SM"]);
+    let verdict = report.verdict();
+    assert!(
+        verdict.contains("SM=1: pin sleep: on a node's shield"),
+        "{verdict}"
+    );
+    let restored =
+        restore(&mut port, &mut clock, &anchor1, true, Patience::DEFAULT).expect("restored");
+    assert!(restored.written);
+    assert_eq!(port.core().unwrap().persisted().sm(), 0);
+}
+
 #[test]
 fn restore_brings_a_factory_radio_to_api_mode_and_saves_only_ap_and_bd() {
     let mut port = ModelPort::radio(XBeeConfig::default());

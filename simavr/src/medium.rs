@@ -9,13 +9,17 @@
 //! The level a packet from node `a` has at node `b`, in dBm, is
 //!
 //! ```text
-//! P0 + drift(t) − 10·α·log10(d / d0) + G_a(θ_ab − φ_a) + G_b(θ_ba − φ_b) + F_ab(ch) + S
+//! P0 + PL_a + drift(t) − 10·α·log10(d / d0) + G_a(θ_ab − φ_a) + G_b(θ_ba − φ_b) + F_ab(ch) + S
 //! ```
 //!
 //! * `P0` ([`MediumConfig::p0_dbm`], −40 dBm) at `d0` = 1 m and the path-loss exponent `α`
 //!   ([`MediumConfig::alpha`], 3) are the estimator's log-normal shadowing model
-//!   (`docs/design.md`, section 5). `d` is the distance in metres, at least
-//!   [`MediumConfig::min_distance_m`] (co-located nodes).
+//!   (`docs/design.md`, section 5), for a sender at the factory power level. `d` is the
+//!   distance in metres, at least [`MediumConfig::min_distance_m`] (co-located nodes).
+//! * `PL_a`: the sender's output power relative to the factory power level, carried by each
+//!   packet ([`Transmission::power_db`]: 0 at `PL` 4, −10 dB at an S1's `PL` 0), ACKs
+//!   included. [`Medium::mean_level_dbm`] and [`Medium::level_dbm`] leave it out (they are the
+//!   link's); [`Medium::packet_level_dbm`] adds it.
 //! * `drift(t)`: battery droop lowers the *sender's* TX power linearly in time,
 //!   [`MediumConfig::drift_db_per_min`] for every node plus [`NodeRadio::drift_db_per_min`] of
 //!   the sender, counted from [`MediumConfig::drift_start_ms`] and taken at the packet's start
@@ -62,8 +66,9 @@
 //!
 //! What the medium does *not* decide is left to the receiving radio ([`crate::XBeeCore`]): it
 //! drops packets on another channel than its own, of another PAN or address, encrypted at one
-//! end only, or arriving while it transmits (half duplex) or is in command mode. The medium
-//! carries each packet's [`Security`] to it.
+//! end only, or arriving while it transmits (half duplex), is in command mode, sleeps or looks
+//! for a coordinator, and copies it passed on already. The medium carries each packet's
+//! [`Security`] to it.
 //!
 //! # Randomness
 //!
@@ -177,7 +182,7 @@ impl NodeRadio {
 /// Parameters of the medium (see the module docs for the model).
 #[derive(Clone, Debug, PartialEq)]
 pub struct MediumConfig {
-    /// Level at 1 m, dBm.
+    /// Level at 1 m of a sender at the factory power level (`PL` 4), dBm.
     pub p0_dbm: f64,
     /// Path-loss exponent.
     pub alpha: f64,
@@ -448,6 +453,13 @@ impl Medium {
         level
     }
 
+    /// The level packet `seq` from `from`, `tx`, has at `to`: [`Medium::level_dbm`] on its
+    /// channel at its start, plus its sender's power level ([`Transmission::power_db`]), dBm
+    /// (not rounded).
+    pub fn packet_level_dbm(&self, seq: u64, from: RadioId, to: RadioId, tx: &Transmission) -> f64 {
+        self.level_dbm(seq, from, to, tx.channel, tx.start_cycle) + f64::from(tx.power_db)
+    }
+
     /// A level as the radio reports it: rounded to integer dBm, at most 0.
     pub fn quantise(level_dbm: f64) -> i16 {
         level_dbm.round().clamp(-200.0, 0.0) as i16
@@ -492,7 +504,7 @@ impl Medium {
             .filter(|p| p.from != node && p.tx.channel == channel)
             .filter(|p| p.tx.start_cycle < to && p.tx.end_cycle > from)
             .any(|p| {
-                let level = self.level_dbm(p.seq, p.from, node, channel, p.tx.start_cycle);
+                let level = self.packet_level_dbm(p.seq, p.from, node, &p.tx);
                 Self::quantise(level) >= threshold_dbm
             })
     }
@@ -542,8 +554,7 @@ impl Medium {
             let receptions = (0..self.nodes.len())
                 .filter(|&n| n != p.from && listening(n))
                 .map(|n| {
-                    let rssi_dbm =
-                        Self::quantise(self.level_dbm(p.seq, p.from, n, ch, p.tx.start_cycle));
+                    let rssi_dbm = Self::quantise(self.packet_level_dbm(p.seq, p.from, n, &p.tx));
                     let heard = if rssi_dbm < self.cfg.sensitivity_dbm {
                         Heard::TooWeak
                     } else if collided {
@@ -599,6 +610,7 @@ mod tests {
             end_cycle: start + ms_to_cycles(time_on_air_ms(len)),
             frame_id: 0,
             mac: MacFields::default(),
+            power_db: 0,
         }
     }
 

@@ -125,14 +125,16 @@ impl Default for NetworkConfig {
 pub enum Outcome {
     /// Its radio passed it to the host (an RX frame).
     Delivered,
-    /// Heard, but its radio dropped it: another channel, PAN or address, or encrypted at one
-    /// end only (the two radios' `EE` differ; the receiver counts those apart, in
-    /// [`crate::xbee::XBeeStats::encryption_mismatch`]).
+    /// Heard, but its radio dropped it: another channel, PAN or address, encrypted at one end
+    /// only (the two radios' `EE` differ; the receiver counts those apart, in
+    /// [`crate::xbee::XBeeStats::encryption_mismatch`]), or its receiver was off: asleep,
+    /// looking for a coordinator, switching channel (counted apart too).
     Filtered,
     /// Heard, but its radio lost it: it was transmitting (half duplex) or in command mode.
     Busy,
-    /// Heard and acknowledged, but not passed on: a retry of a packet its radio had passed on
-    /// already (duplicate detection; its ACK had been lost).
+    /// Heard (a unicast: and acknowledged), but not passed on: a copy of a packet its radio had
+    /// passed on already (duplicate detection): a retry whose ACK had been lost, or a repeated
+    /// broadcast's copy (`RR` > 0).
     Duplicate,
     /// Below sensitivity.
     TooWeak,

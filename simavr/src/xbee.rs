@@ -24,31 +24,32 @@
 //!
 //! # What is modelled
 //!
-//! * **Registers** ([`Registers`]): `CH ID DH DL MY RR RN MM NT NO CE SC SD A1 A2 EE PL CA SM ST
-//!   SP DP BD NB RO AP PR IU IT IC IR RP CT GT CC` with the S1 ranges and factory defaults,
-//!   `NI` (≤ 20 printable characters), the write-only AES key `KY` (up to 16 bytes, shorter
-//!   values right-aligned like any hex value; a query answers OK and no value, never the key),
-//!   read-only `SH SL VR HV DB EC EA AI`, and `WR RE AC FR CN`. Queries answer big endian in
-//!   the register's width (`BD` 4 bytes, `CH` 1, `MY` 2…); unknown commands answer status 2
-//!   (invalid command), out-of-range values 3 (invalid parameter; `CH` follows [`Model`]: S1
-//!   0x0B…0x1A, S1 Pro 0x0C…0x17), sets of read-only registers 1 (error). There is an active
-//!   set and a persisted set: `WR` copies active to persisted, a power cycle ([`XBee::reset`])
-//!   or `FR` restores the persisted set, `RE` loads factory defaults into the active set
-//!   (`EE` 0, `KY` 0 among them). Registers without modelled behaviour (sleep, I/O, MAC mode)
-//!   are stored and answered only.
+//! * **Registers** ([`Registers`]): `CH ID DH DL MY RR RN MM NT NO CE SC SD A1 A2 EE PL CA SM ST SP
+//!   DP BD NB RO AP PR IU IT IC IR RP CT GT CC` with the S1 ranges and factory defaults, `NI` (≤ 20
+//!   printable characters), the write-only AES key `KY` (up to 16 bytes, shorter values
+//!   right-aligned like any hex value; a query answers OK and no value, never the key), read-only
+//!   `SH SL VR HV DB EC EA AI`, and `WR RE AC FR CN`. Queries answer big endian in the register's
+//!   width (`BD` 4 bytes, `CH` 1, `MY` 2…); unknown commands answer status 2 (invalid command),
+//!   out-of-range values 3 (invalid parameter; `CH` follows [`Model`]: S1 0x0B…0x1A, S1 Pro
+//!   0x0C…0x17), sets of read-only registers 1 (error). There is an active set and a persisted set:
+//!   `WR` copies active to persisted, a power cycle ([`XBee::reset`]) or `FR` restores the
+//!   persisted set, `RE` loads factory defaults into the active set (`EE` 0, `KY` 0 among them).
+//!   `SM`, `A1`, `PL` and `RR` act as the bullets below say; registers without modelled behaviour
+//!   (the sleep timers `ST SP DP`, `CE`, `A2`, `SC`, `SD`, `NT`, `NO`, I/O, `PR`, `RP`) are stored
+//!   and answered only. `AI` answers 0, or 0x02 while the radio looks for a coordinator (see
+//!   *Association*).
 //! * **API mode** (`AP`=1, 2): frames decoded with [`xbee_api::Decoder`] in the current mode. 0x08
 //!   AT command → 0x88 response with the same frame id ([`XBeeConfig::at_latency_ms`], default 1
 //!   ms, after the frame's end; none for frame id 0; a `CH` set: see *Channel switch*) and the
-//!   change applied at once: `CH`, `AP`
-//!   (the response still goes out in the old mode) and `BD` (the UART switches once the response is
-//!   on the line). 0x09 is checked and answered but applied only with the next 0x08 or `AC`. TX16
-//!   (0x01) / TX64 (0x00) → a TX request for the MAC (see *Channel access* and
-//!   *Acknowledgements*; requests queue behind each other) and, for a frame id ≠ 0, a 0x89 TX
-//!   status when it is decided: 0x00 success, 0x01 no ACK, 0x02 CCA failure. Payloads over 100
-//!   bytes (95 with encryption) are refused: no transmission, no status (counted in
-//!   [`XBeeStats::oversize_tx`]).
-//!   Modem status 0x8A (hardware reset) goes out [`XBeeConfig::power_up_ms`] (default 5 ms) after
-//!   power-up; host bytes before then are lost.
+//!   change applied at once: `CH`, `AP` (the response still goes out in the old mode) and `BD` (the
+//!   UART switches once the response is on the line). 0x09 is checked and answered but applied only
+//!   with the next 0x08 or `AC`. TX16 (0x01) / TX64 (0x00) → a TX request for the MAC (see *Channel
+//!   access* and *Acknowledgements*; requests queue behind each other) and, for a frame id ≠ 0, a
+//!   0x89 TX status when it is decided: 0x00 success, 0x01 no ACK, 0x02 CCA failure. Payloads over
+//!   100 bytes (95 with encryption) are refused: no transmission, no status (counted in
+//!   [`XBeeStats::oversize_tx`]). Frames wait in the serial receive buffer (see *Serial receive
+//!   buffer*). Modem status 0x8A (hardware reset) goes out [`XBeeConfig::power_up_ms`] (default 5
+//!   ms) after power-up; host bytes before then are lost.
 //! * **Transparent mode** (`AP`=0): host bytes are RF payload to `DH:DL`, sent (through the same
 //!   MAC, without status) after `RO` character times of silence or at 100 bytes (95 with
 //!   encryption); received payloads go to the host bare.
@@ -80,11 +81,12 @@
 //!   ([`XBeeStats::rx_switching`]) and a transmit request that reaches it is lost: no packet, no
 //!   status ([`XBeeStats::tx_lost_switching`]).
 //! * **Reception** ([`XBee::deliver`], from a medium [`XBeeCore::receive`]): passed on only if
-//!   powered up, on the packet's channel, same PAN (or broadcast PAN), addressed to `MY`/`SH:SL`
-//!   or broadcast, not overlapping the radio's own transmissions or its turnarounds to transmit
-//!   (half duplex), not in command mode, with the sender's `EE` (see *Encryption*), and not a
-//!   duplicate (see *Acknowledgements*): as RX16 (0x81, 16-bit source) or RX64 (0x80) with the
-//!   RSSI byte and options (0x02 address broadcast, 0x04 PAN broadcast)
+//!   powered up, on the packet's channel, same PAN (or broadcast PAN), addressed to `MY`/`SH:SL` or
+//!   broadcast, awake (see *Sleep*), not looking for a coordinator (see *Association*), not
+//!   switching channel, not overlapping the radio's own transmissions or its turnarounds to
+//!   transmit (half duplex), not in command mode, with the sender's `EE` (see *Encryption*), and
+//!   not a duplicate (see *Acknowledgements*): as RX16 (0x81, 16-bit source) or RX64 (0x80) with
+//!   the RSSI byte and options (0x02 address broadcast, 0x04 PAN broadcast)
 //!   [`XBeeConfig::rx_latency_ms`] after the packet's end; `DB` keeps the RSSI.
 //! * **Channel access** ([`Csma`]): before every transmission (API, transparent mode, each
 //!   retry) IEEE 802.15.4-2003's unslotted CSMA-CA, as the S1 runs it: NB = 0, BE = `RN` (the
@@ -105,29 +107,29 @@
 //!   ([`XBeeCore::set_on_medium`], [`XBeeCore::judge_cca`]); a radio alone finds the channel
 //!   clear. [`Csma::Off`] (the default) skips backoffs and CCAs: every attempt goes on air 0.32
 //!   ms after it starts, whatever is on the channel, the best case.
-//! * **Acknowledgements and retries**: a unicast (destination not 0xFFFF) without TX option
-//!   0x01, from a radio in a MAC mode with ACKs (`MM` 0, the factory Digi mode, or 2), asks for
-//!   an ACK. Its receiver, if it takes the packet (powered, on the channel, in the PAN,
-//!   addressed, the packet neither collided nor too weak nor lost while it transmitted or was in
-//!   command mode, and the same `EE`), acknowledges it a turnaround (192 µs) after its end,
-//!   unless it is transmitting then: a 5-byte frame, 11 bytes on air with the preamble (352 µs,
-//!   [`ACK_AIR_US`]), a packet on the medium like any other (it collides, and it makes other
-//!   radios' CCAs busy), carrying only the sequence number: a radio waiting for an ACK of that
-//!   number on its channel takes it. The sender waits macAckWaitDuration (54 symbols, 864 µs,
-//!   [`ACK_WAIT_US`]) after its packet's end; with the ACK in, status 0x00. Without it the MAC
-//!   tries again (channel access and all, the same sequence number) up to macMaxFrameRetries
-//!   ([`MAX_FRAME_RETRIES`], 3) times, and in the Digi modes that all over again `RR` times (XBee
-//!   retries, 0…6, factory 0; also after a CCA failure): at most 4·(`RR` + 1) transmissions,
-//!   then status 0x01 and `EA` + 1. A broadcast, or a packet asking for no ACK, is sent once:
-//!   status 0x00 when it is off the air (0x02 if the channel access failed). Duplicate
-//!   detection (the Digi header's, `MM` 0 and 3): a receiver acknowledges again a packet with
-//!   the source address and sequence number of the last it passed on from that source, but
-//!   does not pass it on ([`XBeeStats::rx_duplicates`]); strict 802.15.4 (`MM` 2) passes every
-//!   copy on. Sequence numbers start at random at power-up (802.15.4's macDSN), one per TX
-//!   request. Alone (not on a medium) an ideal receiver acknowledges every such packet: its
-//!   ACK ends 544 µs after the packet. `EC` and `EA` answer their counts and reset when set
-//!   (to 0). The medium's log shows every transmission apart, retries ([`MacFields::attempt`])
-//!   and ACKs ([`FrameKind::Ack`]) included.
+//! * **Acknowledgements and retries**: a unicast (destination not 0xFFFF) without TX option 0x01,
+//!   from a radio in a MAC mode with ACKs (`MM` 0, the factory Digi mode, or 2), asks for an ACK.
+//!   Its receiver, if it takes the packet (powered, on the channel, in the PAN, addressed, the
+//!   packet neither collided nor too weak nor lost while it transmitted or was in command mode, and
+//!   the same `EE`), acknowledges it a turnaround (192 µs) after its end, unless it is transmitting
+//!   then: a 5-byte frame, 11 bytes on air with the preamble (352 µs, [`ACK_AIR_US`]), a packet on
+//!   the medium like any other (it collides, and it makes other radios' CCAs busy), carrying only
+//!   the sequence number: a radio waiting for an ACK of that number on its channel takes it. The
+//!   sender waits macAckWaitDuration (54 symbols, 864 µs, [`ACK_WAIT_US`]) after its packet's end;
+//!   with the ACK in, status 0x00. Without it the MAC tries again (channel access and all, the same
+//!   sequence number) up to macMaxFrameRetries ([`MAX_FRAME_RETRIES`], 3) times, and in the Digi
+//!   modes that all over again `RR` times (XBee retries, 0…6, factory 0; also after a CCA failure):
+//!   at most 4·(`RR` + 1) transmissions, then status 0x01 and `EA` + 1. A broadcast, or a packet
+//!   asking for no ACK, is sent once (a broadcast with `RR` > 0: see *Repeated broadcasts*): status
+//!   0x00 when it is off the air (0x02 if the channel access failed). Duplicate detection (the Digi
+//!   header's, `MM` 0 and 3): a receiver acknowledges again a packet with the source address and
+//!   sequence number of the last it passed on from that source, but does not pass it on
+//!   ([`XBeeStats::rx_duplicates`]), and drops a repeated broadcast's copies the same way; strict
+//!   802.15.4 (`MM` 2) passes every copy on. Sequence numbers start at random at power-up
+//!   (802.15.4's macDSN), one per TX request. Alone (not on a medium) an ideal receiver
+//!   acknowledges every such packet: its ACK ends 544 µs after the packet. `EC` and `EA` answer
+//!   their counts and reset when set (to 0). The medium's log shows every transmission apart,
+//!   retries ([`MacFields::attempt`]) and ACKs ([`FrameKind::Ack`]) included.
 //! * **Encryption** (`EE`=1 with the key `KY`; both take effect at once, like `MY`): the S1's
 //!   AES-128 encryption without integrity check (802.15.4 security level 4). A packet sent with
 //!   it carries [`Security::Encrypted`] (the sender's key, serial and frame counter) beside its
@@ -140,21 +142,81 @@
 //!   reproduce; [`XBeeStats::rx_wrong_key`]); the same key, or no encryption at both ends,
 //!   passes it on unchanged. In transparent mode too. A medium delivers with
 //!   [`XBeeCore::deliver_secured`] ([`XBeeCore::deliver`] is a packet sent in the clear).
+//! * **Repeated broadcasts** (`RR` > 0 in the Digi MAC modes, `MM` 0 and 3): Digi's 802.15.4 S1
+//!   product manual, `RR`: "(RR + 2) packets are sent on each broadcast". Each copy goes through
+//!   its own channel access once the one before is off the air (the manual gives no spacing; with
+//!   [`Csma::Off`] a CCA and a turnaround later), with the request's sequence number and
+//!   [`MacFields::attempt`] counting the copies ([`XBeeStats::repeats`]); the TX status follows the
+//!   last copy (0x02 if a channel access fails and no `RR` retry is left). Receivers in a Digi mode
+//!   pass on the first copy they take and drop the others (duplicate detection), but every copy is
+//!   on air: a beacon with `RR` 3 occupies the channel five times as long.
+//! * **Output power** (`PL` 0…4, factory 4; Digi's 802.15.4 S1 product manual, `PL`): the S1 sends
+//!   at −10, −6, −4, −2, 0 dBm, the S1 Pro at 10, 12, 14, 16, 18 dBm ([`Model`],
+//!   [`Model::output_dbm`]). Every packet, ACKs included, carries its power relative to `PL` 4
+//!   ([`Transmission::power_db`], [`Model::power_db`]: down to −10 dB on the S1, −8 dB on the Pro),
+//!   and a medium adds it to the level the packet has at each receiver: what the receiver reports
+//!   as RSSI, whether it is heard at all, and what other radios' CCAs compare with `CA`
+//!   ([`crate::medium`]). A medium's `P0` is the level at full power.
+//! * **Sleep** (`SM`; Digi's 802.15.4 S1 product manual, sleep modes): a sleeping radio's receiver
+//!   is off: it passes on nothing and acknowledges nothing ([`XBeeStats::rx_asleep`],
+//!   [`XBeeCore::is_asleep`]). Cyclic sleep (`SM` 4, and 5 with `SLEEP_RQ` high; the reserved 3
+//!   taken as one) is taken as asleep throughout, the worst case: the manual has a cyclic sleeper
+//!   wake every `SP` to poll a coordinator (none answers in a hoploc network) and sleep again after
+//!   `ST` without transmission or reception (Digi's later 802.15.4 manuals: without serial or RF
+//!   data), which a node's own traffic might well hold off on a real radio. Its host still reaches
+//!   it (the manual has CTS go low at each wake "allowing for communication initiated by the remote
+//!   host"; the model wakes it for every byte): AT commands are answered and TX requests sent, as
+//!   awake. Pin sleep (`SM` 1 hibernate, 2 doze) sleeps while `SLEEP_RQ` (pin 9) is high
+//!   ([`XBeeConfig::sleep_rq`]); the manual: "the module will not respond to either serial or RF
+//!   activity while in pin sleep". The Arduino shields the README names leave the pin unconnected,
+//!   to the radio's pull-up, so on a node such a radio takes no byte from the firmware from
+//!   power-up on ([`XBeeStats::dropped_asleep`]), sends no modem status (the worst case: Digi does
+//!   not say whether it goes out before the radio sleeps) and cannot be brought up at all; on an
+//!   XBee USB adapter, which drives the pin low, it is awake. `SM` 6 (the manual's sleep
+//!   coordinator, kept for older firmware) does not sleep.
+//! * **Association** (`A1` bit 2, auto-associate, on an end device, `CE` 0; Digi's 802.15.4 S1
+//!   product manual, `A1` and `AI`): the radio looks for a coordinator to associate with and, none
+//!   answering in a hoploc network, never associates ([`XBeeCore::is_associating`]): `AI` answers
+//!   0x02 (active scan found no PANs), it passes on nothing it hears
+//!   ([`XBeeStats::rx_associating`]), and a TX request (API or transparent) puts nothing on air and
+//!   gets no status ([`XBeeStats::tx_associating`]): the S1's manual lists no TX status for it
+//!   (later 802.15.4 modules answer 0x22, not joined), and none at all is the worst case for a host
+//!   that waits for one. The other `A1` bits act only with bit 2.
+//! * **Serial receive buffer** ([`DI_BUFFER_BYTES`]: 202 bytes, Digi's 802.15.4 S1 product manual,
+//!   "DI buffer"): it holds the API frame being received (without its escape bytes: the radio
+//!   unescapes as it decodes), every TX request the MAC has not finished with (a request's frame
+//!   stays until its status is decided, the worst case: the manual's data-flow figure puts an RF TX
+//!   buffer of no stated size after it), and transparent-mode data not yet sent. AT command frames
+//!   are taken at once. A byte that finds it full is lost ([`XBeeStats::di_overflow`]), and the
+//!   frame it belonged to with it (a bad frame). The manual's CTS flow control (CTS de-asserted 17
+//!   bytes before the buffer is full) is not modelled: the shields the README names do not connect
+//!   CTS to the Uno. A host that writes frames faster than the radio sends them (the UART at 57600
+//!   fills it slower than a clear channel drains it, so it takes retries or a busy channel) loses
+//!   bytes; a hoploc node writes one TX request per slot and its channel changes, and stays under
+//!   half of it ([`XBeeStats::di_peak`]; tests/testbed.rs checks every node, the agent whose
+//!   unacknowledged reports are retried among them).
 //!
 //! # Not modelled
 //!
 //! Of the MAC: the interframe spacing (SIFS/LIFS) after a frame before the radio's next; a CCA
-//! compares each packet on air with `CA` alone (energies of overlapping packets are not added
-//! up); a CCA failure ends a TX request unless `RR` retries are left (Digi's manuals for later
-//! 802.15.4 modules retry one three more times, and the S1's mentions CCA failure retries in its
-//! Digi mode without saying how many); newer modules' repeated broadcasts with `RR` > 0; the
-//! Digi header's bytes beyond what the best-case figure implies. Also not modelled:
-//! sleep, I/O sampling and remote AT (0x17 frames are counted as unsupported),
-//! association, `ND`/`AS`, non-standard `BD` rates, hardware flow control, framing error flags
-//! on the AVR side (simavr has none: garbage arrives as ordinary bytes). Of encryption: the
-//! cipher itself (a hash stands in for AES, so the garbled bytes are not a real radio's), and,
-//! as on the real S1, which has neither, no integrity check (CCM* MIC) and no frame-counter
-//! replay check.
+//! compares each packet on air with `CA` alone (energies of overlapping packets are not added up);
+//! a CCA failure ends a TX request unless `RR` retries are left (Digi's manuals for later 802.15.4
+//! modules retry one three more times, and the S1's mentions CCA failure retries in its Digi mode
+//! without saying how many); the XBee retries' own timing (Digi's S1 manual, `RR`: a retry when no
+//! ACK came within 200 ms, within a random delay of up to 48 ms; the model starts each at once, as
+//! it does a repeated broadcast's next copy); the Digi header's bytes beyond what the best-case
+//! figure implies. Of sleep: the timers (`SP`, `ST`, `DP`): a cyclic sleeper never wakes to hear,
+//! and sends no polls. Of association: the beacon requests an associating end device's active scans
+//! put on air on the channels of `SC`, a coordinator's (`CE` 1) scans at power-up and the `ID` or
+//! `CH` that `A2` lets it pick (bring-up leaves `CE` and `A2` alone and sets both after; Digi does
+//! not say whether a `CH` set while a coordinator's scan is still under way outlasts it), and
+//! indirect messaging (a coordinator with `SP` ≠ 0 holds unicasts for polling end devices). Also
+//! not modelled: I/O sampling and remote AT (0x17 frames are counted as unsupported), `ND`/`AS`,
+//! non-standard `BD` rates, hardware flow control (CTS, RTS), the serial transmit (DO) buffer's
+//! limit, framing error flags on the AVR side (simavr has none: garbage arrives as ordinary bytes).
+//! Of encryption: the cipher itself (a hash stands in for AES, so the garbled bytes are not a real
+//! radio's), and, as on the real S1, which has neither, no integrity check (CCM* MIC) and no
+//! frame-counter replay check.
 
 pub mod core;
 mod host_port;
@@ -172,8 +234,9 @@ use crate::radio::{LineSplitter, SeenFrame, TextLine};
 pub use self::core::{
     byte_cycles, encode_frame, frame_air_cycles, time_on_air_ms, Address, Cca, Csma, FrameKind,
     MacFields, RxPacket, Security, Transmission, XBeeConfig, XBeeCore, XBeeStats, ACK_AIR_US,
-    ACK_WAIT_US, BACKOFF_PERIOD_US, BIT_TIMES_PER_BYTE, CCA_US, FRAME_OVERHEAD_BYTES, MAX_BE,
-    MAX_CSMA_BACKOFFS, MAX_FRAME_RETRIES, SECURITY_HEADER_BYTES, TURNAROUND_US,
+    ACK_WAIT_US, BACKOFF_PERIOD_US, BIT_TIMES_PER_BYTE, CCA_US, DI_BUFFER_BYTES,
+    FRAME_OVERHEAD_BYTES, MAX_BE, MAX_CSMA_BACKOFFS, MAX_FRAME_RETRIES, SECURITY_HEADER_BYTES,
+    TURNAROUND_US,
 };
 pub use self::host_port::{ModelClock, ModelPort};
 pub use self::regs::{baud_of_bd, Model, Registers, BAUD_RATES, KEY_LEN};

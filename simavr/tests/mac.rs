@@ -8,9 +8,9 @@ use simavr::medium::{Medium, MediumConfig, NodeRadio};
 use simavr::ms_to_cycles;
 use simavr::network::{Network, NetworkConfig, NodeId, NodeSpec, Outcome, TxRecord};
 use simavr::xbee::{
-    encode_frame, frame_air_cycles, time_on_air_ms, Address, Csma, FrameKind, MacFields, Security,
-    Transmission, XBeeConfig, XBeeCore, ACK_AIR_US, ACK_WAIT_US, BACKOFF_PERIOD_US, CCA_US,
-    TURNAROUND_US,
+    encode_frame, frame_air_cycles, time_on_air_ms, Address, Csma, FrameKind, MacFields, Model,
+    Security, Transmission, XBeeConfig, XBeeCore, ACK_AIR_US, ACK_WAIT_US, BACKOFF_PERIOD_US,
+    CCA_US, TURNAROUND_US,
 };
 use xbee_api::{Decoder, Frame, Mode, TxStatus};
 
@@ -135,6 +135,7 @@ fn jam(net: &mut Network, by: NodeId, channel: u8, from: u64, to: u64) {
         end_cycle: to,
         frame_id: 0,
         mac: MacFields::default(),
+        power_db: 0,
     };
     net.medium_mut().transmit(by, tx);
 }
@@ -465,6 +466,94 @@ fn a_broadcast_is_sent_once_without_an_ack() {
     assert_eq!(net.core(s).stats().retries, 0);
 }
 
+/// `RR` > 0 repeats a broadcast (`RR` + 2 copies, Digi's S1 manual): each copy goes through
+/// channel access after the one before, all are on air (as long as five packets), and a
+/// receiver in the factory MAC mode passes the first on and drops the others as duplicates.
+#[test]
+fn a_broadcast_with_rr_is_repeated_and_its_receivers_pass_on_one_copy() {
+    let mut net = network(1);
+    let s = radio(&mut net, 1, [0.0, 0.0], 1, |c| c.rr = 3);
+    let r = radio(&mut net, 2, [2.0, 0.0], 2, |_| {});
+    settle(&mut net, &[s, r]);
+    let request = tx16(&mut net, s, 5, 0xFFFF, 0, b"beacon");
+    net.run_for_ms(30.0);
+    let toa = ms_to_cycles(time_on_air_ms(6));
+    assert_eq!(
+        statuses(&frames(&mut net, s)),
+        [(request + 5 * toa, 5, TxStatus::SUCCESS)],
+        "the status after the fifth copy"
+    );
+    assert_eq!(received(&frames(&mut net, r)), [b"beacon".to_vec()]);
+    let log = net.log();
+    let sent = data_from(log, s);
+    assert_eq!(sent.len(), 5);
+    for (i, x) in sent.iter().enumerate() {
+        assert_eq!(x.tx.mac.attempt as usize, i);
+        assert!(!x.collided);
+        // RN 0 on a clear channel: a CCA and the turnaround after the copy before.
+        let after = if i == 0 {
+            request
+        } else {
+            sent[i - 1].tx.end_cycle
+        };
+        assert_eq!(x.tx.start_cycle, after + us(CCA_US + TURNAROUND_US));
+        let want = if i == 0 {
+            Outcome::Delivered
+        } else {
+            Outcome::Duplicate
+        };
+        assert_eq!(outcome(x, r), Some(want));
+    }
+    assert_eq!(log.len(), 5, "no ACKs");
+    let st = net.core(s).stats();
+    assert_eq!((st.transmissions, st.repeats, st.retries), (5, 4, 0));
+    assert_eq!(net.core(r).stats().rx_duplicates, 4);
+}
+
+/// A radio's power level (`PL`) lowers the level its packets have at every receiver by what
+/// its model's table takes off (an S1's `PL` 0: 10 dB): the RSSI its receivers report, and what
+/// other radios' clear channel assessments compare with `CA`. Its ACKs too.
+#[test]
+fn a_lower_power_level_lowers_the_level_at_every_receiver() {
+    for (pl_s, pl_r, rssi, ack_level, cca_busy) in [(4, 4, 40, -40, true), (0, 2, 50, -44, false)] {
+        let mut net = network(1);
+        let s = radio(&mut net, 1, [0.0, 0.0], 1, |c| {
+            c.leftovers = vec![(*b"PL", pl_s)];
+        });
+        let r = radio(&mut net, 2, [1.0, 0.0], 2, |c| {
+            c.leftovers = vec![(*b"PL", pl_r)];
+        });
+        let c = radio(&mut net, 3, [0.0, 1.0], 3, |_| {});
+        settle(&mut net, &[s, r, c]);
+        // A long unicast from s; c asks to send during it (its CCA: −40 or −50 dBm against −44).
+        let request = tx16(&mut net, s, 1, 2, 0, &[0x55; 100]);
+        net.run_until(request + ms_to_cycles(1.0));
+        tx16(&mut net, c, 2, 0xFFFF, 0, b"x");
+        net.run_for_ms(30.0);
+        let f = frames(&mut net, r);
+        let rx = f
+            .iter()
+            .find_map(|(_, d)| match Frame::parse(d) {
+                Ok(Frame::Rx16 { rssi, .. }) => Some(rssi.raw()),
+                _ => None,
+            })
+            .expect("received");
+        assert_eq!(rx, rssi, "PL {pl_s}");
+        let log = net.log();
+        let data = data_from(log, s)[0];
+        assert_eq!(data.tx.power_db, Model::S1.power_db(pl_s as u8));
+        let at_r = data.receivers.iter().find(|x| x.node == r).unwrap();
+        assert_eq!(at_r.rssi_dbm, -i16::from(rssi));
+        let ack = log
+            .iter()
+            .find(|x| x.tx.mac.kind == FrameKind::Ack)
+            .expect("an ACK");
+        let at_s = ack.receivers.iter().find(|x| x.node == s).unwrap();
+        assert_eq!(at_s.rssi_dbm, ack_level);
+        assert_eq!(net.core(c).stats().cca_busy > 0, cca_busy, "PL {pl_s}");
+    }
+}
+
 /// One trial of two senders 1 m apart (each −40 dBm at the other, over the factory CA of
 /// −44 dBm) whose packets to `dest` (a receiver 1 m from both, address 3, or broadcast) are
 /// requested at the same cycle.
@@ -663,6 +752,7 @@ fn the_ack_goes_a_turnaround_after_the_packet_even_when_the_radio_ran_ahead() {
                 ack_request: true,
                 attempt: 0,
             },
+            power_db: 0,
         };
         core.receive(&tx, -50, Security::Clear);
         core.advance(end + us(2000));

@@ -5,7 +5,7 @@ mod common;
 
 use simavr::xbee::{
     byte_cycles, encode_frame, time_on_air_ms, Address, Csma, FrameKind, Model, ModelClock,
-    ModelPort, RxPacket, Security, XBee, XBeeConfig, XBeeCore, ACK_AIR_US, CCA_US,
+    ModelPort, RxPacket, Security, XBee, XBeeConfig, XBeeCore, ACK_AIR_US, CCA_US, DI_BUFFER_BYTES,
     SECURITY_HEADER_BYTES, TURNAROUND_US,
 };
 use simavr::{ms_to_cycles, Avr, UartByte};
@@ -1417,5 +1417,274 @@ fn a_channel_change_answers_after_the_switch_and_loses_what_comes_before() {
         assert_eq!(f[1][0], 0x81);
         let txs = h.core.take_transmissions();
         assert_eq!((txs.len(), txs[0].channel), (1, 0x0D));
+    }
+}
+
+// ---- settings a previous owner may have left: PL, RR, SM, A1 ----
+
+/// A radio with the registers `leftovers` (as a second-hand radio keeps them), API mode 2.
+fn left_with(leftovers: &[([u8; 2], u32)], tweak: impl FnOnce(&mut XBeeConfig)) -> Host {
+    let mut cfg = XBeeConfig {
+        leftovers: leftovers.to_vec(),
+        ..XBeeConfig::api(2)
+    };
+    tweak(&mut cfg);
+    let mut h = Host::new(cfg);
+    h.take();
+    h
+}
+
+/// A TX16 request of `payload` to `dest` with frame id `id`.
+fn tx16_to(id: u8, dest: u16, payload: &[u8]) -> Vec<u8> {
+    let mut d = vec![0x01, id];
+    d.extend_from_slice(&dest.to_be_bytes());
+    d.push(0x00);
+    d.extend_from_slice(payload);
+    d
+}
+
+/// `PL` sets every packet's output power (Digi's S1 manual: −10, −6, −4, −2, 0 dBm on the S1,
+/// 10…18 dBm on the S1 Pro): each carries its power relative to `PL` 4, data and ACKs alike.
+#[test]
+fn pl_sets_the_power_every_packet_carries_relative_to_pl_4() {
+    for (model, want) in [
+        (Model::S1, [-10, -6, -4, -2, 0]),
+        (Model::S1Pro, [-8, -6, -4, -2, 0]),
+    ] {
+        for (pl, &want) in want.iter().enumerate() {
+            let mut h = left_with(&[(*b"PL", pl as u32)], |c| {
+                c.model = model;
+                c.ch = 0x0C;
+            });
+            h.frame(&tx16(1, b"beacon"), Mode::Escaped);
+            h.run_ms(10.0);
+            let txs = h.core.take_transmissions();
+            assert_eq!(txs.len(), 1);
+            assert_eq!(txs[0].power_db, want, "{model:?} PL {pl}");
+            assert_eq!(model.power_db(pl as u8), want);
+        }
+    }
+    assert_eq!(
+        (Model::S1.output_dbm(0), Model::S1Pro.output_dbm(4)),
+        (-10, 18)
+    );
+    // An ACK goes out at its sender's power level too.
+    let mut sender = left_with(&[], |c| c.my = 1);
+    sender.core.set_on_medium(true);
+    sender.frame(&tx16_to(1, 2, b"report"), Mode::Escaped);
+    sender.run_ms(5.0);
+    let data = sender.core.take_transmissions().remove(0);
+    let mut receiver = left_with(&[(*b"PL", 1)], |c| c.my = 2);
+    receiver.core.receive(&data, -50, Security::Clear);
+    receiver.run_ms(5.0);
+    let ack = receiver.core.take_transmissions().remove(0);
+    assert_eq!(ack.mac.kind, FrameKind::Ack);
+    assert_eq!(ack.power_db, -6);
+}
+
+/// `RR` > 0 repeats every broadcast: `RR` + 2 copies in all (Digi's S1 manual, `RR`), each
+/// with its own channel access after the one before is off the air, the TX status after the
+/// last. Receivers in a Digi MAC mode pass on the first copy they get and drop the others
+/// (duplicate detection); strict 802.15.4 (`MM` 2) sends one copy.
+#[test]
+fn rr_repeats_every_broadcast_and_receivers_pass_on_one_copy() {
+    for (rr, mm, copies) in [(0, 0, 1), (1, 0, 3), (3, 0, 5), (6, 3, 8), (3, 2, 1)] {
+        let mut h = left_with(&[(*b"RR", rr), (*b"MM", mm)], |c| c.my = 7);
+        let end = h.frame(&tx16(9, b"beacon"), Mode::Escaped);
+        h.run_ms(40.0);
+        let txs = h.core.take_transmissions();
+        assert_eq!(txs.len(), copies, "RR {rr} MM {mm}");
+        let air = ms(time_on_air_ms(6)) - lead();
+        for (i, tx) in txs.iter().enumerate() {
+            assert_eq!(tx.mac.attempt as usize, i);
+            assert_eq!(tx.mac.seq, txs[0].mac.seq, "one sequence number");
+            assert!(!tx.mac.ack_request);
+            // Csma::Off: each copy goes on air a CCA and a turnaround after the one before.
+            assert_eq!(tx.start_cycle, end + lead() + i as u64 * (air + lead()));
+        }
+        let out = h.take();
+        assert_eq!(
+            frames(&bytes(&out), Mode::Escaped),
+            [vec![0x89, 9, 0x00]],
+            "one status"
+        );
+        assert_eq!(out[0].cycle, txs.last().unwrap().end_cycle);
+        let st = h.core.stats();
+        assert_eq!(
+            (st.transmissions, st.repeats, st.retries),
+            (copies as u32, copies as u32 - 1, 0)
+        );
+        // A receiver in the factory MAC mode passes one on; in strict 802.15.4 every copy.
+        for (rx_mm, passed) in [(0, 1), (2, copies)] {
+            let mut r = left_with(&[(*b"MM", rx_mm)], |c| c.my = 8);
+            for tx in &txs {
+                r.core.receive(tx, -50, Security::Clear);
+                r.run_to(tx.end_cycle.max(r.t) + ms(0.01));
+            }
+            r.run_ms(5.0);
+            let got = frames(&r.take_bytes(), Mode::Escaped);
+            assert_eq!(got.len(), passed, "RR {rr}, receiver MM {rx_mm}");
+            let dups = r.core.stats().rx_duplicates as usize;
+            assert_eq!(dups, copies - passed);
+            assert!(r.core.take_transmissions().is_empty(), "no ACKs");
+        }
+    }
+    // A unicast is acknowledged: sent once, as before.
+    let mut h = left_with(&[(*b"RR", 3)], |_| {});
+    h.frame(&tx16_to(1, 2, b"report"), Mode::Escaped);
+    h.run_ms(20.0);
+    assert_eq!(h.core.take_transmissions().len(), 1);
+}
+
+/// A broadcast for `h`'s radio: on its channel, in its PAN.
+fn packet_for(h: &Host) -> RxPacket {
+    let r = h.core.registers();
+    RxPacket::broadcast16(r.ch(), r.id(), 0x0042, -50, b"heard")
+}
+
+/// Delivers a packet for `h` and says whether its host got it.
+fn hears(h: &mut Host) -> bool {
+    h.take();
+    let at = h.t + ms(1.0);
+    let p = packet_for(h);
+    h.core.deliver(p, at);
+    h.run_ms(10.0);
+    frames(&h.take_bytes(), Mode::Escaped)
+        .iter()
+        .any(|f| f[0] == 0x81)
+}
+
+/// Sends a broadcast TX request; returns (packets on air, the status frames).
+fn sends(h: &mut Host, id: u8) -> (usize, Vec<Vec<u8>>) {
+    h.take();
+    h.frame(&tx16(id, b"beacon"), Mode::Escaped);
+    h.run_ms(10.0);
+    let f = frames(&h.take_bytes(), Mode::Escaped);
+    let status = f.into_iter().filter(|f| f[0] == 0x89).collect();
+    (h.core.take_transmissions().len(), status)
+}
+
+/// `SM` ≠ 0 (Digi's S1 manual, sleep modes): a sleeping radio's receiver is off. A cyclic
+/// sleeper (`SM` 4, 5; 3 is reserved, taken as one) hears nothing, but its host still talks
+/// to it: AT commands are answered and TX requests sent. In pin sleep (`SM` 1, 2) with
+/// `SLEEP_RQ` high, as an Arduino shield leaves it, the radio takes nothing from its UART
+/// either, not even at power-up; with the pin driven low (a USB adapter) it is awake. `SM` 6,
+/// the sleep coordinator, does not sleep.
+#[test]
+fn a_sleeping_radio_hears_nothing_and_in_pin_sleep_takes_nothing_from_its_host() {
+    for sm in 3..=5 {
+        let mut h = left_with(&[(*b"SM", sm)], |_| {});
+        assert!(h.core.is_asleep());
+        assert!(!hears(&mut h), "SM {sm}");
+        assert_eq!(h.core.stats().rx_asleep, 1);
+        assert_eq!(sends(&mut h, 3), (1, vec![vec![0x89, 3, 0x00]]), "SM {sm}");
+        assert_eq!(
+            at(&mut h, Mode::Escaped, 4, b"SM", &[]),
+            [0x88, 4, b'S', b'M', 0, sm as u8]
+        );
+        // Sleep off: it hears again.
+        assert_eq!(
+            at(&mut h, Mode::Escaped, 5, b"SM", &[0]),
+            [0x88, 5, b'S', b'M', 0]
+        );
+        assert!(hears(&mut h));
+    }
+    for sm in [1, 2] {
+        // Pin sleep on a shield: nothing from the radio, not even its modem status.
+        let mut core = XBeeCore::new(XBeeConfig {
+            leftovers: vec![(*b"SM", sm)],
+            ..XBeeConfig::api(2)
+        });
+        core.set_host_baud(57_600);
+        core.advance(ms(10.0));
+        assert!(core.take_output().is_empty(), "SM {sm}: no modem status");
+        let query = encode_frame(&[0x08, 0x01, b'S', b'M'], Mode::Escaped);
+        core.rx_bytes(ms(10.0), &query);
+        core.deliver(RxPacket::broadcast16(0x0C, 0x3332, 1, -50, b"x"), ms(20.0));
+        core.advance(ms(40.0));
+        assert!(
+            core.take_output().is_empty(),
+            "SM {sm}: no answer, nothing heard"
+        );
+        let st = core.stats();
+        assert_eq!((st.dropped_asleep, st.rx_asleep), (query.len() as u32, 1));
+        // On an adapter that drives SLEEP_RQ low: awake.
+        let mut h = left_with(&[(*b"SM", sm)], |c| c.sleep_rq = false);
+        assert!(!h.core.is_asleep());
+        assert!(hears(&mut h));
+        assert_eq!(
+            at(&mut h, Mode::Escaped, 2, b"SM", &[]),
+            [0x88, 2, b'S', b'M', 0, sm as u8]
+        );
+    }
+    let mut h = left_with(&[(*b"SM", 6)], |_| {});
+    assert!(hears(&mut h), "the sleep coordinator is awake");
+}
+
+/// `A1` bit 2 (Digi's S1 manual, end device association): an end device looks for a
+/// coordinator to associate with and, none answering in a hoploc network, never finds one:
+/// `AI` answers 0x02 (active scan found no PANs), it passes on nothing it hears, and a TX
+/// request puts nothing on air and gets no status (Digi's S1 manual gives none for it; the
+/// worst case). A coordinator (`CE` 1) does not associate.
+#[test]
+fn an_end_device_looking_for_a_coordinator_neither_sends_nor_passes_on() {
+    let mut h = left_with(&[(*b"A1", 4)], |_| {});
+    assert!(h.core.is_associating());
+    assert_eq!(
+        at(&mut h, Mode::Escaped, 1, b"AI", &[]),
+        [0x88, 1, b'A', b'I', 0, 0x02]
+    );
+    assert_eq!(sends(&mut h, 2), (0, vec![]), "no packet, no status");
+    assert!(!hears(&mut h));
+    let st = h.core.stats();
+    assert_eq!((st.tx_associating, st.rx_associating), (1, 1));
+    // The other bits alone do nothing.
+    at(&mut h, Mode::Escaped, 3, b"A1", &[0x0B]);
+    assert_eq!(
+        at(&mut h, Mode::Escaped, 4, b"AI", &[]),
+        [0x88, 4, b'A', b'I', 0, 0]
+    );
+    assert_eq!(sends(&mut h, 5), (1, vec![vec![0x89, 5, 0x00]]));
+    assert!(hears(&mut h));
+    let mut coordinator = left_with(&[(*b"A1", 4), (*b"CE", 1)], |_| {});
+    assert!(!coordinator.core.is_associating());
+    assert_eq!(sends(&mut coordinator, 6), (1, vec![vec![0x89, 6, 0x00]]));
+}
+
+/// The S1's serial receive buffer holds [`DI_BUFFER_BYTES`] (Digi's S1 manual) of frames the
+/// radio has not finished with; without flow control what comes beyond is lost. A radio that
+/// retries a unicast nobody acknowledges (`RR` 2: twelve transmissions) still holds its frame
+/// when the host writes the next one: that frame's tail beyond the buffer is lost, and the
+/// frame with it. The same frames once the first is done go through.
+#[test]
+fn a_host_that_writes_faster_than_the_radio_sends_loses_what_overflows_its_buffer() {
+    assert_eq!(DI_BUFFER_BYTES, 202);
+    let big = |id| tx16_to(id, 2, &[0x55; 100]);
+    assert_eq!(encode_frame(&big(1), Mode::Escaped).len(), 109);
+    for back_to_back in [true, false] {
+        let mut h = left_with(&[(*b"RR", 2)], |_| {});
+        // On a medium that carries no ACK: every transmission waits in vain.
+        h.core.set_on_medium(true);
+        h.frame(&big(1), Mode::Escaped);
+        if !back_to_back {
+            h.run_ms(100.0);
+        }
+        h.frame(&big(2), Mode::Escaped);
+        h.run_ms(100.0);
+        // A third frame once the first is done finds room (the cut one is dropped).
+        h.frame(&big(3), Mode::Escaped);
+        h.run_ms(100.0);
+        let st = h.core.stats();
+        let f = frames(&h.take_bytes(), Mode::Escaped);
+        if back_to_back {
+            assert_eq!(st.di_overflow, 16);
+            assert_eq!((st.frames_ok, st.bad_frames), (2, 1));
+            assert_eq!(f, [vec![0x89, 1, 0x01], vec![0x89, 3, 0x01]]);
+        } else {
+            assert_eq!(st.di_overflow, 0);
+            assert_eq!(st.frames_ok, 3);
+            assert_eq!(f.len(), 3);
+        }
+        assert_eq!(st.transmissions, 12 * f.len() as u32);
     }
 }

@@ -12,6 +12,7 @@ use loc_proto::Role;
 use simavr::cycles_to_ms;
 use simavr::medium::{Medium, MediumConfig, NodeRadio};
 use simavr::network::{Network, NodeSpec, TxRecord};
+use simavr::xbee::DI_BUFFER_BYTES;
 
 const CORNERS: [[i16; 2]; 4] = [[0, 0], [1000, 0], [1000, 1000], [0, 1000]];
 /// Slot timing error allowed between two anchors, ms: the firmware's 1 ms (asserted with
@@ -133,6 +134,19 @@ fn four_anchors_share_one_timeline_and_the_agent_reports_every_superframe() {
                 }
             );
         }
+    }
+    // One frame per slot never fills a radio's serial receive buffer, not even the agent's,
+    // whose unacknowledged reports keep its radio busy with retries while it writes its channel
+    // changes: each stays under half of it.
+    for id in 0..net.len() {
+        let st = net.core(id).stats();
+        eprintln!("node {id}: serial receive buffer peak {} bytes", st.di_peak);
+        assert_eq!(st.di_overflow, 0, "node {id}");
+        assert!(
+            (st.di_peak as usize) < DI_BUFFER_BYTES / 2,
+            "node {id}: {} bytes",
+            st.di_peak
+        );
     }
 }
 

@@ -197,8 +197,8 @@ pub const FACTORY_CCA_THRESHOLD: u8 = 0x2C;
 /// receives, so that a second-hand radio behaves like a new one. `(command, value)`, one byte
 /// each.
 ///
-/// * `RR` 0: no XBee retries on top of the MAC's three (some modules repeat every broadcast
-///   `RR` times, which would put a beacon on air into the next slot).
+/// * `RR` 0: no XBee retries on top of the MAC's three (with `RR` > 0 Digi's S1 manual has
+///   every broadcast sent `RR` + 2 times, which would keep a beacon on air into the next slot).
 /// * `MM` 0: Digi's MAC mode, with acknowledgements and duplicate detection (1 and 3 send
 ///   unicasts without ACK, 2 passes duplicates on).
 /// * `SM` 0: no sleep (a sleeping radio hears nothing).

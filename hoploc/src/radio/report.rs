@@ -530,8 +530,9 @@ fn effect(cmd: [u8; 2], v: u32, expected: Expected) -> String {
         }
         b"EE" => "encryption off: it hears none of the network's encrypted packets".to_string(),
         b"RR" => format!(
-            "up to {v} XBee retries on top of the MAC's three (some modules repeat every \
-             broadcast): packets still on air in the next slot"
+            "up to {v} XBee retries on top of the MAC's three, and every broadcast sent {} \
+             times: packets still on air in the next slot",
+            v + 2
         ),
         b"MM" => match v {
             1 | 3 => "no ACKs: the agents' reports are never acknowledged or retried".to_string(),
@@ -539,6 +540,10 @@ fn effect(cmd: [u8; 2], v: u32, expected: Expected) -> String {
                 .to_string(),
             _ => "not a MAC mode the S1 has".to_string(),
         },
+        b"SM" if matches!(v, 1 | 2) => "pin sleep: on a node's shield, which leaves its sleep pin \
+                                        high, the radio sleeps and takes nothing from the node \
+                                        (it cannot be brought up there)"
+            .to_string(),
         b"SM" => "the radio sleeps and hears nothing".to_string(),
         b"A1" => "end-device association: one that associates scans the channels and sends \
                   nothing until a coordinator answers"

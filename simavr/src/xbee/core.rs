@@ -5,7 +5,7 @@
 mod mac;
 
 use xbee_api::{
-    encode_raw, AtStatus, DecodeError, Decoder, Frame, Mode, ModemStatus, Rssi, TxStatus,
+    encode_raw, AtStatus, DecodeError, Decoder, Frame, Mode, ModemStatus, Rssi, TxStatus, ESCAPE,
     MAX_ENCODED, MAX_RF_PAYLOAD, MAX_RF_PAYLOAD_ENCRYPTED, START,
 };
 
@@ -41,6 +41,12 @@ pub fn time_on_air_ms(k: usize) -> f64 {
 }
 
 pub use xbee_api::SECURITY_HEADER_BYTES;
+
+/// The S1's serial receive (DI) buffer, bytes: API frames (or transparent-mode data) from the
+/// host that the radio has not finished with. Digi's 802.15.4 S1 product manual: "send messages
+/// that are smaller than the DI buffer size (202 bytes)"; without CTS flow control (the shields
+/// the README names do not connect CTS) what comes beyond it is lost.
+pub const DI_BUFFER_BYTES: usize = 202;
 
 /// Channel access before each transmission (see the parent module's docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -98,7 +104,8 @@ pub struct XBeeConfig {
     pub rn: u8,
     /// `CA`: the CCA threshold, −dBm (factory 0x2C: −44 dBm).
     pub ca: u8,
-    /// `RR`: XBee retries on top of the MAC's (factory 0).
+    /// `RR`: XBee retries on top of the MAC's, and `RR` + 2 copies of each broadcast when above
+    /// 0 (factory 0).
     pub rr: u8,
     /// `MM`: MAC mode (factory 0: Digi mode, with ACKs and duplicate detection).
     pub mm: u8,
@@ -125,6 +132,11 @@ pub struct XBeeConfig {
     /// Any other registers as a previous owner left them (a second-hand radio): `(command,
     /// value)`, persisted, applied after the fields above.
     pub leftovers: Vec<([u8; 2], u32)>,
+    /// The level of the radio's `SLEEP_RQ` input (pin 9): high (asserted) on an Arduino XBee
+    /// shield, which leaves the pin to the radio's own pull-up (`PR`'s factory value enables
+    /// it), so a radio in a pin sleep mode (`SM` 1, 2) sleeps; low on an XBee USB adapter, whose
+    /// serial chip drives the pin (DTR) low while the port is open.
+    pub sleep_rq: bool,
 }
 
 impl Default for XBeeConfig {
@@ -155,6 +167,7 @@ impl Default for XBeeConfig {
             baud_tolerance: 0.04,
             channel_switch_ms: xbee_api::CHANNEL_SWITCH_US as f64 / 1000.0,
             leftovers: Vec::new(),
+            sleep_rq: true,
         }
     }
 }
@@ -285,6 +298,9 @@ pub struct Transmission {
     pub frame_id: u8,
     /// What the MAC put in it: data or ACK, sequence number, ACK request, which attempt.
     pub mac: MacFields,
+    /// The sender's output power relative to the factory power level (`PL` = 4), dB (≤ 0,
+    /// [`Model::power_db`]): a medium adds it to the level the packet has at each receiver.
+    pub power_db: i8,
 }
 
 impl Transmission {
@@ -376,7 +392,8 @@ pub struct XBeeStats {
     pub oversize_tx: u32,
     /// Data packets put on air (retries included; ACKs apart, in `acks_sent`).
     pub transmissions: u32,
-    /// Transmissions that repeated an unacknowledged packet (MAC and XBee retries).
+    /// Transmissions that repeated an unacknowledged packet (MAC and XBee retries; a repeated
+    /// broadcast's copies are in `repeats`).
     pub retries: u32,
     /// Clear channel assessments that found the channel busy.
     pub cca_busy: u32,
@@ -409,6 +426,24 @@ pub struct XBeeStats {
     /// Transmit requests that reached the radio while it switched channel (lost: nothing sent,
     /// no status).
     pub tx_lost_switching: u32,
+    /// Packets for this radio (its channel, PAN and address) on air while it slept (`SM` 1…5):
+    /// its receiver was off.
+    pub rx_asleep: u32,
+    /// Host bytes lost in pin sleep (`SM` 1, 2 with `SLEEP_RQ` high): the radio takes nothing
+    /// from its UART.
+    pub dropped_asleep: u32,
+    /// Packets for this radio that it did not pass on while it looked for a coordinator to
+    /// associate with (`A1` bit 2 on an end device).
+    pub rx_associating: u32,
+    /// Transmit requests dropped while it looked for a coordinator (no packet, no status).
+    pub tx_associating: u32,
+    /// Repeated copies of a broadcast put on air (`RR` > 0: `RR` + 2 copies in all; also in
+    /// `transmissions`).
+    pub repeats: u32,
+    /// Host bytes lost because the serial receive buffer ([`DI_BUFFER_BYTES`]) was full.
+    pub di_overflow: u32,
+    /// The most bytes the serial receive buffer held.
+    pub di_peak: u32,
 }
 
 #[derive(Debug)]
@@ -454,8 +489,9 @@ struct Arrival {
     /// The cycle it ended: its ACK goes on air a turnaround later, whenever the radio gets to
     /// handle it (a firmware node's radio may have run ahead of the medium by then).
     end: u64,
-    /// Its MAC sequence number.
-    seq: u8,
+    /// Its MAC sequence number (`None`: handed over without a MAC, by
+    /// [`XBeeCore::deliver_secured`]: no ACK, no duplicate detection).
+    seq: Option<u8>,
     /// Whether it asks for an ACK.
     ack_request: bool,
 }
@@ -644,6 +680,8 @@ pub struct XBeeCore {
     mac: MacLayer,
     frames: Vec<SeenFrame>,
     frame_start: u64,
+    /// Bytes of the API frame being received (in the serial receive buffer).
+    frame_bytes: usize,
     tbuf: Vec<u8>,
     rng: u64,
     db: u8,
@@ -697,6 +735,7 @@ impl XBeeCore {
             mac: MacLayer::default(),
             frames: Vec::new(),
             frame_start: at,
+            frame_bytes: 0,
             tbuf: Vec::new(),
             rng,
             db: 0,
@@ -734,6 +773,7 @@ impl XBeeCore {
         self.uart_baud = self.active.baud();
         self.api = Mode::from_ap(self.active.ap());
         self.decoder = Decoder::new(self.api.unwrap_or(Mode::Escaped));
+        self.frame_bytes = 0;
         self.channel = self.active.ch();
         self.garble_in = Garbler::default();
         self.garble_out = Garbler::default();
@@ -751,9 +791,26 @@ impl XBeeCore {
     pub fn registers(&self) -> &Registers {
         &self.active
     }
+    /// The active registers, mutably: a register set as if by the host, without its range
+    /// check and without applying `CH`, `AP` or `BD` (tests: a radio whose settings a firmware
+    /// did not fix).
+    pub fn registers_mut(&mut self) -> &mut Registers {
+        &mut self.active
+    }
     /// The persisted registers (what `WR` wrote; a power cycle restores them).
     pub fn persisted(&self) -> &Registers {
         &self.persisted
+    }
+    /// True while the radio sleeps (`SM` 1…5; 1 and 2 only with `SLEEP_RQ` high, see
+    /// [`XBeeConfig::sleep_rq`]): its receiver is off. In pin sleep (`SM` 1, 2) its UART takes
+    /// nothing either.
+    pub fn is_asleep(&self) -> bool {
+        self.asleep()
+    }
+    /// True while the radio looks for a coordinator to associate with (`A1` bit 2 on an end
+    /// device, `CE` 0): it neither sends nor passes on what it hears.
+    pub fn is_associating(&self) -> bool {
+        self.associating()
     }
     /// The channel the radio is on (applied `CH`).
     pub fn channel(&self) -> u8 {
@@ -853,6 +910,10 @@ impl XBeeCore {
             self.stats.dropped_powering_up += 1;
             return;
         }
+        if self.pin_asleep() {
+            self.stats.dropped_asleep += 1;
+            return;
+        }
         let own = self.uart_byte_cycles();
         let host = self.host_cpb.unwrap_or(own);
         let byte = if self.mismatch(host, own) {
@@ -907,7 +968,7 @@ impl XBeeCore {
             security,
             start: at.saturating_sub(air),
             end: at,
-            seq: 0,
+            seq: None,
             ack_request: false,
         };
         let at = at.max(self.now);
@@ -929,7 +990,7 @@ impl XBeeCore {
                 security,
                 start: tx.start_cycle,
                 end: tx.end_cycle,
-                seq: tx.mac.seq,
+                seq: Some(tx.mac.seq),
                 ack_request: tx.mac.ack_request,
             })),
             FrameKind::Ack => Event::AckIn {
@@ -974,6 +1035,25 @@ impl XBeeCore {
         self.events.push((at.max(self.now), self.seq, ev));
     }
 
+    /// See [`XBeeCore::is_asleep`].
+    fn asleep(&self) -> bool {
+        match self.active.sm() {
+            1 | 2 => self.cfg.sleep_rq,
+            3..=5 => true,
+            _ => false,
+        }
+    }
+
+    /// Pin sleep: `SM` 1 or 2 with `SLEEP_RQ` high.
+    fn pin_asleep(&self) -> bool {
+        matches!(self.active.sm(), 1 | 2) && self.cfg.sleep_rq
+    }
+
+    /// See [`XBeeCore::is_associating`].
+    fn associating(&self) -> bool {
+        self.active.a1() & 0x04 != 0 && self.active.ce() == 0
+    }
+
     fn mismatch(&self, a: u64, b: u64) -> bool {
         (a as f64 / b as f64 - 1.0).abs() > self.cfg.baud_tolerance
     }
@@ -987,7 +1067,7 @@ impl XBeeCore {
             Event::Ready(status) => {
                 self.ready = true;
                 self.last_rx_end = self.now;
-                if self.api.is_some() {
+                if self.api.is_some() && !self.pin_asleep() {
                     let f = self.encode(&Frame::ModemStatus { status });
                     self.send_now(&f);
                 }
@@ -1120,6 +1200,10 @@ impl XBeeCore {
     // ---- API mode ----
 
     fn api_byte(&mut self, t: u64, b: u8, own: u64) {
+        if self.di_used() >= DI_BUFFER_BYTES {
+            self.stats.di_overflow += 1;
+            return;
+        }
         let was_in_frame = self.decoder.in_frame();
         if !was_in_frame && b != START {
             self.stats.foreign_bytes += 1;
@@ -1137,11 +1221,19 @@ impl XBeeCore {
                 Err(DecodeError::Garbage { .. }) => {}
             }
         }
-        if b == START
-            && self.decoder.in_frame()
-            && (!was_in_frame || self.api == Some(Mode::Escaped))
-        {
+        let escaped = self.api == Some(Mode::Escaped);
+        let started = b == START && self.decoder.in_frame() && (!was_in_frame || escaped);
+        if started {
             self.frame_start = t.saturating_sub(own);
+            self.frame_bytes = 0;
+        }
+        // The buffer holds a frame's bytes as the radio decodes them: without escape bytes.
+        if (was_in_frame || started) && !(escaped && b == ESCAPE) {
+            self.frame_bytes += 1;
+            self.note_di_peak();
+        }
+        if !self.decoder.in_frame() {
+            self.frame_bytes = 0;
         }
         for data in frames {
             self.stats.frames_ok += 1;
@@ -1154,7 +1246,20 @@ impl XBeeCore {
         }
     }
 
+    /// Bytes taken in the serial receive buffer: the frame being received, transparent-mode
+    /// data not yet packetized, and the TX requests the MAC has not finished with.
+    fn di_used(&self) -> usize {
+        self.frame_bytes + self.tbuf.len() + self.mac_serial_bytes()
+    }
+
+    fn note_di_peak(&mut self) {
+        let used = self.di_used() as u32;
+        self.stats.di_peak = self.stats.di_peak.max(used);
+    }
+
     fn api_frame(&mut self, t: u64, data: &[u8]) {
+        // Delimiter, length and checksum around the frame data.
+        let frame_bytes = data.len() + 4;
         match Frame::parse(data) {
             Ok(Frame::AtCommand {
                 frame_id,
@@ -1171,13 +1276,20 @@ impl XBeeCore {
                 dest,
                 options,
                 data,
-            }) => self.api_tx(t, frame_id, Address::Short(dest), options, data),
+            }) => self.api_tx(
+                t,
+                frame_id,
+                Address::Short(dest),
+                options,
+                data,
+                frame_bytes,
+            ),
             Ok(Frame::Tx64 {
                 frame_id,
                 dest,
                 options,
                 data,
-            }) => self.api_tx(t, frame_id, Address::Long(dest), options, data),
+            }) => self.api_tx(t, frame_id, Address::Long(dest), options, data, frame_bytes),
             _ => self.stats.unsupported_frames += 1,
         }
     }
@@ -1224,7 +1336,16 @@ impl XBeeCore {
         }
     }
 
-    fn api_tx(&mut self, t: u64, frame_id: u8, dest: Address, options: u8, payload: &[u8]) {
+    /// A TX request frame of `frame_bytes` bytes (its size in the serial receive buffer).
+    fn api_tx(
+        &mut self,
+        t: u64,
+        frame_id: u8,
+        dest: Address,
+        options: u8,
+        payload: &[u8],
+        frame_bytes: usize,
+    ) {
         if t < self.switching_until {
             self.stats.tx_lost_switching += 1;
             return;
@@ -1233,10 +1354,25 @@ impl XBeeCore {
             self.stats.oversize_tx += 1;
             return;
         }
-        self.transmit(t, frame_id, dest, options, payload.to_vec());
+        self.transmit(t, frame_id, dest, options, payload.to_vec(), frame_bytes);
     }
 
-    fn transmit(&mut self, t: u64, frame_id: u8, dest: Address, options: u8, payload: Vec<u8>) {
+    /// Hands a packet to the MAC; `serial_bytes` of the serial receive buffer stay taken until
+    /// the MAC is done with it.
+    fn transmit(
+        &mut self,
+        t: u64,
+        frame_id: u8,
+        dest: Address,
+        options: u8,
+        payload: Vec<u8>,
+        serial_bytes: usize,
+    ) {
+        if self.associating() {
+            // An end device that has not found its coordinator sends nothing.
+            self.stats.tx_associating += 1;
+            return;
+        }
         let security = if self.active.ee() {
             let counter = self.frame_counter;
             self.frame_counter = counter.wrapping_add(1);
@@ -1248,7 +1384,7 @@ impl XBeeCore {
         } else {
             Security::Clear
         };
-        self.mac_request(t, frame_id, dest, options, payload, security);
+        self.mac_request(t, frame_id, dest, options, payload, security, serial_bytes);
     }
 
     /// This radio's address as a packet's source: `MY`, or the 64-bit serial when `MY` is
@@ -1290,6 +1426,14 @@ impl XBeeCore {
             self.stats.rx_filtered += 1;
             return;
         }
+        if self.asleep() {
+            self.stats.rx_asleep += 1;
+            return;
+        }
+        if self.associating() {
+            self.stats.rx_associating += 1;
+            return;
+        }
         if start < self.switching_until {
             self.stats.rx_switching += 1;
             return;
@@ -1320,9 +1464,13 @@ impl XBeeCore {
                 return;
             }
         }
-        if ack_request && !p.dest.is_broadcast() {
-            self.send_ack(p.source, seq, end);
-            if self.duplicate(p.source, seq) {
+        if let Some(seq) = seq {
+            let broadcast = p.dest.is_broadcast();
+            if ack_request && !broadcast {
+                self.send_ack(p.source, seq, end);
+            }
+            // A retry of an acknowledged unicast whose ACK was lost, or a repeated broadcast.
+            if (ack_request || broadcast) && self.duplicate(p.source, seq) {
                 self.stats.rx_duplicates += 1;
                 return;
             }
@@ -1357,7 +1505,12 @@ impl XBeeCore {
     // ---- transparent mode ----
 
     fn transparent_byte(&mut self, t: u64, b: u8) {
+        if self.di_used() >= DI_BUFFER_BYTES {
+            self.stats.di_overflow += 1;
+            return;
+        }
         self.tbuf.push(b);
+        self.note_di_peak();
         if self.tbuf.len() >= self.max_payload() {
             self.flush_transparent();
             return;
@@ -1374,7 +1527,8 @@ impl XBeeCore {
         } else {
             Address::Long(d)
         };
-        self.transmit(self.now, 0, dest, 0, payload);
+        let n = payload.len();
+        self.transmit(self.now, 0, dest, 0, payload, n);
     }
 
     // ---- command mode ----
@@ -1505,6 +1659,8 @@ impl XBeeCore {
             b"DB" => u64::from(self.db),
             b"EC" => u64::from(self.mac.ec),
             b"EA" => u64::from(self.mac.ea),
+            // Active scan found no PANs: no coordinator answers in a hoploc network.
+            b"AI" if self.associating() => 0x02,
             _ => 0,
         };
         Ok(AtValue::Num(v, width))

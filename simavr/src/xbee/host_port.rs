@@ -87,8 +87,13 @@ impl ModelPort {
     }
 
     /// A port on a modelled radio that starts as `cfg` says, powered up a while ago (what it
-    /// sent at power-up is gone).
+    /// sent at power-up is gone). The radio sits on a USB adapter: its `SLEEP_RQ` is driven
+    /// low, so a radio in pin sleep is awake ([`XBeeConfig::sleep_rq`]).
     pub fn radio(cfg: XBeeConfig) -> ModelPort {
+        let cfg = XBeeConfig {
+            sleep_rq: false,
+            ..cfg
+        };
         let port = ModelPort::with(Peer::Radio(Box::new(XBeeCore::new(cfg))));
         port.power_cycle();
         port

@@ -21,6 +21,23 @@ impl Model {
             Model::S1Pro => 0x0C..=0x17,
         }
     }
+
+    /// The output power at power level `PL` (0…4, higher values taken as 4), dBm: the S1's
+    /// −10, −6, −4, −2, 0 dBm, the S1 Pro's 10, 12, 14, 16, 18 dBm (Digi's 802.15.4 S1 product
+    /// manual, `PL` command).
+    pub fn output_dbm(self, pl: u8) -> i8 {
+        let table = match self {
+            Model::S1 => [-10, -6, -4, -2, 0],
+            Model::S1Pro => [10, 12, 14, 16, 18],
+        };
+        table[usize::from(pl.min(4))]
+    }
+
+    /// The output power at power level `PL` relative to the factory `PL` = 4, dB (≤ 0): what a
+    /// lower level takes off every packet's level at its receivers.
+    pub fn power_db(self, pl: u8) -> i8 {
+        self.output_dbm(pl) - self.output_dbm(4)
+    }
 }
 
 /// The rates the S1's UART really runs at for `BD` 0…7 (bit/s): `BD=7`, named 115200, is
@@ -86,7 +103,7 @@ pub(crate) const REGISTERS: &[Spec] = &[
     // RF interfacing.
     s(b"PL", 1, 0, 4, 4),
     s(b"CA", 1, 0x24, 0x50, 0x2C),
-    // Sleep (accepted and stored, not modelled).
+    // Sleep (`SM` acts, see the module docs; the timers are stored only).
     s(b"SM", 1, 0, 6, 0),
     s(b"ST", 2, 1, 0xFFFF, 0x1388),
     s(b"SP", 2, 0, 0x68B0, 0),
@@ -246,7 +263,8 @@ impl Registers {
     pub fn rn(&self) -> u8 {
         self.num(b"RN") as u8
     }
-    /// `RR`: XBee retries of an unacknowledged unicast, on top of the MAC's three, 0…6.
+    /// `RR`: XBee retries of an unacknowledged unicast, on top of the MAC's three, 0…6; above 0
+    /// every broadcast goes out `RR` + 2 times.
     pub fn rr(&self) -> u8 {
         self.num(b"RR") as u8
     }
@@ -257,6 +275,19 @@ impl Registers {
     /// `CE`: coordinator enable.
     pub fn ce(&self) -> u8 {
         self.num(b"CE") as u8
+    }
+    /// `A1`: end-device association options (bit 2: associate with a coordinator).
+    pub fn a1(&self) -> u8 {
+        self.num(b"A1") as u8
+    }
+    /// `SM`: sleep mode (0 no sleep, 1 pin hibernate, 2 pin doze, 3 reserved, 4 cyclic sleep
+    /// remote, 5 cyclic sleep remote with pin wake-up, 6 sleep coordinator).
+    pub fn sm(&self) -> u8 {
+        self.num(b"SM") as u8
+    }
+    /// `PL`: power level, 0…4 (see [`Model::output_dbm`]).
+    pub fn pl(&self) -> u8 {
+        self.num(b"PL") as u8
     }
     /// `EE`: AES encryption enabled.
     pub fn ee(&self) -> bool {

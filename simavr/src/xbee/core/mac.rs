@@ -78,7 +78,8 @@ pub struct MacFields {
     /// The frame asks for an ACK: a unicast without TX option 0x01, from a radio in a MAC mode
     /// with ACKs (`MM` 0 or 2).
     pub ack_request: bool,
-    /// Which transmission of its TX request it is: 0 the first, n its n-th retry.
+    /// Which transmission of its TX request it is: 0 the first, n its n-th retry (or, for a
+    /// broadcast with `RR` > 0, its n-th repeated copy).
     pub attempt: u8,
 }
 
@@ -104,6 +105,10 @@ struct Outgoing {
     security: Security,
     seq: u8,
     ack_request: bool,
+    /// Copies to put on air when it asks for no ACK: 1, or a broadcast's `RR` + 2.
+    copies: u8,
+    /// Bytes it takes in the serial receive buffer until the MAC is done with it.
+    serial_bytes: usize,
     /// Transmissions so far.
     sent: u8,
     /// MAC retries since the request or the last XBee retry.
@@ -264,7 +269,14 @@ impl XBeeCore {
         (self.mac.queue.len(), self.mac.current.is_some())
     }
 
+    /// Bytes of the serial receive buffer the TX requests under way and queued take.
+    pub(super) fn mac_serial_bytes(&self) -> usize {
+        let cur = self.mac.current.as_ref().map_or(0, |c| c.serial_bytes);
+        cur + self.mac.queue.iter().map(|o| o.serial_bytes).sum::<usize>()
+    }
+
     /// A TX request at `t`: queued, and started when the radio has finished the ones before.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn mac_request(
         &mut self,
         t: u64,
@@ -273,9 +285,18 @@ impl XBeeCore {
         options: u8,
         payload: Vec<u8>,
         security: Security,
+        serial_bytes: usize,
     ) {
+        let digi = matches!(self.active.mm(), 0 | 3);
         let ack_request =
             !dest.is_broadcast() && options & 0x01 == 0 && !matches!(self.active.mm(), 1 | 3);
+        // Digi's S1 manual (`RR`): with `RR` > 0, `RR` + 2 packets go out on each broadcast.
+        let rr = self.active.rr();
+        let copies = if dest.is_broadcast() && digi && rr > 0 {
+            rr + 2
+        } else {
+            1
+        };
         let seq = self.mac.dsn;
         self.mac.dsn = seq.wrapping_add(1);
         self.mac.queue.push_back(Outgoing {
@@ -286,6 +307,8 @@ impl XBeeCore {
             security,
             seq,
             ack_request,
+            copies,
+            serial_bytes,
             sent: 0,
             mac_retries: 0,
             xbee_retries: 0,
@@ -302,9 +325,16 @@ impl XBeeCore {
         let now = self.now;
         match timer {
             MacTimer::TxEnd => {
-                let ack = self.mac.current.as_ref().is_some_and(|c| c.ack_request);
-                if !ack {
-                    self.complete(now, TxStatus::SUCCESS);
+                let Some(cur) = self.mac.current.as_ref() else {
+                    return;
+                };
+                if !cur.ack_request {
+                    if cur.sent < cur.copies {
+                        // The next copy of a repeated broadcast: channel access and all.
+                        self.begin_attempt(now);
+                    } else {
+                        self.complete(now, TxStatus::SUCCESS);
+                    }
                     return;
                 }
                 let deadline = now + cycles(ACK_WAIT_US);
@@ -368,6 +398,7 @@ impl XBeeCore {
                 ack_request: false,
                 attempt: 0,
             },
+            power_db: self.cfg.model.power_db(self.active.pl()),
         });
         self.securities.push(Security::Clear);
         self.stats.acks_sent += 1;
@@ -442,6 +473,7 @@ impl XBeeCore {
     fn go_on_air(&mut self, start: u64, channel: u8) {
         let source = self.source_address();
         let pan_id = self.active.id();
+        let power_db = self.cfg.model.power_db(self.active.pl());
         let Some(cur) = self.mac.current.as_mut() else {
             return;
         };
@@ -465,10 +497,15 @@ impl XBeeCore {
                 ack_request: cur.ack_request,
                 attempt,
             },
+            power_db,
         };
         let security = cur.security;
         if attempt > 0 {
-            self.stats.retries += 1;
+            if cur.ack_request {
+                self.stats.retries += 1;
+            } else {
+                self.stats.repeats += 1;
+            }
         }
         self.note_on_air(start - cycles(TURNAROUND_US), end);
         self.transmissions.push(tx);
