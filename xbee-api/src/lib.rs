@@ -18,6 +18,7 @@ mod decode;
 pub mod driver;
 mod encode;
 mod frame;
+pub mod serial;
 
 pub use decode::{AtResponse, DecodeError, Decoder, DecoderStats, PushError, RawFrame, Rx16};
 pub use encode::{encode_raw, encoded_len, EncodeError};
