@@ -71,7 +71,7 @@
 //! | serial port | traits | how |
 //! |---|---|---|
 //! | hoploc's `uno_board` `Serial` (ATmega328P USART0, interrupt-driven receive ring) | `embedded-hal-nb` 1.0 | directly: hoploc's node firmwares, tested in simavr |
-//! | avr-hal's `arduino_hal::Usart` (avr-hal at commit `e5c8f37`, 2026-01; avr-device 0.8.1) | `embedded-hal` 0.2 | through `Eh02` + [`WithBaud`](crate::serial::WithBaud): `examples/arduino_uno.rs`, built for `avr-none` with nightly-2026-05-19 |
+//! | avr-hal's `arduino_hal::Usart` (avr-hal at commit `e5c8f37`, 2026-01; avr-device 0.8.1) | `embedded-hal` 0.2 | through `Eh02` + [`WithBaud`](crate::serial::WithBaud): `examples/arduino_uno.rs`, built against it for `avr-none` with nightly-2026-05-19 and run in simavr on hoploc's modelled S1 (bring-up of a factory-fresh radio found at 9600, then a beacon a second); checked by hand, CI builds the example against the stand-in only |
 //! | embedded-hal-mock 0.11's `eh0::serial::Mock` | `embedded-hal` 0.2 | through `Eh02`: `tests/adapter_eh02.rs` |
 //! | embedded-io 0.6 and 0.7 ports with `ReadReady` and `WriteReady` | `embedded-io` | through `Io06` / `Io07`: `tests/adapter_io.rs`, over a scripted port |
 //!
