@@ -34,7 +34,8 @@
 //! ```
 //!
 //! With the anchor-to-anchor RSSI in [`Measurements::a2a`], [`params::estimate`] fits the model's
-//! `P0` and `α` first (and [`params::OnlineParams`] smooths the fit over time).
+//! `P0` and `α` first (and [`params::OnlineParams`] smooths the fit over time). The crate's
+//! `examples/locate.rs` makes one fix that way, from noisy RSSI on two channels.
 //!
 //! # What is in it
 //!
