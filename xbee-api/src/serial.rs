@@ -145,8 +145,8 @@ mod eh02 {
     ///
     /// The two families have the same non-blocking shape (`nb::Result`, `WouldBlock` when the
     /// port is not ready), so each read and write goes straight through; only the errors are
-    /// wrapped ([`Eh02Error`]). avr-hal's `arduino_hal::Usart` (and its `UsartReader` and
-    /// `UsartWriter` halves' shape) is such a port:
+    /// wrapped ([`Eh02Error`]). The one port must both read and write (the driver owns it
+    /// whole): avr-hal's `arduino_hal::Usart` is such a port, its `split` halves are not.
     ///
     /// ```ignore
     /// let usart = arduino_hal::Usart::new(dp.USART0, pins.d0, pins.d1.into_output(), Baudrate::new(57_600));
