@@ -11,3 +11,5 @@ cargo fw
 scripts/relax-check
 cargo fw-bench
 cargo test --workspace "$@"
+# xbee-api's opt-in serial adapters: the workspace build leaves their features off.
+cargo test -p xbee-api --all-features --test adapter_eh02 --test adapter_io --examples "$@"

@@ -1,8 +1,85 @@
 //! Radio driver: an XBee 802.15.4 radio on a serial port.
 //!
-//! [`Radio`] is generic over the `embedded-hal-nb` 1.0 serial traits ([`Read`] + [`Write`] of
-//! `u8`) and a millisecond [`Clock`], so the hoploc board layer, arduino-hal's `Usart` or a host
-//! serial port all plug in. Bring-up at other baud rates also needs [`SetBaud`].
+//! [`Radio`] needs three things from the firmware around it:
+//!
+//! * **A serial port** implementing the `embedded-hal-nb` 1.0 serial traits, [`Read`] +
+//!   [`Write`] of `u8`: non-blocking, a read that finds nothing or a write the UART cannot take
+//!   yet answers `WouldBlock` at once. A port that implements another trait family goes
+//!   through an adapter of [`crate::serial`]: embedded-hal 0.2 (avr-hal's `arduino_hal::Usart`)
+//!   through `Eh02`, embedded-io 0.6 or 0.7 through `Io06` or `Io07` (each behind a cargo
+//!   feature of the same name, see [`crate::serial`]).
+//! * **A millisecond [`Clock`]**, which bounds every wait.
+//! * **[`SetBaud`]** on the serial port, for [`Radio::bring_up`] only.
+//!
+//! # What to implement
+//!
+//! ## The clock
+//!
+//! [`Clock::now_ms`] returns a free-running count of milliseconds from any origin; it may wrap
+//! at `u32::MAX` (the driver only ever looks at differences). What the driver asks of it:
+//!
+//! * **It advances on its own.** The driver's waits (an AT response, a TX status, the UART
+//!   taking a byte, bring-up's guard times) spin on the clock and the UART, so the count must
+//!   come from a timer interrupt or a free-running hardware counter, not from the main loop.
+//!   A clock that stands still turns a silent radio into a wait that never ends.
+//! * **Milliseconds, finely enough.** A wait ends when `now − start ≥ timeout`, so a clock that
+//!   ticks every `t` ms ends waits up to `t` ms early or late; the shortest wait the driver
+//!   times is [`IDLE_MS`] (20 ms, the gap after which a half-received frame is given up).
+//!   hoploc's boards tick every 1 ms.
+//!
+//! A function is a clock through [`FnClock`], `FnClock(millis)` or `FnClock(|| timer.ms())`; a
+//! timer type can also implement the trait itself, and `&mut C` is a clock if `C` is one.
+//! arduino-hal has no millisecond count: the example below makes one from timer TC0's
+//! compare-match interrupt, as avr-hal's own `uno-millis` example does.
+//!
+//! ## The baud rate
+//!
+//! [`Radio::bring_up`] finds a radio whatever it was left with: it tries the XBee's baud rates
+//! ([`BAUD_RATES`]: 57600 first, then the factory 9600, then the others down to 1200 and up to
+//! 111 111, the S1's real rate for `BD=7`), and leaves the radio at 57600. For that it changes
+//! the host UART's rate through [`SetBaud::set_baud`], which switches the UART to that rate,
+//! 8N1, and is called only once the UART has nothing left to send. A rate the UART cannot reach
+//! closely enough (within about 2 %) may be left unchanged: the radio is then not found at that
+//! rate, only at the others. [`SetBaud::set_bd`] can be overridden with a table of the UART's
+//! divisors per `BD` value where computing a divisor is dear (no 32-bit division on the AVR).
+//!
+//! A HAL's UART type cannot implement this crate's trait in the firmware's crate (Rust's orphan
+//! rule), so [`WithBaud`](crate::serial::WithBaud) adds it from a closure:
+//! `WithBaud::new(port, |port, baud| /* set the divisor */)`.
+//!
+//! A firmware whose radio is already set to API mode 2 at 57600 (with Digi's XCTU, say) can do
+//! without bring-up, and so without [`SetBaud`]: [`Radio::new`], then [`Radio::at_set`] for
+//! the registers it needs (`MY`, `ID`, `CH`).
+//!
+//! # A firmware on arduino-hal
+//!
+//! The crate's `examples/arduino_uno.rs`, below, is a whole firmware for an Arduino Uno on
+//! avr-hal's `arduino-hal`: a millisecond timer, the UART through
+//! `Eh02` (feature `embedded-hal-02`) and [`WithBaud`](crate::serial::WithBaud),
+//! bring-up, a beacon sent every second, and received frames polled. avr-hal is not on
+//! crates.io, so this crate's tests build the example against a host stand-in for the few
+//! arduino-hal and avr-device items it uses (`examples/avr-stand-in/`, same names and trait
+//! shapes: its `Usart` implements the embedded-hal 0.2 serial traits, as arduino-hal's does);
+//! for the Uno, the same file builds against the real crates (see its header).
+//!
+//! ```ignore
+#![doc = include_str!("../examples/arduino_uno.rs")]
+//! ```
+//!
+//! # Serial ports it is known to work with
+//!
+//! | serial port | traits | how |
+//! |---|---|---|
+//! | hoploc's `uno_board` `Serial` (ATmega328P USART0, interrupt-driven receive ring) | `embedded-hal-nb` 1.0 | directly: hoploc's node firmwares, tested in simavr |
+//! | avr-hal's `arduino_hal::Usart` (avr-hal at commit `e5c8f37`, 2026-01; avr-device 0.8.1) | `embedded-hal` 0.2 | through `Eh02` + [`WithBaud`](crate::serial::WithBaud): `examples/arduino_uno.rs`, built against it for `avr-none` with nightly-2026-05-19 and run in simavr on hoploc's modelled S1 (bring-up of a factory-fresh radio found at 9600, then a beacon a second); checked by hand, CI builds the example against the stand-in only |
+//! | embedded-hal-mock 0.11's `eh0::serial::Mock` | `embedded-hal` 0.2 | through `Eh02`: `tests/adapter_eh02.rs` |
+//! | embedded-io 0.6 and 0.7 ports with `ReadReady` and `WriteReady` | `embedded-io` | through `Io06` / `Io07`: `tests/adapter_io.rs`, over a scripted port |
+//!
+//! Other HALs have not been tried. One whose UART implements one of these trait families
+//! (with `ReadReady`/`WriteReady` for embedded-io: without them a read blocks until a byte
+//! comes, which the driver cannot use) plugs in the same way.
+//!
+//! # How it works
 //!
 //! What it does, and why it is shaped this way:
 //!
@@ -29,6 +106,10 @@
 //!   (the crate README has the measured AVR flash of each piece).
 //! * **Typed, distinct errors** ([`Error::code`]) so firmware can blink a code when bring-up
 //!   fails.
+//!
+//! # Example
+//!
+//! Generic over the serial port and the clock, as a library on top of the driver would be:
 //!
 //! ```no_run
 //! use embedded_hal_nb::serial::{Read, Write};
@@ -78,7 +159,9 @@ use crate::{
 };
 
 /// A free-running millisecond clock. It may wrap: the driver only ever compares
-/// `now.wrapping_sub(start)`, so a `u32` tick counter works across its overflow.
+/// `now.wrapping_sub(start)`, so a `u32` tick counter works across its overflow. It must
+/// advance on its own (a timer interrupt or a hardware counter): the driver's waits spin on
+/// it. See [the module docs](self#the-clock).
 pub trait Clock {
     /// Milliseconds since an arbitrary origin.
     fn now_ms(&mut self) -> u32;
@@ -100,9 +183,13 @@ impl<F: FnMut() -> u32> Clock for FnClock<F> {
 }
 
 /// Changes the host UART's baud rate; needed only by [`Radio::bring_up`], which looks for a radio
-/// at several rates. Implement it on the serial type (a newtype around arduino-hal's `Usart`
-/// will do). The driver calls it only after the radio has answered its last command, so the
-/// UART has nothing left to send.
+/// at several rates. The driver calls it only after the radio has answered its last command, so
+/// the UART has nothing left to send.
+///
+/// Implement it on a serial type of the firmware's own; for a HAL's UART type (which the
+/// firmware's crate may not implement this trait for), [`WithBaud`](crate::serial::WithBaud)
+/// adds it from a closure. The adapters of [`crate::serial`] pass it on from what they wrap.
+/// See [the module docs](self#the-baud-rate) for what bring-up asks of it.
 pub trait SetBaud {
     /// Switches the UART to `baud` bit/s, 8N1.
     fn set_baud(&mut self, baud: u32);

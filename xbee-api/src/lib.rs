@@ -1,16 +1,69 @@
-//! XBee 802.15.4 (Series 1) API frame codec and radio driver.
+//! XBee 802.15.4 (Series 1) API frames and a radio driver, for microcontrollers and hosts
+//! alike: `no_std`, no allocation, no `unsafe`, and nothing the radio sends can make it panic.
 //!
-//! * [`Decoder`]: byte-at-a-time, bounded buffer, no allocation, never panics; typed
-//!   [`DecodeError`]s with counters ([`DecoderStats`]); resynchronises without losing the next good
-//!   frame, in both API modes ([`Mode::Api`] = `AP=1`, [`Mode::Escaped`] = `AP=2`).
-//! * [`Frame`]: borrowed, zero-copy views of every 802.15.4 frame type; unknown types come out as
-//!   [`Frame::Unknown`]. [`Frame::encode`] writes a frame into a caller's buffer.
-//! * [`driver`]: a radio driver generic over the `embedded-hal-nb` serial traits and a small
-//!   [`driver::Clock`], with AT commands, channel switching and radio bring-up (optionally with
-//!   AES-128 encryption, [`driver::Encryption`]).
+//! It speaks the API frames of Digi's XBee 802.15.4 modules (the "Series 1": S1 and S1 Pro,
+//! firmware 10xx) in both API modes, `AP=1` and `AP=2`. Frames of other XBee families
+//! (ZigBee, DigiMesh) are not parsed; they come out as [`Frame::Unknown`].
 //!
-//! The crate is `no_std`, has no `unsafe`, and is fuzzed (see the crate README).
+//! # Where to start
+//!
+//! * **Firmware talking to a radio on a UART:** [`driver::Radio`]. It needs a serial port
+//!   (the `embedded-hal-nb` 1.0 serial traits, or another trait family through an adapter of
+//!   [`serial`]), a millisecond [`driver::Clock`], and [`driver::SetBaud`] for bring-up. The
+//!   [`driver`] module docs say what to implement for each, and show a whole Arduino Uno
+//!   firmware on arduino-hal (`examples/arduino_uno.rs`).
+//! * **Reading frames from bytes** (a host tool, a log, your own driver): [`Decoder`], one byte
+//!   at a time, gives [`RawFrame`]s; [`RawFrame::parse`] gives a typed [`Frame`], and the lean
+//!   views ([`RawFrame::rx16`], [`RawFrame::at_response`], [`RawFrame::tx_status`]) read the
+//!   common ones without the all-types parser.
+//! * **Writing frames:** [`Frame::encode`] into a caller's buffer ([`MAX_ENCODED`] bytes always
+//!   fit), or [`encode_raw`] for frame data built by hand.
+//!
+//! ```
+//! use xbee_api::{Decoder, Frame, Mode};
+//!
+//! // An RX16 frame as the radio sends it in API mode 2: "Hello" from 0x5001 at -41 dBm.
+//! let bytes = [0x7E, 0x00, 0x0A, 0x81, 0x50, 0x01, 0x29, 0x00, 0x48, 0x65, 0x6C, 0x6C, 0x6F, 0x10];
+//! let mut decoder = Decoder::new(Mode::Escaped);
+//! for &b in &bytes {
+//!     decoder.push(b).unwrap();
+//!     while let Some(event) = decoder.poll() {
+//!         let raw = event.unwrap(); // a stream error (bad checksum…) would be an `Err` here
+//!         if let Ok(Frame::Rx16 { source, rssi, data, .. }) = raw.parse() {
+//!             assert_eq!((source, rssi.dbm(), data), (0x5001, -41, &b"Hello"[..]));
+//!         }
+//!     }
+//! }
+//! ```
+//!
+//! # What is in it
+//!
+//! * [`Decoder`]: byte-at-a-time, bounded buffer, typed [`DecodeError`]s with counters
+//!   ([`DecoderStats`]); resynchronises without losing the next good frame, in both API modes
+//!   ([`Mode::Api`] = `AP=1`, [`Mode::Escaped`] = `AP=2`; [`Ap2`] fixes mode 2 at compile time).
+//! * [`Frame`]: borrowed, zero-copy views of every 802.15.4 frame type; unknown types come out
+//!   as [`Frame::Unknown`].
+//! * [`driver`]: sends frames, polls received ones, AT commands matched by frame id with
+//!   timeouts, channel switching, and bring-up of a radio found at any baud rate and in any
+//!   mode (optionally with AES-128 encryption, [`driver::Encryption`]). Every wait is bounded by
+//!   the clock; every failure is a distinct [`driver::Error`].
+//! * [`serial`]: adapters from embedded-hal 0.2 and embedded-io serial ports to the driver's.
+//!
+//! # Cargo features
+//!
+//! None is on by default; with none, the crate depends on `embedded-hal-nb`, `nb` and
+//! `heapless` only, and the adapters cost nothing.
+//!
+//! | feature | adds |
+//! |---|---|
+//! | `embedded-hal-02` | `serial::Eh02`: an `embedded-hal` 0.2 serial port (avr-hal's `arduino_hal::Usart`, for one) for the driver |
+//! | `embedded-io-06` | `serial::Io06`: an `embedded-io` 0.6 port with `ReadReady` and `WriteReady` |
+//! | `embedded-io-07` | `serial::Io07`: the same for `embedded-io` 0.7 |
+//!
+//! The crate is tested against the worked examples of Digi's manuals and against Digi's own
+//! Python library, property-tested and fuzzed (see the README).
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -18,6 +71,7 @@ mod decode;
 pub mod driver;
 mod encode;
 mod frame;
+pub mod serial;
 
 pub use decode::{AtResponse, DecodeError, Decoder, DecoderStats, PushError, RawFrame, Rx16};
 pub use encode::{encode_raw, encoded_len, EncodeError};
