@@ -278,7 +278,7 @@ fn a_device_sending_reports_does_not_crowd_out_the_agent() {
     );
 }
 
-/// A jammer on the sink channel (a radio of another PAN sending 100-byte broadcasts back to
+/// A jammer on the sink channel (a radio of another PAN sending 90-byte broadcasts back to
 /// back without carrier sense) for three seconds: the agent's radio finds the channel busy or
 /// gets no ACK, its reports fail, and it says so in the next report that gets through; the
 /// sink's status line counts the failed transmissions (nothing damaged, nothing foreign: the
@@ -292,7 +292,9 @@ fn a_jammed_sink_channel_shows_as_failed_transmissions() {
     // From 4 to 7 s: the sink's first status line (at 10 s of uptime) comes after it.
     let (jam_from, jam_to) = (4.0, 7.0);
     let mut obs = tb.step(jam_from);
-    let noise = [0x55u8; 100];
+    // 90-byte broadcasts: two requests of them fit the jammer radio's serial buffer (the one
+    // on air and the one waiting; 100-byte ones would overflow it).
+    let noise = [0x55u8; 90];
     while tb.time_s() < jam_to {
         // The radio queues one request behind the other: keep one waiting.
         send(&mut tb, jammer, 0xFFFF, &noise);
