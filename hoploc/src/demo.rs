@@ -655,7 +655,7 @@ impl LiveMap {
         }
         for (t, r) in &tb.reports()[self.reports..] {
             let health = self.health.on_report(r);
-            if let Some(e) = self.anchors.on_report(*t, r, &health) {
+            if let Some(e) = self.anchors.on_report(*t, r, &health, &self.health) {
                 self.web.send(&e);
             }
         }

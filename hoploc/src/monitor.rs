@@ -286,7 +286,8 @@ impl Monitor {
                 let report = raw.report().ok();
                 let events = report.map_or(Vec::new(), |r| self.health.on_report(&r));
                 if let (Some(l), Some(r)) = (&mut self.live, report) {
-                    l.events.extend(l.anchors.on_report(l.t, &r, &events));
+                    l.events
+                        .extend(l.anchors.on_report(l.t, &r, &events, &self.health));
                 }
                 if !events.is_empty() {
                     rows.extend(self.flush());

@@ -48,7 +48,7 @@ use serde::Serialize;
 use tokio::sync::watch;
 
 use crate::fixes::{name, FixRow};
-use crate::health::HealthEvent;
+use crate::health::{Health, HealthEvent};
 
 /// The page: HTML, CSS and script in one file, built into the binary.
 pub const PAGE: &str = include_str!("web/page.html");
@@ -585,15 +585,19 @@ struct Heard {
 impl AnchorWatch {
     /// A watch with no report yet.
     pub fn new() -> AnchorWatch {
-        AnchorWatch {
-            health: "no verdict yet".into(),
-            ..AnchorWatch::default()
-        }
+        AnchorWatch::default()
     }
 
-    /// Report `r` at `t`, with what the health check made of it; the [`Event::Anchors`] to
+    /// Report `r` at `t`, with what the health check made of it (`events`, what its
+    /// [`Health::on_report`] returned for `r`, and `check` after it); the [`Event::Anchors`] to
     /// send when something the page shows changed.
-    pub fn on_report(&mut self, t: f64, r: &Report, health: &[HealthEvent]) -> Option<Event> {
+    pub fn on_report(
+        &mut self,
+        t: f64,
+        r: &Report,
+        events: &[HealthEvent],
+        check: &Health,
+    ) -> Option<Event> {
         self.reports += 1;
         let n = (r.anchors as usize).min(loc_core::MAX_ANCHORS);
         let c = r.channels.len().min(loc_core::MAX_CHANNELS);
@@ -620,7 +624,7 @@ impl AnchorWatch {
                 },
             );
         }
-        for e in health {
+        for e in events {
             match e {
                 HealthEvent::Flagged(f) => {
                     self.flags.insert(
@@ -637,13 +641,21 @@ impl AnchorWatch {
                     self.flags.remove(id);
                 }
             }
-            self.health = if self.flags.is_empty() {
-                "no anchor flagged".into()
-            } else {
-                let ids: Vec<String> = self.flags.keys().map(|k| k.to_string()).collect();
-                format!("flagged: anchor {}", ids.join(", "))
-            };
         }
+        let health = if !self.flags.is_empty() {
+            let ids: Vec<String> = self.flags.keys().map(|k| k.to_string()).collect();
+            format!(
+                "anchor {} flagged: its links contradict its position",
+                ids.join(", ")
+            )
+        } else if check.judged() {
+            "no anchor flagged: every anchor's links agree with its position".into()
+        } else {
+            format!(
+                "no verdict yet (it takes {} reports with anchor-to-anchor RSSI, and 4 anchors)",
+                check.config().min_reports
+            )
+        };
         let now: Vec<AnchorState> = self
             .anchors
             .iter()
@@ -670,9 +682,10 @@ impl AnchorWatch {
                 })
                 .collect()
         };
-        if self.sent.as_deref().map(key) == Some(key(&now)) && health.is_empty() {
+        if self.sent.as_deref().map(key) == Some(key(&now)) && health == self.health {
             return None;
         }
+        self.health = health;
         self.sent = Some(now.clone());
         Some(Event::Anchors(Anchors {
             t,
@@ -782,7 +795,8 @@ mod tests {
             r.rssi[1][i] = 70;
         }
         let mut w = AnchorWatch::new();
-        let Some(Event::Anchors(a)) = w.on_report(0.2, &r, &[]) else {
+        let check = Health::default();
+        let Some(Event::Anchors(a)) = w.on_report(0.2, &r, &[], &check) else {
             panic!("the first report's anchors");
         };
         assert_eq!(a.anchors.len(), 4);
@@ -792,13 +806,14 @@ mod tests {
             .iter()
             .all(|a| a.heard && a.rssi_dbm == Some(-65.0)));
         // Nothing changed: nothing sent.
-        assert_eq!(w.on_report(0.4, &r, &[]), None);
+        assert!(a.health.starts_with("no verdict yet"), "{}", a.health);
+        assert_eq!(w.on_report(0.4, &r, &[], &check), None);
         // Anchor 3 goes quiet: greyed after HEARD_REPORTS reports without it.
         r.rssi[0][2] = 0;
         r.rssi[1][2] = 0;
         let mut greyed = None;
         for k in 0..HEARD_REPORTS {
-            if let Some(Event::Anchors(a)) = w.on_report(1.0 + k as f64, &r, &[]) {
+            if let Some(Event::Anchors(a)) = w.on_report(1.0 + k as f64, &r, &[], &check) {
                 greyed = Some((k, a));
             }
         }
@@ -816,11 +831,17 @@ mod tests {
                 score: 40.0,
             },
         };
-        let Some(Event::Anchors(a)) = w.on_report(9.0, &r, &[HealthEvent::Flagged(flag)]) else {
+        let flagged = [HealthEvent::Flagged(flag)];
+        let Some(Event::Anchors(a)) = w.on_report(9.0, &r, &flagged, &check) else {
             panic!("a flag is sent");
         };
         assert_eq!(a.anchors[1].flagged.map(|f| f.offset_m), Some(3.2));
-        assert_eq!(a.health, "flagged: anchor 2");
+        assert!(a.health.starts_with("anchor 2 flagged"), "{}", a.health);
+        let cleared = [HealthEvent::Cleared { id: 2 }];
+        let Some(Event::Anchors(a)) = w.on_report(9.2, &r, &cleared, &check) else {
+            panic!("a cleared flag is sent");
+        };
+        assert!(a.anchors[1].flagged.is_none());
     }
 
     #[test]
