@@ -460,11 +460,7 @@ impl Web {
 
     /// The line a command prints about the page.
     pub fn banner(&self) -> String {
-        let mut s = format!("live map: {} (stops with the run)", self.url());
-        if !self.addr.ip().is_loopback() {
-            s += "; listening beyond this machine: anyone who reaches this address can watch";
-        }
-        s
+        banner(self.addr)
     }
 
     /// Sends `e` to every browser, now and later.
@@ -512,6 +508,15 @@ impl Drop for Web {
             self.end(f64::NAN, "stopped");
         }
     }
+}
+
+/// The line a command prints about a page served on `addr`.
+pub fn banner(addr: SocketAddr) -> String {
+    let mut s = format!("live map: http://{addr}/ (stops with the run)");
+    if !addr.ip().is_loopback() {
+        s += "; listening beyond this machine: anyone who reaches this address can watch";
+    }
+    s
 }
 
 async fn page() -> Response {
@@ -724,6 +729,23 @@ mod tests {
             assert!(!PAGE.contains(far), "the page names {far}");
         }
         assert!(PAGE.contains("new EventSource(\"events\")"));
+    }
+
+    #[test]
+    fn the_banner_warns_when_the_page_reaches_beyond_this_machine() {
+        let local = banner("127.0.0.1:8080".parse().unwrap());
+        assert_eq!(
+            local,
+            "live map: http://127.0.0.1:8080/ (stops with the run)"
+        );
+        assert!(!banner("[::1]:80".parse().unwrap()).contains("beyond"));
+        for far in ["0.0.0.0:8080", "[::]:8080", "192.0.2.7:8080"] {
+            let b = banner(far.parse().unwrap());
+            assert!(
+                b.contains("anyone who reaches this address can watch"),
+                "{b}"
+            );
+        }
     }
 
     #[test]
