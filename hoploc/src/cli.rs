@@ -164,10 +164,12 @@ pub enum Command {
     /// the sink's own fixes next to them. RMSE and bias per truth position and algorithm
     /// (truth from --truth or `# truth X Y` lines in the log), and a plot. Then the anchor
     /// health check: an anchor whose relayed RSSI contradicts its configured position is
-    /// flagged, with where its links place it. Examples:
+    /// flagged, with where its links place it. --web shows every fix of the log, host and sink,
+    /// on the live map (see `hoploc demo --help`), served until Ctrl-C. Examples:
     ///
     ///     hoploc replay sink.log --truth 3.5,3.5
     ///     hoploc replay sink.log --area 7x7 --out-dir replay/
+    ///     hoploc replay sink.log --area 7x7 --web       # the log on the live map, until Ctrl-C
     #[command(verbatim_doc_comment)]
     Replay(replay::Args),
 }

@@ -369,7 +369,7 @@ pub fn run(args: &Args) -> Result<(), String> {
     };
     let speed = args.speed.unwrap_or(if live.is_some() { 1.0 } else { 0.0 });
     if let Some(l) = &live {
-        outln!(out, "  {}", l.web.banner());
+        outln!(out, "  {}", l.web.banner("until the run ends"));
     }
     if speed > 0.0 {
         outln!(out, "  paced: at most {speed}× real time");

@@ -558,7 +558,7 @@ pub fn run(args: &Args) -> Result<(), String> {
             estimators: vec!["MLE", "MMSE"],
             rate: None,
         }));
-        outln!(out, "{} (or Ctrl-C)", w.banner());
+        outln!(out, "{}", w.banner("until the input ends or Ctrl-C"));
         mon = mon.live();
         Some(w)
     } else {

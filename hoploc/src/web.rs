@@ -15,7 +15,7 @@
 //! event of the run so far at once, then each new one as the run publishes it; one that
 //! reconnects with `Last-Event-ID` gets those after it. The run's last event is `end`, after
 //! which the stream closes and the server stops (a client that does not read is given two
-//! seconds).
+//! seconds); `hoploc replay`, whose run is over at once, serves its log until Ctrl-C.
 //!
 //! One data path: the commands publish the records their terminal tables and plots are made
 //! of — `hoploc demo` each [`crate::fixes::FixRow`] as it writes its CSV row, `hoploc monitor`
@@ -333,6 +333,8 @@ struct Hub {
     wake: watch::Sender<usize>,
     /// Ctrl-C was pressed.
     interrupted: AtomicBool,
+    /// The server is to stop.
+    stop: AtomicBool,
 }
 
 impl Hub {
@@ -341,6 +343,7 @@ impl Hub {
             log: Mutex::new(Log::default()),
             wake: watch::Sender::new(0),
             interrupted: AtomicBool::new(false),
+            stop: AtomicBool::new(false),
         }
     }
 
@@ -373,9 +376,15 @@ impl Hub {
         (log.frames[next..].concat(), log.frames.len(), log.ended)
     }
 
-    async fn ended(&self) {
+    /// Tells the server to stop.
+    fn stop(&self) {
+        self.stop.store(true, Ordering::SeqCst);
+        self.wake.send_modify(|_| {});
+    }
+
+    async fn stopping(&self) {
         let mut rx = self.wake.subscribe();
-        while !self.log().ended {
+        while !self.stop.load(Ordering::SeqCst) {
             if rx.changed().await.is_err() {
                 return;
             }
@@ -434,9 +443,9 @@ impl Web {
                     }
                     let end = h.clone();
                     let serve = axum::serve(listener, app)
-                        .with_graceful_shutdown(async move { end.ended().await });
+                        .with_graceful_shutdown(async move { end.stopping().await });
                     let server = tokio::spawn(std::future::IntoFuture::into_future(serve));
-                    h.ended().await;
+                    h.stopping().await;
                     let _ = tokio::time::timeout(DRAIN, server).await;
                 });
             })
@@ -458,9 +467,9 @@ impl Web {
         format!("http://{}/", self.addr)
     }
 
-    /// The line a command prints about the page.
-    pub fn banner(&self) -> String {
-        banner(self.addr)
+    /// The line a command prints about the page, which it serves `until` (words).
+    pub fn banner(&self, until: &str) -> String {
+        banner(self.addr, until)
     }
 
     /// Sends `e` to every browser, now and later.
@@ -487,15 +496,29 @@ impl Web {
     /// rest (at most [`DRAIN`] later).
     pub fn finish(mut self, t: f64, reason: &str) {
         self.end(t, reason);
+        self.stop();
     }
 
-    fn end(&mut self, t: f64, reason: &str) {
-        let fixes = self.fixes();
+    /// Ends the stream with `reason` at `t`, then serves the run as it stands (every browser
+    /// that connects gets all of it) until Ctrl-C (with `catch_ctrl_c`), and stops.
+    pub fn serve_until_interrupted(mut self, t: f64, reason: &str) {
+        self.end(t, reason);
+        while !self.interrupted() {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        self.stop();
+    }
+
+    fn end(&self, t: f64, reason: &str) {
         self.hub.publish(&Event::End(End {
             t,
             reason: reason.to_string(),
-            fixes,
+            fixes: self.fixes(),
         }));
+    }
+
+    fn stop(&mut self) {
+        self.hub.stop();
         if let Some(thread) = self.thread.take() {
             let _ = thread.join();
         }
@@ -506,13 +529,14 @@ impl Drop for Web {
     fn drop(&mut self) {
         if self.thread.is_some() {
             self.end(f64::NAN, "stopped");
+            self.stop();
         }
     }
 }
 
-/// The line a command prints about a page served on `addr`.
-pub fn banner(addr: SocketAddr) -> String {
-    let mut s = format!("live map: http://{addr}/ (stops with the run)");
+/// The line a command prints about a page served on `addr` `until` (words).
+pub fn banner(addr: SocketAddr, until: &str) -> String {
+    let mut s = format!("live map: http://{addr}/ (served {until})");
     if !addr.ip().is_loopback() {
         s += "; listening beyond this machine: anyone who reaches this address can watch";
     }
@@ -733,14 +757,14 @@ mod tests {
 
     #[test]
     fn the_banner_warns_when_the_page_reaches_beyond_this_machine() {
-        let local = banner("127.0.0.1:8080".parse().unwrap());
+        let local = banner("127.0.0.1:8080".parse().unwrap(), "until the run ends");
         assert_eq!(
             local,
-            "live map: http://127.0.0.1:8080/ (stops with the run)"
+            "live map: http://127.0.0.1:8080/ (served until the run ends)"
         );
-        assert!(!banner("[::1]:80".parse().unwrap()).contains("beyond"));
+        assert!(!banner("[::1]:80".parse().unwrap(), "").contains("beyond"));
         for far in ["0.0.0.0:8080", "[::]:8080", "192.0.2.7:8080"] {
-            let b = banner(far.parse().unwrap());
+            let b = banner(far.parse().unwrap(), "until the run ends");
             assert!(
                 b.contains("anyone who reaches this address can watch"),
                 "{b}"

@@ -113,6 +113,7 @@ fn command_line() -> impl Strategy<Value = (Vec<String>, String)> {
         ("monitor", "--web-bind"),
         ("replay", "--truth"),
         ("replay", "--area"),
+        ("replay", "--web-port"),
         ("simulate", "--area"),
         ("simulate", "--anchors"),
         ("simulate", "--runs"),

@@ -604,6 +604,76 @@ fn ctrl_c_ends_monitor_web_as_its_input_would() {
 }
 
 #[test]
+fn replay_serves_its_whole_log_until_ctrl_c() {
+    let dir = tmp("replay");
+    let log = dir.join("sink.log");
+    let mut text = String::from("# truth 3 4\n");
+    text.extend((0..8).map(|seq| sink_lines(seq, seq < 2)));
+    text += &status_line();
+    std::fs::write(&log, text).unwrap();
+    let run = Run::start(
+        &["replay", log.to_str().unwrap(), "--web", "--area", "10x10"],
+        Stdio::null(),
+    );
+    // The log is replayed at once: every client gets all of it, then the end, however late.
+    let first = read_events(&run.addr, |_| {});
+    std::thread::sleep(Duration::from_millis(300));
+    let again = read_events(&run.addr, |_| {});
+    assert_eq!(first, again);
+    let setup = &first[0].data;
+    assert_eq!(
+        (&setup["source"], &setup["clock"]),
+        (&json!("replay"), &json!("log"))
+    );
+    let end = &first.last().unwrap().data;
+    assert_eq!(
+        (&end["reason"], &end["t"]),
+        (&json!("the end of the log"), &json!(8.0))
+    );
+    // Its fixes: the sink's lines, and every host algorithm's per report, each at its report.
+    let fixes = of(&first, "fix");
+    let count = |est: &str| fixes.iter().filter(|f| f["est"] == est).count();
+    assert_eq!(
+        (count("sink MLE"), count("sink MMSE"), count("MLE")),
+        (8, 8, 8)
+    );
+    assert_eq!(end["fixes"], fixes.len());
+    assert!(fixes.iter().all(|f| f["truth"] == json!([3.0, 4.0])));
+    let sink: Vec<f64> = fixes
+        .iter()
+        .filter(|f| f["est"] == "sink MLE")
+        .map(|f| f["t"].as_f64().unwrap())
+        .collect();
+    assert_eq!(sink, (1..=8).map(f64::from).collect::<Vec<_>>());
+    assert_eq!(of(&first, "status").len(), 1);
+    let addr = run.addr.clone();
+    let kill = Command::new("kill")
+        .args(["-INT", &run.child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let (status, stdout) = run.wait(Duration::from_secs(30));
+    assert!(status.success(), "{stdout}");
+    assert!(
+        stdout.contains("8 reports (0 unreadable), 16 sink fix lines"),
+        "{stdout}"
+    );
+    // The table counts the same fixes.
+    for est in ["MLE", "sink MLE"] {
+        let row = stdout
+            .lines()
+            .find(|l| {
+                l.starts_with("(3.00, 4.00)")
+                    && l[13..].trim_start().starts_with(&format!("{est} "))
+            })
+            .unwrap_or_else(|| panic!("no {est} row:\n{stdout}"));
+        assert!(row.split_whitespace().any(|w| w == "8"), "{row}");
+    }
+    assert_stopped(&addr);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn the_live_map_binds_only_what_it_is_told() {
     // A port that is taken is an error with the address, not a panic.
     let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
