@@ -494,18 +494,28 @@ pub fn run(args: &Args) -> Result<(), String> {
             }
         }
     }
+    // A run ended by Ctrl-C (with --web) is shorter than the scenario.
+    let ran = tb.time_s();
+    let mut interrupted = false;
     if let Some(l) = live.take() {
-        let why = if l.web.interrupted() {
+        interrupted = l.web.interrupted();
+        let why = if interrupted {
             "Ctrl-C"
         } else if out.closed() {
             "the output closed"
         } else {
             "the scenario's end"
         };
-        l.web.finish(tb.time_s(), why);
+        l.web.finish(ran, why);
     }
     let wall = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
+    if interrupted {
+        outln!(
+            out,
+            "\nCtrl-C: stopped at {ran:.1} s of {duration:.0} s simulated"
+        );
+    }
     let rows = crate::fixes::rows(&obs);
     let stats = crate::fixes::table(&rows, s.agent.path.len());
     let table = crate::fixes::table_text(&stats, &s);
@@ -513,7 +523,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         .iter()
         .filter(|r| r.estimator == Algo::Mle && r.time_s >= s.timing.warmup_s)
         .count();
-    let counted = duration - s.timing.warmup_s;
+    let counted = (ran - s.timing.warmup_s).max(0.0);
     outln!(
         out,
         "\nRMSE and bias per position and estimator (settled fixes: the superframe after the \
@@ -523,7 +533,11 @@ pub fn run(args: &Args) -> Result<(), String> {
     let mut summary = format!(
         "{reports} reports located in {counted:.1} s after the warm-up: {:.2} fixes/s \
          (the superframe allows {:.2}); {nofix} reports without a fix\n",
-        reports as f64 / counted,
+        if counted > 0.0 {
+            reports as f64 / counted
+        } else {
+            0.0
+        },
         1.0 / sf
     );
     if let Some(c) = tb.host_counters() {
@@ -555,8 +569,8 @@ pub fn run(args: &Args) -> Result<(), String> {
         );
     }
     summary += &format!(
-        "emulation: {duration:.1} s simulated in {wall:.2} s: {:.1}× real time ({} threads)\n",
-        duration / wall,
+        "emulation: {ran:.1} s simulated in {wall:.2} s: {:.1}× real time ({} threads)\n",
+        ran / wall,
         args.threads
     );
     crate::out!(out, "\n{summary}");

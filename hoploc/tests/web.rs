@@ -396,6 +396,67 @@ fn the_event_stream_gives_a_late_client_the_history_and_ends_with_the_run() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+#[test]
+fn ctrl_c_ends_a_demo_with_its_table() {
+    let dir = tmp("demo-ctrl-c");
+    let scenario = short_room10(&dir);
+    let out_dir = dir.join("out");
+    let run = Run::start(
+        &[
+            "demo",
+            scenario.to_str().unwrap(),
+            "--sink",
+            "host",
+            "--web",
+            "--speed",
+            "3",
+            "--out-dir",
+            out_dir.to_str().unwrap(),
+        ],
+        Stdio::null(),
+    );
+    let n = Arc::new(AtomicUsize::new(0));
+    let client = {
+        let (addr, n) = (run.addr.clone(), n.clone());
+        std::thread::spawn(move || {
+            read_events(&addr, |e| {
+                n.fetch_add(usize::from(e.event == "fix"), Ordering::SeqCst);
+            })
+        })
+    };
+    let t0 = Instant::now();
+    while n.load(Ordering::SeqCst) < 8 {
+        assert!(t0.elapsed() < Duration::from_secs(60), "no fixes streamed");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let kill = Command::new("kill")
+        .args(["-INT", &run.child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let events = client.join().unwrap();
+    let addr = run.addr.clone();
+    let (status, stdout) = run.wait(Duration::from_secs(60));
+    assert!(status.success(), "{stdout}");
+    assert_stopped(&addr);
+    let end = &events.last().unwrap().data;
+    assert_eq!(end["reason"], "Ctrl-C");
+    let t = end["t"].as_f64().unwrap();
+    assert!(t < 14.0, "{end}");
+    // The table of what ran, and the page's fixes are its CSV's.
+    assert!(
+        stdout.contains(&format!("Ctrl-C: stopped at {t:.1} s of 14 s simulated")),
+        "{stdout}"
+    );
+    assert!(stdout.contains("RMSE and bias per position"), "{stdout}");
+    assert!(
+        stdout.contains(&format!("emulation: {t:.1} s simulated")),
+        "{stdout}"
+    );
+    assert_eq!(of(&events, "fix").len(), csv_fixes(&out_dir).len());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Sink lines of report `seq`: its `report` line (anchors 1…3 heard, 4 only when `four`), then
 /// its MLE and MMSE `fix` lines.
 fn sink_lines(seq: u16, four: bool) -> String {
