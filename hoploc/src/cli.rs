@@ -154,6 +154,7 @@ pub enum Command {
     ///     hoploc monitor --port /dev/ttyACM0 --log sink.log
     ///     hoploc monitor --port /dev/ttyACM0 --truth 3.5,3.5 --seconds 60 --out-dir plots/
     ///     hoploc monitor --port /dev/ttyACM0 --web --truth 3.5,3.5 --area 7x7
+    ///     hoploc monitor --port /dev/ttyACM0 --web --web-bind 0.0.0.0 --web-port 8080  # anyone on the network can watch
     ///     cat sink.log | hoploc monitor
     #[command(verbatim_doc_comment)]
     Monitor(monitor::Args),

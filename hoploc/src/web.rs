@@ -493,7 +493,7 @@ impl Web {
     }
 
     /// Ends the stream with `reason` at `t` and stops the server once the browsers have the
-    /// rest (at most [`DRAIN`] later).
+    /// rest (at most two seconds later).
     pub fn finish(mut self, t: f64, reason: &str) {
         self.end(t, reason);
         self.stop();
