@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Runs the whole hoploc test suite (host tests, codec interop with Digi's library, firmware in
-# simavr). Installs what is missing first.
+# simavr, the live map in headless Chromium). Installs what is missing first.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")"
-bash scripts/setup.sh
+bash scripts/setup.sh --tests
 # The firmware must build for the Uno; simavr-based tests run the ELFs (the node firmwares, and
 # the MCU estimate benchmark's for tests/tests/mcu_bench.rs).
 cargo fw

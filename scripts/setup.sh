@@ -1,12 +1,17 @@
 #!/usr/bin/env bash
 # Installs what hoploc needs on a Debian/Ubuntu machine, skipping what is already there:
 # the AVR toolchain and simavr (Debian packages) and the pinned Rust nightly (rust-toolchain.toml).
-# Sourced or run by ./demo.sh, ./test.sh and .ci/run.
+# With --tests also what only the tests need: Chromium and a font for the live map's browser test
+# (hoploc/tests/web.rs runs it headless), which a user of the demo does without.
+# Run by ./demo.sh, ./test.sh (with --tests) and .ci/run.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 
 packages=(gcc-avr avr-libc binutils-avr avrdude simavr libsimavr-dev libelf-dev libclang-dev
   libzstd-dev zlib1g-dev pkg-config libudev-dev python3 python3-venv python3-pip python3-numpy)
+if [ "${1:-}" = "--tests" ]; then
+  packages+=(chromium fonts-dejavu-core)
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -59,6 +59,11 @@ pub fn interval(s: &str) -> Result<f64, String> {
     float_in(s, 0.0, 86_400.0, false, " s")
 }
 
+/// A pace, simulated seconds per second: 0 (as fast as it goes) … 1000.
+pub fn speed(s: &str) -> Result<f64, String> {
+    float_in(s, 0.0, 1000.0, false, "")
+}
+
 /// A probability: 0…1.
 pub fn probability(s: &str) -> Result<f64, String> {
     float_in(s, 0.0, 1.0, false, "")

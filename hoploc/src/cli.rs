@@ -41,12 +41,16 @@ pub enum Command {
     /// at the end an RMSE/bias table per position and estimator (the sink's MLE and MMSE, and
     /// the host's references of the same reports: MLE-fixed with P0/α fixed, MLE-P0only with
     /// P0 fitted and α fixed), and plots, CSV and the sink's log in the out dir. --sink host
-    /// runs the sink's logic on the host instead (the same lines, faster). Builds the firmware
-    /// first if needed (cargo fw, in the hoploc workspace). Scenarios: scenarios/ of the
-    /// workspace (see the end of `hoploc --help` for where hoploc looks).
+    /// runs the sink's logic on the host instead (the same lines, faster). --web serves a live
+    /// map of the run in the browser (its address printed; 127.0.0.1 only unless --web-bind),
+    /// the run paced at real time unless --speed. Builds the firmware first if needed (cargo
+    /// fw, in the hoploc workspace). Scenarios: scenarios/ of the workspace (see the end of
+    /// `hoploc --help` for where hoploc looks).
     /// Examples:
     ///
     ///     hoploc demo                          # room10: 10 m × 10 m, 4 anchors, 5.1 fixes/s
+    ///     hoploc demo --web                    # and a live map: open the address it prints
+    ///     hoploc demo exp3 --web --web-port 8080 --speed 4
     ///     hoploc demo exp3 --seed 7 --out-dir exp3-plots
     ///     hoploc demo exp1 --seconds 30 --live-every 0.5
     ///     hoploc demo --boot --seconds 10      # the firmware booting, as a timeline
@@ -143,10 +147,14 @@ pub enum Command {
     /// configured position; a table of the fixes at the end.
     ///
     /// Reads the sink's USB serial port, or stdin. Save the lines with --log to replay them
-    /// later. Examples:
+    /// later. --web serves a live map of the fixes in the browser (its address printed;
+    /// 127.0.0.1 only unless --web-bind) until the input ends, --seconds pass, or Ctrl-C, which
+    /// then ends the session as its end would, with the summary. Examples:
     ///
     ///     hoploc monitor --port /dev/ttyACM0 --log sink.log
     ///     hoploc monitor --port /dev/ttyACM0 --truth 3.5,3.5 --seconds 60 --out-dir plots/
+    ///     hoploc monitor --port /dev/ttyACM0 --web --truth 3.5,3.5 --area 7x7
+    ///     hoploc monitor --port /dev/ttyACM0 --web --web-bind 0.0.0.0 --web-port 8080  # anyone on the network can watch
     ///     cat sink.log | hoploc monitor
     #[command(verbatim_doc_comment)]
     Monitor(monitor::Args),
@@ -157,10 +165,12 @@ pub enum Command {
     /// the sink's own fixes next to them. RMSE and bias per truth position and algorithm
     /// (truth from --truth or `# truth X Y` lines in the log), and a plot. Then the anchor
     /// health check: an anchor whose relayed RSSI contradicts its configured position is
-    /// flagged, with where its links place it. Examples:
+    /// flagged, with where its links place it. --web shows every fix of the log, host and sink,
+    /// on the live map (see `hoploc demo --help`), served until Ctrl-C. Examples:
     ///
     ///     hoploc replay sink.log --truth 3.5,3.5
     ///     hoploc replay sink.log --area 7x7 --out-dir replay/
+    ///     hoploc replay sink.log --area 7x7 --web       # the log on the live map, until Ctrl-C
     #[command(verbatim_doc_comment)]
     Replay(replay::Args),
 }

@@ -30,6 +30,7 @@ use crate::fixes::Algo;
 use crate::out::Out;
 use crate::scenario::{self, Scenario};
 use crate::testbed::{Observed, RunConfig, SinkSource, Testbed};
+use crate::web::{AnchorPos, AnchorWatch, Event, Setup, Status, StatusWatch, Web, WebArgs};
 use crate::{args as arg, outln};
 
 /// One simulated node: its firmware and its radio.
@@ -231,13 +232,21 @@ pub struct Args {
     pub report: Option<PathBuf>,
     /// The boot timeline instead: the anchor, agent and sink firmware boot, each on a
     /// factory-fresh XBee, and configure it through command mode and API frames.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "web")]
     pub boot: bool,
     /// Directory with anchor-fw.elf, agent-fw.elf and sink-fw.elf [default:
     /// $HOPLOC_FIRMWARE_DIR, else target/avr-none/fw of the hoploc workspace or the current
     /// directory].
     #[arg(long)]
     pub firmware_dir: Option<PathBuf>,
+    /// Run at most this many simulated seconds per second of the clock (0: as fast as the
+    /// emulation goes) [default: 1 with --web, so the live map moves as boards would; else 0;
+    /// 0…1000].
+    #[arg(long, value_parser = arg::speed)]
+    pub speed: Option<f64>,
+    /// The live map (`--web`): its options.
+    #[command(flatten)]
+    pub web: WebArgs,
 }
 
 /// `s` cut to at most `seconds` of simulated time (the stops beyond dropped, the last one
@@ -349,11 +358,23 @@ pub fn run(args: &Args) -> Result<(), String> {
     outln!(
         out,
         "  {duration:.0} s simulated: {} s warm-up (boot, provisioning window, radio bring-up), \
-         then {} stops; live: one fix per {} s\n",
+         then {} stops; live: one fix per {} s",
         s.timing.warmup_s,
         s.agent.path.len(),
         args.live_every
     );
+    let mut live = match args.web.web {
+        true => Some(LiveMap::start(&args.web, &s, sf)?),
+        false => None,
+    };
+    let speed = args.speed.unwrap_or(if live.is_some() { 1.0 } else { 0.0 });
+    if let Some(l) = &live {
+        outln!(out, "  {}", l.web.banner("until the run ends"));
+    }
+    if speed > 0.0 {
+        outln!(out, "  paced: at most {speed}× real time");
+    }
+    outln!(out);
     outln!(
         out,
         "{:>8} {:>4} {:>13} {:>13} {:>6} {:>13} {:>6} {:>5} {:>7}  fixed err  P0only err",
@@ -382,14 +403,22 @@ pub fn run(args: &Args) -> Result<(), String> {
     let mut last_live = f64::NEG_INFINITY;
     let mut stop_shown = usize::MAX;
     let mut nofix = 0usize;
-    while !tb.done() && !out.closed() {
+    let interrupted = |l: &Option<LiveMap>| l.as_ref().is_some_and(|l| l.web.interrupted());
+    while !tb.done() && !out.closed() && !interrupted(&live) {
         let new = tb.step(0.25);
         bar.set_position((tb.time_s() * 1000.0) as u64);
         let log = tb.sink_log();
         log_file.append(&log[log_written..])?;
         log_written = log.len();
+        // The CSV's rows, the table's and the live map's fixes are the same records.
         for r in crate::fixes::rows(&new) {
             csv_file.append(&crate::fixes::csv_row(&r))?;
+            if let Some(l) = &live {
+                l.web.fix((&r).into());
+            }
+        }
+        if let Some(l) = &mut live {
+            l.step(&tb, &new);
         }
         // A report's MLE and MMSE lines (and the host's reference) come together: one row.
         for pair in new.chunk_by(|a, b| seq_of(&a.line) == seq_of(&b.line)) {
@@ -458,9 +487,35 @@ pub fn run(args: &Args) -> Result<(), String> {
                 firmware::elf(&fw_dir, Role::Sink).display()
             ));
         }
+        if speed > 0.0 {
+            let ahead = tb.time_s() / speed - t0.elapsed().as_secs_f64();
+            if ahead > 0.0 {
+                std::thread::sleep(std::time::Duration::from_secs_f64(ahead));
+            }
+        }
+    }
+    // A run ended by Ctrl-C (with --web) is shorter than the scenario.
+    let ran = tb.time_s();
+    let mut interrupted = false;
+    if let Some(l) = live.take() {
+        interrupted = l.web.interrupted();
+        let why = if interrupted {
+            "Ctrl-C"
+        } else if out.closed() {
+            "the output closed"
+        } else {
+            "the scenario's end"
+        };
+        l.web.finish(ran, why);
     }
     let wall = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
+    if interrupted {
+        outln!(
+            out,
+            "\nCtrl-C: stopped at {ran:.1} s of {duration:.0} s simulated"
+        );
+    }
     let rows = crate::fixes::rows(&obs);
     let stats = crate::fixes::table(&rows, s.agent.path.len());
     let table = crate::fixes::table_text(&stats, &s);
@@ -468,7 +523,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         .iter()
         .filter(|r| r.estimator == Algo::Mle && r.time_s >= s.timing.warmup_s)
         .count();
-    let counted = duration - s.timing.warmup_s;
+    let counted = (ran - s.timing.warmup_s).max(0.0);
     outln!(
         out,
         "\nRMSE and bias per position and estimator (settled fixes: the superframe after the \
@@ -478,7 +533,11 @@ pub fn run(args: &Args) -> Result<(), String> {
     let mut summary = format!(
         "{reports} reports located in {counted:.1} s after the warm-up: {:.2} fixes/s \
          (the superframe allows {:.2}); {nofix} reports without a fix\n",
-        reports as f64 / counted,
+        if counted > 0.0 {
+            reports as f64 / counted
+        } else {
+            0.0
+        },
         1.0 / sf
     );
     if let Some(c) = tb.host_counters() {
@@ -510,8 +569,8 @@ pub fn run(args: &Args) -> Result<(), String> {
         );
     }
     summary += &format!(
-        "emulation: {duration:.1} s simulated in {wall:.2} s: {:.1}× real time ({} threads)\n",
-        duration / wall,
+        "emulation: {ran:.1} s simulated in {wall:.2} s: {:.1}× real time ({} threads)\n",
+        ran / wall,
         args.threads
     );
     crate::out!(out, "\n{summary}");
@@ -544,6 +603,78 @@ pub fn run(args: &Args) -> Result<(), String> {
         outln!(out, "  {}", f.display());
     }
     Ok(())
+}
+
+/// The demo's live map: the server, and what it has sent of the anchors and the sink's counters.
+struct LiveMap {
+    web: Web,
+    /// Reports of the testbed already taken.
+    reports: usize,
+    health: crate::health::Health,
+    anchors: AnchorWatch,
+    status: StatusWatch,
+}
+
+impl LiveMap {
+    /// Serves the live map of scenario `s` (superframe `sf` s) and sends what the run is.
+    fn start(args: &WebArgs, s: &Scenario, sf: f64) -> Result<LiveMap, String> {
+        let web = Web::start(args, true)?;
+        web.send(&Event::Setup(Setup {
+            source: "demo",
+            title: format!("hoploc demo {}", s.name),
+            about: format!(
+                "{}; every node's firmware in simavr, simulated time",
+                s.description
+            ),
+            clock: "simulated",
+            area: Some([s.area.width_m, s.area.height_m]),
+            anchors: s
+                .anchors
+                .iter()
+                .enumerate()
+                .map(|(i, a)| AnchorPos {
+                    id: i as u8 + 1,
+                    x: a.position[0],
+                    y: a.position[1],
+                })
+                .collect(),
+            path: s.agent.path.iter().map(|p| p.position).collect(),
+            estimators: crate::fixes::ALGOS.map(crate::fixes::name).to_vec(),
+            rate: Some(1.0 / sf),
+        }));
+        Ok(LiveMap {
+            web,
+            reports: 0,
+            health: crate::health::Health::default(),
+            anchors: AnchorWatch::new(),
+            status: StatusWatch::default(),
+        })
+    }
+
+    /// After a step that gave `new`: the sink's counters when they changed (its status lines,
+    /// or the host sink's), the anchors its new reports heard.
+    fn step(&mut self, tb: &Testbed, new: &[Observed]) {
+        let mut status: Vec<Status> = new
+            .iter()
+            .filter_map(|o| Status::of_line(o.time_s, &o.line))
+            .collect();
+        status.extend(
+            tb.host_counters()
+                .map(|c| Status::of_counters(tb.time_s(), c)),
+        );
+        for st in status {
+            if let Some(e) = self.status.on(st) {
+                self.web.send(&e);
+            }
+        }
+        for (t, r) in &tb.reports()[self.reports..] {
+            let health = self.health.on_report(r);
+            if let Some(e) = self.anchors.on_report(*t, r, &health, &self.health) {
+                self.web.send(&e);
+            }
+        }
+        self.reports = tb.reports().len();
+    }
 }
 
 /// Where the demo's files go without --out-dir: `target/demo/NAME` of the workspace hoploc runs

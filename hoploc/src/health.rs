@@ -315,6 +315,8 @@ pub struct Health {
     since: usize,
     /// The anchors flagged at [`Health::on_report`]'s last verdict.
     flagged: Vec<u8>,
+    /// Whether [`Health::on_report`]'s last assessment gave a verdict.
+    judged: bool,
 }
 
 impl Default for Health {
@@ -333,6 +335,7 @@ impl Health {
             window: VecDeque::new(),
             since: 0,
             flagged: Vec::new(),
+            judged: false,
         }
     }
 
@@ -397,7 +400,8 @@ impl Health {
         }
         self.since = 0;
         let a = self.assess();
-        if a.no_verdict.is_some() {
+        self.judged = a.no_verdict.is_none();
+        if !self.judged {
             return Vec::new();
         }
         let now: Vec<u8> = a.flags.iter().map(|f| f.id).collect();
@@ -432,6 +436,12 @@ impl Health {
     /// The anchors flagged at [`Health::on_report`]'s last verdict.
     pub fn flagged(&self) -> &[u8] {
         &self.flagged
+    }
+
+    /// Whether [`Health::on_report`]'s last assessment gave a verdict (a window with enough
+    /// reports and links); [`Health::flagged`] is that verdict.
+    pub fn judged(&self) -> bool {
+        self.judged
     }
 
     /// The window's reports with a relay matrix, and its links.

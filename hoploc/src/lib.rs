@@ -28,3 +28,4 @@ pub mod study;
 pub mod tally;
 pub mod testbed;
 pub mod thesis;
+pub mod web;

@@ -22,6 +22,7 @@ use crate::framing::{classify, Class, Framed, Framer};
 use crate::out::Out;
 use crate::replay::{parse_area, parse_point};
 use crate::tally::Tally;
+use crate::web::{AnchorWatch, Event, Fix, Setup, Status, StatusWatch, Web, WebArgs};
 use crate::{args, outln};
 
 /// `hoploc monitor` options.
@@ -46,9 +47,13 @@ pub struct Args {
     /// Write the plot of the fixes (monitor.svg, monitor.png) into this directory at the end.
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
-    /// The room for the plot, metres (`WxH`) [default: the extent of the fixes].
+    /// The room for the plot and the live map, metres (`WxH`) [default: the extent of the
+    /// fixes; the live map: of the anchors].
     #[arg(long, value_parser = parse_area)]
     pub area: Option<Area>,
+    /// The live map (`--web`): its options.
+    #[command(flatten)]
+    pub web: WebArgs,
 }
 
 /// The line counts of a session.
@@ -97,6 +102,18 @@ pub struct Monitor {
     pub last_status: Option<SinkLine>,
     /// The anchor health check over the `report` lines: a row when its verdict changes.
     pub health: crate::health::Health,
+    /// The live map's events, when it is shown ([`Monitor::live`]).
+    live: Option<Live>,
+}
+
+/// What the monitor keeps for the live map: the events not yet taken, the anchors and counters
+/// last sent, and the time the lines arrive at.
+#[derive(Clone, Debug, Default)]
+struct Live {
+    events: Vec<Event>,
+    anchors: AnchorWatch,
+    status: StatusWatch,
+    t: f64,
 }
 
 impl Monitor {
@@ -106,6 +123,33 @@ impl Monitor {
             truth,
             ..Monitor::default()
         }
+    }
+
+    /// The same monitor, also making the live map's events of what it is fed: each fix line
+    /// it tallies, the anchors the reports hear, the counters of the status lines
+    /// ([`Monitor::take_events`]).
+    pub fn live(self) -> Monitor {
+        Monitor {
+            live: Some(Live {
+                anchors: AnchorWatch::new(),
+                ..Live::default()
+            }),
+            ..self
+        }
+    }
+
+    /// The time, s, of the lines fed from now on (the live map's events carry it).
+    pub fn set_clock(&mut self, t: f64) {
+        if let Some(l) = &mut self.live {
+            l.t = t;
+        }
+    }
+
+    /// The live map's events since the last call (none without [`Monitor::live`]).
+    pub fn take_events(&mut self) -> Vec<Event> {
+        self.live
+            .as_mut()
+            .map_or(Vec::new(), |l| std::mem::take(&mut l.events))
     }
 
     /// The header of the rows [`Monitor::feed`] prints.
@@ -167,14 +211,26 @@ impl Monitor {
                     anchors,
                     flags,
                 };
-                self.tally.add(
-                    self.truth,
-                    match estimator {
-                        Estimator::Mle => "MLE",
-                        Estimator::Mmse => "MMSE",
-                    },
-                    half.pos,
-                );
+                let est = match estimator {
+                    Estimator::Mle => "MLE",
+                    Estimator::Mmse => "MMSE",
+                };
+                // The table's record and the live map's are the same fix.
+                self.tally.add(self.truth, est, half.pos);
+                if let Some(l) = &mut self.live {
+                    l.events.push(Event::Fix(Fix {
+                        t: l.t,
+                        seq,
+                        est,
+                        x: half.pos.x,
+                        y: half.pos.y,
+                        alpha: half.alpha,
+                        p0: half.p0,
+                        anchors,
+                        truth: self.truth.map(|t| [t.x, t.y]),
+                        settled: true,
+                    }));
+                }
                 match self.pending.take() {
                     Some(p) if p.agent == agent && p.seq == seq && p.estimator != estimator => {
                         rows.push(self.row(&[p, half]));
@@ -209,6 +265,13 @@ impl Monitor {
             )) => {
                 self.counts.status += 1;
                 let warnings = crate::diagnose::status_warnings(self.last_status.as_ref(), &s);
+                if let Some(l) = &mut self.live {
+                    let counters = Status::of_line(l.t, &s).map(|st| Status {
+                        damaged: Some(self.counts.damaged),
+                        ..st
+                    });
+                    l.events.extend(counters.and_then(|st| l.status.on(st)));
+                }
                 self.last_status = Some(s);
                 rows.extend(self.flush());
                 rows.push(format!(
@@ -220,9 +283,12 @@ impl Monitor {
             }
             Class::Sink(SinkOutput::Report(raw)) => {
                 self.counts.reports += 1;
-                let events = raw
-                    .report()
-                    .map_or(Vec::new(), |r| self.health.on_report(&r));
+                let report = raw.report().ok();
+                let events = report.map_or(Vec::new(), |r| self.health.on_report(&r));
+                if let (Some(l), Some(r)) = (&mut self.live, report) {
+                    l.events
+                        .extend(l.anchors.on_report(l.t, &r, &events, &self.health));
+                }
                 if !events.is_empty() {
                     rows.extend(self.flush());
                     rows.extend(events.iter().map(|e| e.to_string()));
@@ -338,9 +404,40 @@ fn spawn_reader(mut reader: Box<dyn Read + Send>) -> Receiver<Input> {
     rx
 }
 
+/// Why a monitoring session ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ended {
+    /// The input ended (or the port went away).
+    Input,
+    /// The input failed to read.
+    Error,
+    /// `--seconds` passed.
+    Deadline,
+    /// The reader of the output went.
+    Output,
+    /// Ctrl-C (with the live map, which catches it).
+    Interrupted,
+}
+
+impl Ended {
+    /// In words, for the live map.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Ended::Input => "the end of the input",
+            Ended::Error => "a read error",
+            Ended::Deadline => "--seconds passed",
+            Ended::Output => "the output closed",
+            Ended::Interrupted => "Ctrl-C",
+        }
+    }
+}
+
+/// How often a session with the live map looks at Ctrl-C while its input is silent.
+const TICK: Duration = Duration::from_millis(100);
+
 /// A monitoring session: `reader`'s lines through `mon` until the input ends, `deadline` (from
-/// now) passes, or `out`'s reader goes; rows on `out`, every line into `log`. `name` names the
-/// input in messages.
+/// now) passes, `out`'s reader goes, or Ctrl-C with `web`; rows on `out`, every line into `log`,
+/// the live map's events to `web`. `name` names the input in messages.
 pub fn session<W: Write>(
     reader: Box<dyn Read + Send>,
     name: &str,
@@ -348,7 +445,8 @@ pub fn session<W: Write>(
     mon: &mut Monitor,
     mut log: Option<&mut dyn Write>,
     out: &mut Out<W>,
-) -> Result<(), String> {
+    web: Option<&Web>,
+) -> Result<Ended, String> {
     let start = Instant::now();
     let input = spawn_reader(reader);
     let mut framer = Framer::new();
@@ -359,21 +457,37 @@ pub fn session<W: Write>(
                 .and_then(|()| log.flush())
                 .map_err(|e| format!("log: {e}"))?;
         }
+        mon.set_clock(start.elapsed().as_secs_f64());
         for r in mon.feed_framed(&framed) {
             outln!(out, "{r}");
+        }
+        if let Some(w) = web {
+            for e in mon.take_events() {
+                w.send(&e);
+            }
         }
         Ok(())
     };
     loop {
         if out.closed() {
-            return Ok(());
+            return Ok(Ended::Output);
         }
-        let msg = match deadline {
-            None => input.recv().map_err(|_| RecvTimeoutError::Disconnected),
-            Some(d) => match d.checked_sub(start.elapsed()) {
-                Some(left) if !left.is_zero() => input.recv_timeout(left),
-                _ => Err(RecvTimeoutError::Timeout),
-            },
+        if web.is_some_and(|w| w.interrupted()) {
+            return Ok(Ended::Interrupted);
+        }
+        // With the live map the wait is cut into ticks, to see Ctrl-C.
+        let tick = web.map(|_| TICK);
+        let left = deadline.map(|d| d.saturating_sub(start.elapsed()));
+        let msg = match (left, tick) {
+            (Some(left), _) if left.is_zero() => Err(RecvTimeoutError::Timeout),
+            (None, None) => input.recv().map_err(|_| RecvTimeoutError::Disconnected),
+            (left, tick) => {
+                let wait = left.into_iter().chain(tick).min().unwrap_or(TICK);
+                match input.recv_timeout(wait) {
+                    Err(RecvTimeoutError::Timeout) if left.is_none_or(|l| wait < l) => continue,
+                    m => m,
+                }
+            }
         };
         match msg {
             Ok(Input::Bytes(bytes)) => {
@@ -386,21 +500,24 @@ pub fn session<W: Write>(
             Ok(Input::End) | Err(RecvTimeoutError::Disconnected) => break,
             Ok(Input::Error(e)) => {
                 outln!(out, "{name}: {e}; stopping");
-                break;
+                if let Some(f) = framer.finish() {
+                    show(f, mon, out)?;
+                }
+                return Ok(Ended::Error);
             }
             // The deadline: a line being dropped as too long counts; a line cut here is ours.
             Err(RecvTimeoutError::Timeout) => {
                 if framer.overlong() {
                     show(Framed::TooLong, mon, out)?;
                 }
-                return Ok(());
+                return Ok(Ended::Deadline);
             }
         }
     }
     if let Some(f) = framer.finish() {
         show(f, mon, out)?;
     }
-    Ok(())
+    Ok(Ended::Input)
 }
 
 /// Runs `hoploc monitor`.
@@ -428,17 +545,44 @@ pub fn run(args: &Args) -> Result<(), String> {
     let mut mon = Monitor::new(args.truth);
     let mut out = Out::stdout();
     outln!(out, "hoploc monitor: the sink's lines from {name}");
+    let web = if args.web.web {
+        let w = Web::start(&args.web, true)?;
+        w.send(&Event::Setup(Setup {
+            source: "monitor",
+            title: "hoploc monitor".into(),
+            about: format!("the sink's lines from {name}; seconds since the start"),
+            clock: "wall",
+            area: args.area.map(|a| [a.width, a.height]),
+            anchors: Vec::new(),
+            path: args.truth.map(|t| vec![[t.x, t.y]]).unwrap_or_default(),
+            estimators: vec!["MLE", "MMSE"],
+            rate: None,
+        }));
+        outln!(out, "{}", w.banner("until the input ends or Ctrl-C"));
+        mon = mon.live();
+        Some(w)
+    } else {
+        None
+    };
+    let start = Instant::now();
     outln!(out, "{}", mon.header());
-    session(
+    let ended = session(
         reader,
         &name,
         deadline,
         &mut mon,
         log.as_mut().map(|l| l as &mut dyn Write),
         &mut out,
+        web.as_ref(),
     )?;
+    if let Some(w) = web {
+        w.finish(start.elapsed().as_secs_f64(), ended.describe());
+    }
     if out.closed() {
         return Ok(());
+    }
+    if ended == Ended::Interrupted {
+        outln!(out, "Ctrl-C: stopped");
     }
     if let Some(r) = mon.flush() {
         outln!(out, "{r}");

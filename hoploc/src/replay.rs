@@ -38,6 +38,7 @@ use crate::health::{Health, HealthConfig, HealthEvent};
 use crate::out::Out;
 use crate::outln;
 use crate::tally::Tally;
+use crate::web::{AnchorWatch, Event, Fix, Setup, Status, StatusWatch, Web, WebArgs};
 
 /// σ of the MMSE estimates while no fit gave one, dB (the sink's default, the thesis' larger σ).
 pub const DEFAULT_SIGMA_DB: f64 = 4.0;
@@ -73,6 +74,10 @@ pub struct Args {
     /// and more false alarms in a room with more multipath.
     #[arg(long, default_value_t = HealthConfig::default().fading_db, value_parser = parse_fading)]
     pub health_fading_db: f64,
+    /// The live map (`--web`): its options. The replay is over at once; the page serves the
+    /// whole log until Ctrl-C.
+    #[command(flatten)]
+    pub web: WebArgs,
 }
 
 /// A σ in dB: 0…30.
@@ -194,6 +199,17 @@ pub struct Replay {
     pub health: Health,
     /// Every change of its verdict, in order.
     pub health_notes: Vec<HealthNote>,
+    /// The live map's events, when it is shown ([`Replay::live`]).
+    live: Option<Live>,
+}
+
+/// What the replay keeps for the live map: the events not yet taken, the anchors and the
+/// counters last sent.
+#[derive(Clone, Debug, Default)]
+struct Live {
+    events: Vec<Event>,
+    anchors: AnchorWatch,
+    status: StatusWatch,
 }
 
 impl Replay {
@@ -221,7 +237,25 @@ impl Replay {
             last_area: None,
             health: Health::default(),
             health_notes: Vec::new(),
+            live: None,
         }
+    }
+
+    /// The same replay, also making the live map's events of what it tallies: each fix, host
+    /// or sink, as it goes into the table, at the number of the report it belongs to; the
+    /// anchors the reports hear; the status lines' counters ([`Replay::take_events`]).
+    pub fn live(self) -> Replay {
+        Replay {
+            live: Some(Live::default()),
+            ..self
+        }
+    }
+
+    /// The live map's events since the last call (none without [`Replay::live`]).
+    pub fn take_events(&mut self) -> Vec<Event> {
+        self.live
+            .as_mut()
+            .map_or(Vec::new(), |l| std::mem::take(&mut l.events))
     }
 
     /// The same with the anchor health check's settings `cfg`.
@@ -260,7 +294,14 @@ impl Replay {
                 Err(_) => self.counts.bad_reports += 1,
             },
             Class::Sink(SinkOutput::Line(SinkLine::Fix {
-                estimator, x, y, ..
+                estimator,
+                seq,
+                x,
+                y,
+                alpha_x100,
+                p0_x100,
+                anchors,
+                ..
             })) => {
                 self.counts.fixes += 1;
                 let algo = match estimator {
@@ -269,9 +310,30 @@ impl Replay {
                 };
                 let p = Point::new(x as f64 / 100.0, y as f64 / 100.0);
                 self.tally.add(self.truth, algo, p);
+                if let Some(l) = &mut self.live {
+                    l.events.push(Event::Fix(Fix {
+                        t: self.counts.reports as f64,
+                        seq,
+                        est: algo,
+                        x: p.x,
+                        y: p.y,
+                        alpha: f64::from(alpha_x100) / 100.0,
+                        p0: f64::from(p0_x100) / 100.0,
+                        anchors,
+                        truth: self.truth.map(|t| [t.x, t.y]),
+                        settled: true,
+                    }));
+                }
             }
             Class::Sink(SinkOutput::Line(SinkLine::NoFix { .. })) => self.counts.nofixes += 1,
-            Class::Sink(SinkOutput::Line(SinkLine::Status { .. })) => self.counts.status += 1,
+            Class::Sink(SinkOutput::Line(line @ SinkLine::Status { .. })) => {
+                self.counts.status += 1;
+                if let Some(l) = &mut self.live {
+                    let t = self.counts.reports as f64;
+                    l.events
+                        .extend(Status::of_line(t, &line).and_then(|st| l.status.on(st)));
+                }
+            }
             Class::Boot(_) | Class::Foreign => self.counts.other += 1,
             Class::Damaged(_) => self.counts.damaged += 1,
         }
@@ -291,13 +353,19 @@ impl Replay {
     /// A report: fit and smooth P0/α as the sink does, then every host algorithm; then the
     /// anchor health check.
     fn on_report(&mut self, r: &Report) {
-        for event in self.health.on_report(r) {
+        let events = self.health.on_report(r);
+        for &event in &events {
             self.health_notes.push(HealthNote {
                 report: self.counts.reports,
                 agent: r.agent,
                 seq: r.seq,
                 event,
             });
+        }
+        let t = self.counts.reports as f64;
+        if let Some(l) = &mut self.live {
+            l.events
+                .extend(l.anchors.on_report(t, r, &events, &self.health));
         }
         let m = measurements(r);
         let fit = self.params.update(&m);
@@ -311,17 +379,42 @@ impl Replay {
         self.last_area = Some(area);
         let obs = observations(&m, Refinement::Extended);
         let truth = self.truth;
-        let mut add = |algo: &str, p: Option<Point>| {
+        let used = obs.as_slice().len() as u8;
+        // The table's record and the live map's are the same fix.
+        let mut add = |algo: &'static str, model: PathLoss, p: Option<Point>| {
             if let Some(p) = p {
                 self.tally.add(truth, algo, p);
+                if let Some(l) = &mut self.live {
+                    l.events.push(Event::Fix(Fix {
+                        t,
+                        seq: r.seq,
+                        est: algo,
+                        x: p.x,
+                        y: p.y,
+                        alpha: model.alpha,
+                        p0: model.p0,
+                        anchors: used,
+                        truth: truth.map(|t| [t.x, t.y]),
+                        settled: true,
+                    }));
+                }
             }
         };
         let pos = |e: Result<grid::Estimate, _>| e.ok().map(|e| e.pos);
-        add("MLE", pos(grid::mle(&obs, model, area, Search::Thesis)));
-        add("MMSE-win", pos(grid::mmse_window(&obs, model, area, sigma)));
-        add("MMSE", pos(grid::mmse(&obs, model, area, sigma)));
+        add(
+            "MLE",
+            model,
+            pos(grid::mle(&obs, model, area, Search::Thesis)),
+        );
+        add(
+            "MMSE-win",
+            model,
+            pos(grid::mmse_window(&obs, model, area, sigma)),
+        );
+        add("MMSE", model, pos(grid::mmse(&obs, model, area, sigma)));
         add(
             "MLE-fixed",
+            PathLoss::THESIS,
             pos(grid::mle(&obs, PathLoss::THESIS, area, Search::Thesis)),
         );
         let anchors: Vec<Point> = obs.as_slice().iter().map(|o| o.pos).collect();
@@ -331,7 +424,7 @@ impl Replay {
             ("QUAD-4", Baseline::Quadlateration),
             ("MDS", Baseline::MdsMap),
         ] {
-            add(algo, b.estimate(&anchors, &dists, Some(area)).ok());
+            add(algo, model, b.estimate(&anchors, &dists, Some(area)).ok());
         }
     }
 
@@ -386,6 +479,39 @@ pub fn run(args: &Args) -> Result<(), String> {
         ..HealthConfig::default()
     });
     let name = args.log.display().to_string();
+    let mut out = Out::stdout();
+    let web = if args.web.web {
+        let w = Web::start(&args.web, true)?;
+        w.send(&Event::Setup(Setup {
+            source: "replay",
+            title: "hoploc replay".into(),
+            about: format!(
+                "{name} through every host estimator, next to the sink's fixes; t counts reports"
+            ),
+            clock: "log",
+            area: args.area.map(|a| [a.width, a.height]),
+            anchors: Vec::new(),
+            path: args.truth.map(|t| vec![[t.x, t.y]]).unwrap_or_default(),
+            estimators: HOST_ALGOS
+                .iter()
+                .copied()
+                .chain(["sink MLE", "sink MMSE"])
+                .collect(),
+            rate: None,
+        }));
+        outln!(out, "{}", w.banner("until Ctrl-C"));
+        replay = replay.live();
+        Some(w)
+    } else {
+        None
+    };
+    let publish = |replay: &mut Replay| {
+        if let Some(w) = &web {
+            for e in replay.take_events() {
+                w.send(&e);
+            }
+        }
+    };
     let mut reader: Box<dyn Read> = if name == "-" {
         Box::new(std::io::stdin().lock())
     } else {
@@ -403,11 +529,12 @@ pub fn run(args: &Args) -> Result<(), String> {
             Err(e) => return Err(format!("{name}: {e}")),
         };
         framer.push(&buf[..n], |f| replay.feed_framed(&f));
+        publish(&mut replay);
     }
     if let Some(f) = framer.finish() {
         replay.feed_framed(&f);
     }
-    let mut out = Out::stdout();
+    publish(&mut replay);
     out.write(format_args!("{}", replay.summary()))?;
     if replay.counts.reports == 0 {
         outln!(
@@ -432,6 +559,10 @@ pub fn run(args: &Args) -> Result<(), String> {
         for f in files {
             outln!(out, "wrote {}", f.display());
         }
+    }
+    if let Some(w) = web {
+        outln!(out, "\nthe live map shows the whole log: Ctrl-C stops it");
+        w.serve_until_interrupted(replay.counts.reports as f64, "the end of the log");
     }
     Ok(())
 }

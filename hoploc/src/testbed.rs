@@ -507,6 +507,11 @@ impl Testbed {
         std::mem::take(&mut self.refs.reports)
     }
 
+    /// The reports the sink received so far and not taken (time s, report), in order.
+    pub fn reports(&self) -> &[(f64, Report)] {
+        &self.refs.reports
+    }
+
     /// The agent's stop at time `t` s, its true position, and whether a report sent then
     /// measured a whole superframe after the warm-up within that stop (see [`Observed`]).
     pub fn truth_at(&self, t: f64) -> (usize, [f64; 2], bool) {

@@ -100,14 +100,20 @@ fn command_line() -> impl Strategy<Value = (Vec<String>, String)> {
         ("demo", "--threads"),
         ("demo", "--uart-errors"),
         ("demo", "--seed"),
+        ("demo", "--speed"),
+        ("demo", "--web-port"),
+        ("demo", "--web-bind"),
         ("experiments", "--estimates"),
         ("experiments", "--threads"),
         ("monitor", "--seconds"),
         ("monitor", "--baud"),
         ("monitor", "--truth"),
         ("monitor", "--area"),
+        ("monitor", "--web-port"),
+        ("monitor", "--web-bind"),
         ("replay", "--truth"),
         ("replay", "--area"),
+        ("replay", "--web-port"),
         ("simulate", "--area"),
         ("simulate", "--anchors"),
         ("simulate", "--runs"),
@@ -155,6 +161,9 @@ fn command_line() -> impl Strategy<Value = (Vec<String>, String)> {
                     line.extend(["--id", "1"].map(String::from));
                 }
             }
+            if flag.starts_with("--web-") {
+                line.push("--web".into());
+            }
             line.push(format!("{flag}={value}"));
             (line, value)
         })
@@ -183,6 +192,7 @@ proptest! {
                 prop_assert!(in_range(a.live_every, 0.0, 86_400.0), "{value}");
                 prop_assert!((1..=256).contains(&a.threads), "{value}");
                 prop_assert!(in_range(a.uart_errors, 0.0, 1.0), "{value}");
+                prop_assert!(a.speed.is_none_or(|s| in_range(s, 0.0, 1000.0)), "{value}");
             }
             Cmd::Experiments(a) => {
                 prop_assert!((1..=256).contains(&a.threads), "{value}");
