@@ -22,7 +22,7 @@ use crate::framing::{classify, Class, Framed, Framer};
 use crate::out::Out;
 use crate::replay::{parse_area, parse_point};
 use crate::tally::Tally;
-use crate::web::{AnchorWatch, Event, Fix, Setup, Status, StatusWatch, Web, WebArgs};
+use crate::web::{Event, Feed, Fix, Setup, Status, Web, WebArgs};
 use crate::{args, outln};
 
 /// `hoploc monitor` options.
@@ -102,18 +102,10 @@ pub struct Monitor {
     pub last_status: Option<SinkLine>,
     /// The anchor health check over the `report` lines: a row when its verdict changes.
     pub health: crate::health::Health,
-    /// The live map's events, when it is shown ([`Monitor::live`]).
-    live: Option<Live>,
-}
-
-/// What the monitor keeps for the live map: the events not yet taken, the anchors and counters
-/// last sent, and the time the lines arrive at.
-#[derive(Clone, Debug, Default)]
-struct Live {
-    events: Vec<Event>,
-    anchors: AnchorWatch,
-    status: StatusWatch,
-    t: f64,
+    /// The live map's events, when it is shown ([`Monitor::live`]), and the time of the lines
+    /// fed ([`Monitor::set_clock`]).
+    live: Option<Feed>,
+    clock: f64,
 }
 
 impl Monitor {
@@ -130,26 +122,19 @@ impl Monitor {
     /// ([`Monitor::take_events`]).
     pub fn live(self) -> Monitor {
         Monitor {
-            live: Some(Live {
-                anchors: AnchorWatch::new(),
-                ..Live::default()
-            }),
+            live: Some(Feed::default()),
             ..self
         }
     }
 
     /// The time, s, of the lines fed from now on (the live map's events carry it).
     pub fn set_clock(&mut self, t: f64) {
-        if let Some(l) = &mut self.live {
-            l.t = t;
-        }
+        self.clock = t;
     }
 
     /// The live map's events since the last call (none without [`Monitor::live`]).
     pub fn take_events(&mut self) -> Vec<Event> {
-        self.live
-            .as_mut()
-            .map_or(Vec::new(), |l| std::mem::take(&mut l.events))
+        self.live.as_mut().map_or(Vec::new(), Feed::take)
     }
 
     /// The header of the rows [`Monitor::feed`] prints.
@@ -218,8 +203,8 @@ impl Monitor {
                 // The table's record and the live map's are the same fix.
                 self.tally.add(self.truth, est, half.pos);
                 if let Some(l) = &mut self.live {
-                    l.events.push(Event::Fix(Fix {
-                        t: l.t,
+                    l.fix(Fix {
+                        t: self.clock,
                         seq,
                         est,
                         x: half.pos.x,
@@ -229,7 +214,7 @@ impl Monitor {
                         anchors,
                         truth: self.truth.map(|t| [t.x, t.y]),
                         settled: true,
-                    }));
+                    });
                 }
                 match self.pending.take() {
                     Some(p) if p.agent == agent && p.seq == seq && p.estimator != estimator => {
@@ -266,11 +251,10 @@ impl Monitor {
                 self.counts.status += 1;
                 let warnings = crate::diagnose::status_warnings(self.last_status.as_ref(), &s);
                 if let Some(l) = &mut self.live {
-                    let counters = Status::of_line(l.t, &s).map(|st| Status {
+                    l.status(Status::of_line(self.clock, &s).map(|st| Status {
                         damaged: Some(self.counts.damaged),
                         ..st
-                    });
-                    l.events.extend(counters.and_then(|st| l.status.on(st)));
+                    }));
                 }
                 self.last_status = Some(s);
                 rows.extend(self.flush());
@@ -286,8 +270,7 @@ impl Monitor {
                 let report = raw.report().ok();
                 let events = report.map_or(Vec::new(), |r| self.health.on_report(&r));
                 if let (Some(l), Some(r)) = (&mut self.live, report) {
-                    l.events
-                        .extend(l.anchors.on_report(l.t, &r, &events, &self.health));
+                    l.report(self.clock, &r, &events, &self.health);
                 }
                 if !events.is_empty() {
                     rows.extend(self.flush());

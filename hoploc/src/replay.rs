@@ -38,7 +38,7 @@ use crate::health::{Health, HealthConfig, HealthEvent};
 use crate::out::Out;
 use crate::outln;
 use crate::tally::Tally;
-use crate::web::{AnchorWatch, Event, Fix, Setup, Status, StatusWatch, Web, WebArgs};
+use crate::web::{Event, Feed, Fix, Setup, Status, Web, WebArgs};
 
 /// σ of the MMSE estimates while no fit gave one, dB (the sink's default, the thesis' larger σ).
 pub const DEFAULT_SIGMA_DB: f64 = 4.0;
@@ -200,16 +200,7 @@ pub struct Replay {
     /// Every change of its verdict, in order.
     pub health_notes: Vec<HealthNote>,
     /// The live map's events, when it is shown ([`Replay::live`]).
-    live: Option<Live>,
-}
-
-/// What the replay keeps for the live map: the events not yet taken, the anchors and the
-/// counters last sent.
-#[derive(Clone, Debug, Default)]
-struct Live {
-    events: Vec<Event>,
-    anchors: AnchorWatch,
-    status: StatusWatch,
+    live: Option<Feed>,
 }
 
 impl Replay {
@@ -246,16 +237,14 @@ impl Replay {
     /// anchors the reports hear; the status lines' counters ([`Replay::take_events`]).
     pub fn live(self) -> Replay {
         Replay {
-            live: Some(Live::default()),
+            live: Some(Feed::default()),
             ..self
         }
     }
 
     /// The live map's events since the last call (none without [`Replay::live`]).
     pub fn take_events(&mut self) -> Vec<Event> {
-        self.live
-            .as_mut()
-            .map_or(Vec::new(), |l| std::mem::take(&mut l.events))
+        self.live.as_mut().map_or(Vec::new(), Feed::take)
     }
 
     /// The same with the anchor health check's settings `cfg`.
@@ -311,7 +300,7 @@ impl Replay {
                 let p = Point::new(x as f64 / 100.0, y as f64 / 100.0);
                 self.tally.add(self.truth, algo, p);
                 if let Some(l) = &mut self.live {
-                    l.events.push(Event::Fix(Fix {
+                    l.fix(Fix {
                         t: self.counts.reports as f64,
                         seq,
                         est: algo,
@@ -322,16 +311,14 @@ impl Replay {
                         anchors,
                         truth: self.truth.map(|t| [t.x, t.y]),
                         settled: true,
-                    }));
+                    });
                 }
             }
             Class::Sink(SinkOutput::Line(SinkLine::NoFix { .. })) => self.counts.nofixes += 1,
             Class::Sink(SinkOutput::Line(line @ SinkLine::Status { .. })) => {
                 self.counts.status += 1;
                 if let Some(l) = &mut self.live {
-                    let t = self.counts.reports as f64;
-                    l.events
-                        .extend(Status::of_line(t, &line).and_then(|st| l.status.on(st)));
+                    l.status(Status::of_line(self.counts.reports as f64, &line));
                 }
             }
             Class::Boot(_) | Class::Foreign => self.counts.other += 1,
@@ -364,8 +351,7 @@ impl Replay {
         }
         let t = self.counts.reports as f64;
         if let Some(l) = &mut self.live {
-            l.events
-                .extend(l.anchors.on_report(t, r, &events, &self.health));
+            l.report(t, r, &events, &self.health);
         }
         let m = measurements(r);
         let fit = self.params.update(&m);
@@ -385,7 +371,7 @@ impl Replay {
             if let Some(p) = p {
                 self.tally.add(truth, algo, p);
                 if let Some(l) = &mut self.live {
-                    l.events.push(Event::Fix(Fix {
+                    l.fix(Fix {
                         t,
                         seq: r.seq,
                         est: algo,
@@ -396,7 +382,7 @@ impl Replay {
                         anchors: used,
                         truth: truth.map(|t| [t.x, t.y]),
                         settled: true,
-                    }));
+                    });
                 }
             }
         };

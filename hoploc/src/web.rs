@@ -725,6 +725,38 @@ impl AnchorWatch {
     }
 }
 
+/// What a command that reads sink lines (`monitor`, `replay`) keeps for the live map: the events
+/// not yet taken, and the anchors and counters last sent.
+#[derive(Clone, Debug, Default)]
+pub struct Feed {
+    events: Vec<Event>,
+    anchors: AnchorWatch,
+    status: StatusWatch,
+}
+
+impl Feed {
+    /// A fix, as it goes into the command's table.
+    pub fn fix(&mut self, fix: Fix) {
+        self.events.push(Event::Fix(fix));
+    }
+
+    /// A status line's counters, sent when they changed.
+    pub fn status(&mut self, s: Option<Status>) {
+        self.events.extend(s.and_then(|s| self.status.on(s)));
+    }
+
+    /// Report `r` at `t` and what the health check made of it ([`AnchorWatch::on_report`]).
+    pub fn report(&mut self, t: f64, r: &Report, events: &[HealthEvent], check: &Health) {
+        self.events
+            .extend(self.anchors.on_report(t, r, events, check));
+    }
+
+    /// The events since the last call.
+    pub fn take(&mut self) -> Vec<Event> {
+        std::mem::take(&mut self.events)
+    }
+}
+
 /// The sink's counters, sent when they change.
 #[derive(Clone, Debug, Default)]
 pub struct StatusWatch {
