@@ -761,14 +761,7 @@ where
                 .label(refinement.as_str())
                 .legend(move |(x, y)| Rectangle::new([(x, y - 4), (x + 8, y + 4)], c.filled()));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .border_style(BLACK)
-            .background_style(WHITE)
-            .label_font(("sans-serif", 12))
-            .draw()
-            .map_err(err)?;
+        draw_legend(&mut chart, SeriesLabelPosition::UpperRight, 12).map_err(err)?;
     }
     root.present().map_err(err)
 }
@@ -809,13 +802,7 @@ where
             .label(label.as_str())
             .legend(move |(x, y)| Circle::new((x, y), 3, c.filled()));
     }
-    chart
-        .configure_series_labels()
-        .border_style(BLACK)
-        .background_style(WHITE)
-        .label_font(("sans-serif", 11))
-        .draw()
-        .map_err(err)?;
+    draw_legend(&mut chart, SeriesLabelPosition::MiddleRight, 11).map_err(err)?;
     Ok(())
 }
 
@@ -969,12 +956,22 @@ where
         .map_err(err)?
         .label("α")
         .legend(move |(x, y)| PathElement::new([(x, y), (x + 12, y)], ca.stroke_width(2)));
+    draw_legend(&mut chart, SeriesLabelPosition::MiddleRight, 11).map_err(err)?;
+    root.present().map_err(err)
+}
+
+/// The legend of `chart`'s labelled series at `position`: black border, white background, a
+/// `font_px` sans-serif font (one look for every chart of the report).
+fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    position: SeriesLabelPosition,
+    font_px: u32,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     chart
         .configure_series_labels()
+        .position(position)
         .border_style(BLACK)
         .background_style(WHITE)
-        .label_font(("sans-serif", 11))
+        .label_font(("sans-serif", font_px))
         .draw()
-        .map_err(err)?;
-    root.present().map_err(err)
 }

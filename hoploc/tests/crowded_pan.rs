@@ -292,8 +292,8 @@ fn a_jammed_sink_channel_shows_as_failed_transmissions() {
     // From 4 to 7 s: the sink's first status line (at 10 s of uptime) comes after it.
     let (jam_from, jam_to) = (4.0, 7.0);
     let mut obs = tb.step(jam_from);
-    // 90-byte broadcasts: two requests of them fit the jammer radio's serial buffer (the one
-    // on air and the one waiting; 100-byte ones would overflow it).
+    // Broadcasts small enough that two requests fit the jammer radio's serial buffer
+    // (`simavr::xbee::DI_BUFFER_BYTES`): the one on air and the one waiting.
     let noise = [0x55u8; 90];
     while tb.time_s() < jam_to {
         // The radio queues one request behind the other: keep one waiting.
